@@ -1,0 +1,77 @@
+#include "remote/analog.hpp"
+
+#include <algorithm>
+
+namespace remote {
+
+namespace {
+
+// Process data and parameters of the analog processor, declared once. Names
+// are the ones real 7I77s report (analogout0..5, analogena, spinena;
+// hwrevision as a GTOC parameter; REFERENCES.md). Packing: six 13-bit
+// outputs in bits 0..77, AnalogEna bit 78, SpinEna bit 79 (mesaflash's
+// 7I77 analog layout agrees): 10 bytes from the host, the fault byte back.
+enum Element : ElementId {
+  kAnalogOut0,
+  kAnalogOut1,
+  kAnalogOut2,
+  kAnalogOut3,
+  kAnalogOut4,
+  kAnalogOut5,
+  kAnalogEna,
+  kSpinEna,
+  kHwRevision,
+};
+
+constexpr ProcessDataDescriptor kElements[] = {
+    {"AnalogOut0", "V", DataType::Signed, Direction::Output, 13, -10.0F, 10.0F},
+    {"AnalogOut1", "V", DataType::Signed, Direction::Output, 13, -10.0F, 10.0F},
+    {"AnalogOut2", "V", DataType::Signed, Direction::Output, 13, -10.0F, 10.0F},
+    {"AnalogOut3", "V", DataType::Signed, Direction::Output, 13, -10.0F, 10.0F},
+    {"AnalogOut4", "V", DataType::Signed, Direction::Output, 13, -10.0F, 10.0F},
+    {"AnalogOut5", "V", DataType::Signed, Direction::Output, 13, -10.0F, 10.0F},
+    {"AnalogEna", "none", DataType::Boolean, Direction::Output, 1, 0.0F, 1.0F},
+    {"SpinEna", "none", DataType::Boolean, Direction::Output, 1, 0.0F, 1.0F},
+    {"HwRevision", "none", DataType::Unsigned, Direction::Input, 8, 0.0F, 255.0F},
+};
+
+constexpr ElementId kMode0[] = {kAnalogOut0, kAnalogOut1, kAnalogOut2, kAnalogOut3,
+                                kAnalogOut4, kAnalogOut5, kAnalogEna,  kSpinEna};
+constexpr SoftwareMode kModes[] = {{"Analog", kMode0}};
+constexpr ElementId kParameters[] = {kHwRevision};
+constexpr std::uint8_t kHardwareRevision = 1;
+
+}  // namespace
+
+AnalogProcessor::AnalogProcessor(Options options, SimTime now)
+    : RemoteDevice({"7I77", options.unitNumber, 14, 0, "Standard"}, kElements, kModes, kParameters,
+                   options.nvFile) {
+  setSetupJumper(options.setupMode);
+  powerUp(now);
+}
+
+void AnalogProcessor::onPowerUp() { setRaw(kHwRevision, kHardwareRevision); }
+
+void AnalogProcessor::setLogicPower(bool on, SimTime now) {
+  if (on && !powered()) powerUp(now);
+  if (!on && powered()) powerDown();
+}
+
+double AnalogProcessor::dacVolts(std::int64_t code) {
+  const double v = static_cast<double>(code) * kFullScaleVolts / kDacMax;
+  return std::clamp(v, -kFullScaleVolts, kFullScaleVolts);
+}
+
+void AnalogProcessor::driveOutputs() {
+  const bool active = powered() && !outputsBlocked();
+  for (unsigned ch = 0; ch < kChannels; ++ch) {
+    codes_[ch] = active ? static_cast<std::int16_t>(rawSigned(static_cast<ElementId>(kAnalogOut0 + ch))) : 0;
+    volts_[ch] = dacVolts(codes_[ch]);
+  }
+  const bool ena = active && raw(kAnalogEna) != 0;
+  const bool spin = active && raw(kSpinEna) != 0;
+  for (unsigned ch = 0; ch < 5; ++ch) enables_[ch] = ena;
+  enables_[5] = spin;
+}
+
+}  // namespace remote

@@ -1,0 +1,248 @@
+#include "remote/field_io.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace remote {
+
+namespace {
+
+// Process data and parameters of the field I/O processor, declared once.
+// Names: pins real 7I77s report (input-NN, output-NN) and the GTOC
+// parameters seen on real boards (analogin0..3, fieldvoltage, encmode0/1,
+// nvencmode0/1); MPG names from the sibling 7I76E (REFERENCES.md). Units and
+// the exact case of names are not attested: our choice.
+enum Element : ElementId {
+  kInput,
+  kOutput,
+  kAnalogIn0,
+  kAnalogIn1,
+  kAnalogIn2,
+  kAnalogIn3,
+  kFieldVoltage,
+  kEnc0,
+  kEnc1,
+  kEncMode0,
+  kEncMode1,
+  kNvEncMode0,
+  kNvEncMode1,
+};
+
+constexpr float kFullScale = static_cast<float>(FieldIoProcessor::kAnalogFullScale);
+
+constexpr ProcessDataDescriptor kElements[] = {
+    {"Input", "none", DataType::Bits, Direction::Input, 32, 0.0F, 0.0F},
+    {"Output", "none", DataType::Bits, Direction::Output, 16, 0.0F, 0.0F},
+    {"AnalogIn0", "V", DataType::Unsigned, Direction::Input, 8, 0.0F, kFullScale},
+    {"AnalogIn1", "V", DataType::Unsigned, Direction::Input, 8, 0.0F, kFullScale},
+    {"AnalogIn2", "V", DataType::Unsigned, Direction::Input, 8, 0.0F, kFullScale},
+    {"AnalogIn3", "V", DataType::Unsigned, Direction::Input, 8, 0.0F, kFullScale},
+    {"FieldVoltage", "V", DataType::Unsigned, Direction::Input, 8, 0.0F, kFullScale},
+    {"Enc0", "count", DataType::Encoder, Direction::Input, 8, 0.0F, 1.0F},
+    {"Enc1", "count", DataType::Encoder, Direction::Input, 8, 0.0F, 1.0F},
+    {"EncMode0", "none", DataType::Unsigned, Direction::Bidirectional, 8, 0.0F, 2.0F},
+    {"EncMode1", "none", DataType::Unsigned, Direction::Bidirectional, 8, 0.0F, 2.0F},
+    {"NVEncMode0", "none", DataType::NonVolUnsigned, Direction::Bidirectional, 8, 0.0F, 2.0F},
+    {"NVEncMode1", "none", DataType::NonVolUnsigned, Direction::Bidirectional, 8, 0.0F, 2.0F},
+};
+
+// SOFTWARE PROCESS DATA MODES, PTOC order. Sizes to the host (fault byte
+// included): 5, 9, 10, 12 bytes; from the host: 2 bytes in every mode.
+constexpr ElementId kMode0[] = {kInput, kOutput};
+constexpr ElementId kMode1[] = {kInput, kOutput, kAnalogIn0, kAnalogIn1, kAnalogIn2, kAnalogIn3};
+constexpr ElementId kMode2[] = {kInput, kOutput, kAnalogIn0, kAnalogIn1, kAnalogIn2, kAnalogIn3, kFieldVoltage};
+constexpr ElementId kMode3[] = {kInput,     kOutput,       kAnalogIn0, kAnalogIn1, kAnalogIn2,
+                                kAnalogIn3, kFieldVoltage, kEnc0,      kEnc1};
+constexpr SoftwareMode kModes[] = {
+    {"IO", kMode0},
+    {"IO+AnalogIn", kMode1},
+    {"IO+AnalogIn+FieldVoltage", kMode2},
+    {"IO+AnalogIn+FieldVoltage+MPG", kMode3},
+};
+// GTOC parameters besides the standard ones (as real boards list in mode 0).
+constexpr ElementId kParameters[] = {kAnalogIn0, kAnalogIn1,   kAnalogIn2, kAnalogIn3, kFieldVoltage, kEncMode0,
+                                     kEncMode1,  kNvEncMode0, kNvEncMode1, kOutput,    kInput};
+
+// MPG inputs: A on 16/18, B on 17/19.
+constexpr unsigned kMpgA[] = {16, 18};
+constexpr unsigned kMpgB[] = {17, 19};
+
+}  // namespace
+
+FieldIoProcessor::FieldIoProcessor(Options options, SimTime now)
+    : RemoteDevice({"7I77", options.unitNumber, 14, 0, "Standard"}, kElements, kModes, kParameters,
+                   options.nvFile),
+      outputType_(options.outputs),
+      vinFromField_(options.vinFromField),
+      fieldVolts_(options.fieldVoltage),
+      vinVolts_(options.vin) {
+  loadOhms_.fill(std::numeric_limits<double>::infinity());
+  setSetupJumper(options.setupMode);
+  applyPower(now);
+}
+
+std::uint8_t FieldIoProcessor::analogReading(double volts) {
+  const double code = std::round(volts / kAnalogFullScale * 255.0);
+  return static_cast<std::uint8_t>(std::clamp(code, 0.0, 255.0));
+}
+
+// --- Power ----------------------------------------------------------------------
+
+void FieldIoProcessor::applyPower(SimTime now) {
+  // VIN powers the processor: it must be present for the field I/O to be
+  // detected and operate (manual: VIN AND FIELD POWER SUPPLY).
+  const bool on = vin() >= kMinVin;
+  if (on && !powered()) powerUp(now);
+  if (!on && powered()) powerDown();
+  for (unsigned i = 0; i < kInputs; ++i) updateInput(i);
+  if (powered()) checkSupply();
+  driveOutputs();
+}
+
+void FieldIoProcessor::setFieldVoltage(double volts, SimTime now) {
+  advance(now);
+  fieldVolts_ = std::max(0.0, volts);
+  applyPower(now);
+}
+
+void FieldIoProcessor::setVin(double volts, SimTime now) {
+  advance(now);
+  vinVolts_ = std::max(0.0, volts);
+  applyPower(now);
+}
+
+void FieldIoProcessor::onPowerUp() {
+  mpgCounts_.fill(0);
+  tripped_ = 0;
+  chipOff_ = chipHot_;
+  setRaw(kEncMode0, raw(kNvEncMode0));  // NV to working copy at power-up only
+  setRaw(kEncMode1, raw(kNvEncMode1));
+}
+
+void FieldIoProcessor::checkSupply() {
+  if (fieldVolts_ < kLowFieldVoltage) raiseFault(fault::kLowVoltage);
+  if (fieldVolts_ > kHighFieldVoltage) raiseFault(fault::kHighVoltage);
+}
+
+void FieldIoProcessor::reassertFaults() {
+  // A fault clear re-enables shorted outputs and cool chips; what is still
+  // wrong trips again (manual: SHORT CIRCUIT / OVER-TEMPERATURE PROTECTION).
+  tripped_ = 0;
+  for (unsigned c = 0; c < kChips; ++c) {
+    chipOff_[c] = chipHot_[c];
+    if (chipHot_[c]) raiseFault(fault::kOverTemp);
+  }
+  checkSupply();
+}
+
+// --- Inputs ---------------------------------------------------------------------
+
+bool FieldIoProcessor::mpgMode() const { return softwareMode() == 3; }
+
+void FieldIoProcessor::setInputVoltage(unsigned input, double volts) {
+  const bool oldA[] = {this->input(kMpgA[0]), this->input(kMpgA[1])};
+  const bool oldB[] = {this->input(kMpgB[0]), this->input(kMpgB[1])};
+  inputVolts_.at(input) = volts;
+  updateInput(input);
+  if (!mpgMode() || !powered()) return;
+  for (unsigned n = 0; n < kMpgs; ++n)
+    countMpg(n, oldA[n], oldB[n], this->input(kMpgA[n]), this->input(kMpgB[n]));
+}
+
+void FieldIoProcessor::updateInput(unsigned i) {
+  const double v = inputVolts_[i];
+  bool state = input(i);
+  if (mpgMode() && i >= 16 && i <= 19) {
+    state = v >= kMpgThreshold;  // fixed 2.5 V for 5 V encoder signals
+  } else if (v >= kHighThreshold * fieldVolts_ && v > 0.0) {
+    state = true;
+  } else if (v <= kLowThreshold * fieldVolts_) {
+    state = false;
+  }  // between the thresholds: hysteresis keeps the last state
+  if (state)
+    inputBits_ |= 1U << i;
+  else
+    inputBits_ &= ~(1U << i);
+}
+
+void FieldIoProcessor::countMpg(unsigned n, bool oldA, bool oldB, bool newA, bool newB) {
+  if (oldA == newA && oldB == newB) return;
+  // Quadrature, A leading B counts up. EncMode: 0 = 1X (rising A only, the
+  // default for 100 PPR MPGs), 1 = 2X (both A edges), 2 = 4X (every edge).
+  const auto mode = raw(n == 0 ? kEncMode0 : kEncMode1);
+  int dir = 0;
+  if (oldA != newA) dir = (newA != newB) ? +1 : -1;
+  else dir = (newA == newB) ? +1 : -1;
+  const bool countIt = mode >= 2 || (mode == 1 && oldA != newA) || (oldA != newA && newA);
+  if (countIt) mpgCounts_[n] += dir;
+}
+
+void FieldIoProcessor::sampleInputs() {
+  for (unsigned i = 0; i < kInputs; ++i) updateInput(i);
+  setRaw(kInput, inputBits_);
+  for (unsigned i = 0; i < 4; ++i) setRaw(static_cast<ElementId>(kAnalogIn0 + i), analogReading(inputVolts_[i]));
+  setRaw(kFieldVoltage, analogReading(fieldVolts_));
+  setRaw(kEnc0, static_cast<std::uint32_t>(mpgCounts_[0]));
+  setRaw(kEnc1, static_cast<std::uint32_t>(mpgCounts_[1]));
+}
+
+// --- Outputs --------------------------------------------------------------------
+
+void FieldIoProcessor::setOutputLoad(unsigned output, double ohms) {
+  loadOhms_.at(output) = std::max(0.0, ohms);
+  driveOutputs();
+}
+
+void FieldIoProcessor::setDriverOverTemperature(unsigned chip, bool hot) {
+  chipHot_.at(chip) = hot;
+  if (hot && powered()) {
+    chipOff_[chip] = true;
+    raiseFault(fault::kOverTemp);
+  }
+  driveOutputs();
+}
+
+double FieldIoProcessor::outputCurrent(unsigned i) const {
+  if (!outputOn(i) || std::isinf(loadOhms_.at(i))) return 0.0;
+  return loadOhms_[i] <= 0.0 ? std::numeric_limits<double>::infinity() : fieldVolts_ / loadOhms_[i];
+}
+
+double FieldIoProcessor::outputVoltage(unsigned i) const {
+  // Sourcing: an on output connects the load to field power. Sinking: an on
+  // output pulls the load's low side to field ground; off, the terminal
+  // sits at field power through the load.
+  if (outputType_ == OutputType::Sourcing) return outputOn(i) ? fieldVolts_ : 0.0;
+  return outputOn(i) ? 0.0 : fieldVolts_;
+}
+
+void FieldIoProcessor::driveOutputs() {
+  const bool enabled = powered() && !outputsBlocked();
+  const auto commanded = enabled ? static_cast<std::uint16_t>(raw(kOutput)) : std::uint16_t{0};
+  std::uint16_t on = 0;
+  for (unsigned i = 0; i < kOutputs; ++i) {
+    if (((commanded >> i) & 1U) && !outputTripped(i) && !chipOff_[i / kOutputsPerChip])
+      on = static_cast<std::uint16_t>(on | (1U << i));
+  }
+  outputsOn_ = on;
+  if (!powered()) return;
+  // Short circuit: the output turns itself off and the firmware flags it.
+  for (unsigned i = 0; i < kOutputs; ++i) {
+    if (outputCurrent(i) > kShortCircuitAmps) {
+      tripped_ = static_cast<std::uint16_t>(tripped_ | (1U << i));
+      outputsOn_ = static_cast<std::uint16_t>(outputsOn_ & ~(1U << i));
+      raiseFault(fault::kOverCurrent);
+    }
+  }
+  // Per-chip current above 1.4 A: thermal shutdown of that chip.
+  for (unsigned c = 0; c < kChips; ++c) {
+    double amps = 0.0;
+    for (unsigned i = c * kOutputsPerChip; i < (c + 1) * kOutputsPerChip; ++i) amps += outputCurrent(i);
+    if (amps > kChipLimitAmps) {
+      chipOff_[c] = true;
+      raiseFault(fault::kOverTemp);
+    }
+    if (chipOff_[c]) outputsOn_ = static_cast<std::uint16_t>(outputsOn_ & ~(0xFFU << (c * kOutputsPerChip)));
+  }
+}
+
+}  // namespace remote

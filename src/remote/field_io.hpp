@@ -1,0 +1,110 @@
+// The 7I77's isolated field I/O processor: SSLBP channel 0 (manual: FIELD I/O,
+// FIELD I/O PARAMETERS, SOFTWARE PROCESS DATA MODES).
+//
+// 32 sinking inputs with 60 % / 40 % of field voltage thresholds, 16 outputs
+// (sourcing on the 7I77, sinking on the 7I77D) in two driver chips of 8, the
+// analog readings of inputs 0..3 and of the field voltage, and two MPG
+// counters on inputs 16..19 in mode 3.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+
+#include "remote/remote_device.hpp"
+
+namespace remote {
+
+enum class OutputType { Sourcing, Sinking };  // 7I77, 7I77D
+
+class FieldIoProcessor final : public RemoteDevice {
+ public:
+  static constexpr unsigned kInputs = 32;
+  static constexpr unsigned kOutputs = 16;
+  static constexpr unsigned kOutputsPerChip = 8;
+  static constexpr unsigned kChips = kOutputs / kOutputsPerChip;
+  static constexpr unsigned kMpgs = 2;
+
+  // Electrical limits (manual: VIN AND FIELD POWER SUPPLY, SHORT CIRCUIT
+  // PROTECTION, MAXIMUM PER CHIP CURRENT, ANALOG INPUTS, MPG INPUTS).
+  static constexpr double kMinVin = 8.0;            // processor runs at VIN >= 8 V
+  static constexpr double kLowFieldVoltage = 5.0;   // below: LowVoltageFault
+  static constexpr double kHighFieldVoltage = 32.0;  // above: HighVoltageFault
+  static constexpr double kShortCircuitAmps = 0.8;
+  static constexpr double kChipLimitAmps = 1.4;
+  static constexpr double kAnalogFullScale = 36.3;  // 8-bit readings
+  static constexpr double kMpgThreshold = 2.5;
+  static constexpr double kHighThreshold = 0.6;  // of field voltage
+  static constexpr double kLowThreshold = 0.4;
+
+  struct Options {
+    OutputType outputs = OutputType::Sourcing;
+    std::uint32_t unitNumber = 0x12000AEE;  // top byte 0x12: 7I77 field I/O (REFERENCES.md)
+    std::filesystem::path nvFile;          // empty: EEPROM in memory
+    bool setupMode = false;                 // W12 right
+    bool vinFromField = true;               // W1 left: VIN = field power
+    double fieldVoltage = 24.0;
+    double vin = 24.0;  // only used with vinFromField = false
+  };
+
+  explicit FieldIoProcessor(Options options, SimTime now = SimTime{0});
+  FieldIoProcessor() : FieldIoProcessor(Options{}) {}
+
+  // --- The world at the terminals ---------------------------------------------
+  void setFieldVoltage(double volts, SimTime now);
+  void setVin(double volts, SimTime now);  // TB2 pin 5, with W1 right
+  void setInputVoltage(unsigned input, double volts);
+  // Resistive load from an output to field ground (7I77) or field power
+  // (7I77D); infinity is an open terminal, 0 a dead short.
+  void setOutputLoad(unsigned output, double ohms);
+  void setDriverOverTemperature(unsigned chip, bool hot);
+
+  // --- What the terminals show --------------------------------------------------
+  [[nodiscard]] double fieldVoltage() const { return fieldVolts_; }
+  [[nodiscard]] double vin() const { return vinFromField_ ? fieldVolts_ : vinVolts_; }
+  [[nodiscard]] double inputVoltage(unsigned i) const { return inputVolts_.at(i); }
+  [[nodiscard]] bool input(unsigned i) const { return (inputBits_ >> i) & 1U; }
+  [[nodiscard]] std::uint32_t inputs() const { return inputBits_; }
+  [[nodiscard]] bool outputOn(unsigned i) const { return (outputsOn_ >> i) & 1U; }
+  [[nodiscard]] std::uint16_t outputs() const { return outputsOn_; }
+  [[nodiscard]] double outputVoltage(unsigned i) const;
+  [[nodiscard]] double outputCurrent(unsigned i) const;
+  [[nodiscard]] bool outputTripped(unsigned i) const { return (tripped_ >> i) & 1U; }
+  [[nodiscard]] bool chipShutdown(unsigned chip) const { return chipOff_.at(chip); }
+  [[nodiscard]] std::uint8_t mpgCount(unsigned n) const { return static_cast<std::uint8_t>(mpgCounts_.at(n)); }
+  [[nodiscard]] OutputType outputType() const { return outputType_; }
+  // CR3: field voltage present.
+  [[nodiscard]] bool fieldVoltageLed() const { return fieldVolts_ >= kLowFieldVoltage; }
+
+  // 8-bit reading of a voltage at 36.3 V full scale (manual: ANALOG INPUTS).
+  static std::uint8_t analogReading(double volts);
+
+ protected:
+  void sampleInputs() override;
+  void driveOutputs() override;
+  void reassertFaults() override;
+  void onPowerUp() override;
+
+ private:
+  void applyPower(SimTime now);
+  void updateInput(unsigned i);
+  void checkSupply();
+  [[nodiscard]] bool mpgMode() const;
+  void countMpg(unsigned n, bool oldA, bool oldB, bool newA, bool newB);
+
+  OutputType outputType_;
+  bool vinFromField_;
+  double fieldVolts_;
+  double vinVolts_;
+  std::array<double, kInputs> inputVolts_{};
+  std::uint32_t inputBits_ = 0;
+  std::array<double, kOutputs> loadOhms_{};
+  std::uint16_t outputsOn_ = 0;
+  std::uint16_t tripped_ = 0;  // disabled by short circuit until a fault clear
+  std::array<bool, kChips> chipOff_{};
+  std::array<bool, kChips> chipHot_{};
+  std::array<std::int32_t, kMpgs> mpgCounts_{};
+};
+
+}  // namespace remote

@@ -1,0 +1,452 @@
+#include "remote/remote_device.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <utility>
+#include <stdexcept>
+
+namespace remote {
+
+using lbp::byteSize;
+using lbp::isNonVolatile;
+namespace status = lbp::status;
+
+namespace {
+
+// Declared once: the parameters every remote here reports in its GTOC after
+// its process data. Names as sibling Mesa remotes spell them (REFERENCES.md);
+// order follows the Standard enum.
+constexpr ProcessDataDescriptor kStandardParameters[] = {
+    {"SwRevision", "none", DataType::Unsigned, Direction::Input, 16, 0.0F, 65535.0F},
+    // mesaflash reads NVBaudRate as 16 bits; real 7I77s show NVUnitNumber read only.
+    {"NVBaudRate", "none", DataType::NonVolUnsigned, Direction::Bidirectional, 16, 0.0F, 11.0F},
+    {"NVUnitNumber", "none", DataType::NonVolUnsigned, Direction::Input, 32, 0.0F, 4294967295.0F},
+    {"NVWatchDogTimeout", "mS", DataType::NonVolUnsigned, Direction::Bidirectional, 16, 0.0F, 65535.0F},
+    {"UnitNumber", "none", DataType::Unsigned, Direction::Bidirectional, 32, 0.0F, 4294967295.0F},
+    {"WatchDogTime", "mS", DataType::Unsigned, Direction::Bidirectional, 16, 0.0F, 65535.0F},
+    {"Fault", "none", DataType::Bits, Direction::Input, 8, 0.0F, 0.0F},
+};
+
+constexpr lbp::ParserConfig parserConfig(bool setup, std::uint32_t baud) {
+  return lbp::ParserConfig{memory::kRpcSize, 0x01, true, setup ? kSetupCommandTimeout : kOperateCommandTimeout, baud};
+}
+
+void putLe16(std::vector<std::uint8_t>& v, std::uint16_t x) {
+  v.push_back(static_cast<std::uint8_t>(x & 0xFFU));
+  v.push_back(static_cast<std::uint8_t>(x >> 8));
+}
+void putFloat(std::vector<std::uint8_t>& v, float f) {
+  std::uint32_t bits = 0;
+  static_assert(sizeof bits == sizeof f);
+  std::memcpy(&bits, &f, sizeof f);
+  for (int i = 0; i < 4; ++i) v.push_back(static_cast<std::uint8_t>(bits >> (8 * i)));
+}
+void putString(std::vector<std::uint8_t>& v, std::string_view s) {
+  v.insert(v.end(), s.begin(), s.end());
+  v.push_back(0);
+}
+bool sendsToHost(Direction d) { return d == Direction::Input || d == Direction::Bidirectional; }
+bool receivesFromHost(Direction d) { return d == Direction::Output || d == Direction::Bidirectional; }
+
+}  // namespace
+
+RemoteDevice::RemoteDevice(Identity identity, std::span<const ProcessDataDescriptor> elements,
+                           std::span<const SoftwareMode> modes, std::span<const ElementId> parameters,
+                           std::filesystem::path nvFile)
+    : identity_(identity),
+      modes_(modes),
+      ownElements_(elements.size()),
+      parser_(*this, parserConfig(false, kBaudRates[kDefaultBaudIndex])),
+      nv_(memory::kEepromSize, std::move(nvFile)) {
+  if (modes_.empty()) throw std::logic_error("a remote needs at least one software mode");
+  buildTables(elements, parameters);
+}
+
+void RemoteDevice::buildTables(std::span<const ProcessDataDescriptor> own, std::span<const ElementId> parameters) {
+  // Variables: RAM for working values, EEPROM for NV ones, in table order.
+  std::uint16_t ram = memory::kRam;
+  std::uint16_t eeprom = memory::kEeprom;
+  auto place = [&](const ProcessDataDescriptor& d) {
+    if (d.type == DataType::Pad) return std::uint16_t{0};
+    std::uint16_t& cursor = isNonVolatile(d.type) ? eeprom : ram;
+    const std::uint16_t at = cursor;
+    cursor = static_cast<std::uint16_t>(cursor + byteSize(d));
+    return at;
+  };
+  for (const auto& d : own) elements_.push_back({d, place(d)});
+  for (const auto& d : kStandardParameters) elements_.push_back({d, place(d)});
+  if (ram > memory::kRam + memory::kRamSize || eeprom > memory::kEeprom + memory::kEepromSize)
+    throw std::logic_error("remote variables do not fit the memory map");
+
+  // Discovery records in ROM: every PDD, the hardware mode, each software mode.
+  std::vector<std::uint8_t>& rom = rom_;
+  auto here = [&]() { return static_cast<std::uint16_t>(memory::kRom + rom.size()); };
+  std::vector<std::uint16_t> pdd;
+  for (const auto& e : elements_) {
+    pdd.push_back(here());
+    rom.push_back(lbp::kProcessDataRecord);
+    rom.push_back(e.d.bits);
+    rom.push_back(static_cast<std::uint8_t>(e.d.type));
+    rom.push_back(static_cast<std::uint8_t>(e.d.direction));
+    putFloat(rom, e.d.min);
+    putFloat(rom, e.d.max);
+    putLe16(rom, e.address);
+    putString(rom, e.d.unit);
+    putString(rom, e.d.name);
+  }
+  const std::uint16_t hwRecord = here();
+  rom.insert(rom.end(), {lbp::kModeRecord, identity_.hwMode, lbp::kHwMode, 0});
+  putString(rom, identity_.hwModeName);
+  std::vector<std::uint16_t> swRecord;
+  for (std::size_t m = 0; m < modes_.size(); ++m) {
+    swRecord.push_back(here());
+    rom.insert(rom.end(), {lbp::kModeRecord, static_cast<std::uint8_t>(m), lbp::kSwMode, 0});
+    putString(rom, modes_[m].name);
+  }
+  // Per mode: PTOC = its process data, then the two mode records; GTOC = the
+  // same entries, then the device's parameters that this PTOC does not
+  // carry, then the standard parameters. Both end with a 0 sentinel. (A GTOC
+  // entry at the same PARAM_ADD as a PTOC entry is process data to LinuxCNC,
+  // so the shared pointers do not turn into duplicate HAL parameters.)
+  for (std::size_t m = 0; m < modes_.size(); ++m) {
+    ModeTables t{};
+    unsigned rxBits = 0;
+    unsigned txBits = 0;
+    for (ElementId id : modes_[m].processData) {
+      const auto& d = elements_.at(id).d;
+      if (sendsToHost(d.direction)) rxBits += d.bits;
+      if (receivesFromHost(d.direction)) txBits += d.bits;
+    }
+    t.rxSize = static_cast<std::uint8_t>(1 + (rxBits + 7) / 8);  // fault byte first
+    t.txSize = static_cast<std::uint8_t>((txBits + 7) / 8);
+    t.ptoc = here();
+    for (ElementId id : modes_[m].processData) putLe16(rom, pdd[id]);
+    putLe16(rom, hwRecord);
+    putLe16(rom, swRecord[m]);
+    putLe16(rom, 0);
+    t.gtoc = here();
+    for (ElementId id : modes_[m].processData) putLe16(rom, pdd[id]);
+    putLe16(rom, hwRecord);
+    putLe16(rom, swRecord[m]);
+    for (ElementId id : parameters) {
+      const auto& pd = modes_[m].processData;
+      if (std::find(pd.begin(), pd.end(), id) == pd.end()) putLe16(rom, pdd.at(id));
+    }
+    for (std::size_t s = 0; s < std::size(kStandardParameters); ++s) putLe16(rom, pdd[ownElements_ + s]);
+    putLe16(rom, 0);
+    modeTables_.push_back(t);
+  }
+  if (rom.size() > memory::kRomSize) throw std::logic_error("discovery tables do not fit the ROM");
+}
+
+std::vector<std::uint8_t> RemoteDevice::factoryEeprom() const {
+  std::vector<std::uint8_t> image(memory::kEepromSize, 0x00);
+  auto put = [&](Standard s, std::uint64_t value) {
+    const auto& e = elements_[standard(s)];
+    for (unsigned i = 0; i < byteSize(e.d); ++i)
+      image[e.address - memory::kEeprom + i] = static_cast<std::uint8_t>(value >> (8 * i));
+  };
+  put(Standard::NvBaudRate, kDefaultBaudIndex);
+  put(Standard::NvUnitNumber, identity_.factoryUnitNumber);
+  put(Standard::NvWatchdogTimeout, kDefaultWatchdogMs);
+  return image;
+}
+
+// --- Power -------------------------------------------------------------------
+
+void RemoteDevice::powerUp(SimTime now) {
+  powered_ = true;
+  now_ = now;
+  rpcTable_.fill(0);
+  ram_.fill(0);
+  if (!nv_.load()) {
+    // Blank EEPROM: program the factory defaults.
+    const auto image = factoryEeprom();
+    nv_.commit(image);
+  }
+  std::copy(nv_.image().begin(), nv_.image().end(), eeprom_.begin());
+  eepromDirty_ = false;
+  // NV values become working values only here (manual: NON-VOLATILE FIELD I/O PARAMETERS).
+  const auto baudIndex = raw(standard(Standard::NvBaudRate));
+  const std::uint32_t baud = setupJumper_                      ? kSetupBaud
+                             : baudIndex < kBaudRates.size() ? kBaudRates[baudIndex]
+                                                             : kBaudRates[kDefaultBaudIndex];
+  parser_.setConfig(parserConfig(setupJumper_, baud));
+  parser_.reset();
+  setRaw(standard(Standard::UnitNumber), raw(standard(Standard::NvUnitNumber)));
+  setRaw(standard(Standard::WatchdogTime), raw(standard(Standard::NvWatchdogTimeout)));
+  setRaw(standard(Standard::SwRevision), identity_.swRevision);
+  swMode_ = 0;
+  nvAccess_ = 0;
+  leds_ = 0;
+  // Startup condition: the watchdog fault is set until the host clears it
+  // (manual: WATCHDOG AND FAULTS; CR16 is on at power-up).
+  faults_ = fault::kWatchdog;
+  parser_.raiseStatus(status::kWatchdogTimeout);
+  lastHostCommand_ = now;
+  processDataCount_ = 0;
+  onPowerUp();
+  sampleInputs();
+  setRaw(standard(Standard::Fault), faults_);
+  driveOutputs();
+}
+
+void RemoteDevice::powerDown() {
+  powered_ = false;
+  driveOutputs();
+}
+
+void RemoteDevice::resetProcessor() { powerUp(now_); }
+
+// --- Time ----------------------------------------------------------------------
+
+std::span<const std::uint8_t> RemoteDevice::receive(std::uint8_t byte, SimTime now) {
+  if (!powered_) return {};
+  advance(now);
+  return parser_.receive(byte, now);
+}
+
+void RemoteDevice::advance(SimTime now) {
+  if (!powered_) return;
+  now_ = now;
+  parser_.advance(now);
+  checkWatchdog(now);
+}
+
+void RemoteDevice::checkWatchdog(SimTime now) {
+  const auto ms = watchdogTimeMs();  // 0 disables the watchdog
+  if (ms == 0 || (faults_ & fault::kWatchdog)) return;
+  if (now - lastHostCommand_ <= std::chrono::milliseconds(ms)) return;
+  raiseFault(fault::kWatchdog);
+  parser_.raiseStatus(status::kWatchdogTimeout);
+  setRaw(standard(Standard::Fault), faults_);
+  driveOutputs();
+}
+
+void RemoteDevice::beginCommand(SimTime now) {
+  now_ = now;
+  checkWatchdog(now);
+  lastHostCommand_ = now;
+  sampleInputs();
+  setRaw(standard(Standard::Fault), faults_);
+}
+
+void RemoteDevice::endCommand(SimTime) {
+  if (eepromDirty_) {
+    eepromDirty_ = false;
+    // One command's NV bytes are written as one EEPROM commit, so a
+    // multi-byte parameter is never half old, half new.
+    if (!nv_.commit(eeprom_)) {
+      powerDown();  // the write failed because power went away
+      return;
+    }
+  }
+  driveOutputs();  // may trip outputs: the fault byte follows
+  setRaw(standard(Standard::Fault), faults_);
+}
+
+// --- Faults --------------------------------------------------------------------
+
+void RemoteDevice::clearFaults() {
+  faults_ = 0;
+  parser_.clearStatus(status::kWatchdogTimeout);
+  if (swMode_ >= modes_.size()) raiseFault(fault::kIllegalMode);
+  reassertFaults();
+  setRaw(standard(Standard::Fault), faults_);
+}
+
+// --- Memory --------------------------------------------------------------------
+
+const RemoteDevice::Element* RemoteDevice::elementAt(std::uint16_t address) const {
+  for (const auto& e : elements_) {
+    if (e.d.type != DataType::Pad && address >= e.address && address < e.address + byteSize(e.d)) return &e;
+  }
+  return nullptr;
+}
+
+std::uint8_t* RemoteDevice::storage(std::uint16_t address) {
+  return const_cast<std::uint8_t*>(std::as_const(*this).storage(address));
+}
+
+const std::uint8_t* RemoteDevice::storage(std::uint16_t address) const {
+  if (address >= memory::kRam && address < memory::kRam + memory::kRamSize) return &ram_[address - memory::kRam];
+  if (address >= memory::kEeprom && address < memory::kEeprom + memory::kEepromSize)
+    return &eeprom_[address - memory::kEeprom];
+  return nullptr;
+}
+
+std::uint8_t RemoteDevice::readMemory(std::uint16_t address) {
+  if (address < memory::kRpcSize) return rpcTable_[address];
+  if (const auto* p = storage(address)) return *p;
+  if (address >= memory::kRom && address - memory::kRom < static_cast<int>(rom_.size())) return rom_[address - memory::kRom];
+  return 0;  // unmapped: reads as 0
+}
+
+bool RemoteDevice::writeMemory(std::uint16_t address, std::uint8_t value) {
+  if (address < memory::kRpcSize) {  // the parser has checked the RPCMEM flag
+    rpcTable_[address] = value;
+    return true;
+  }
+  const Element* e = elementAt(address);
+  if (e == nullptr) return false;  // unmapped
+  if (isNonVolatile(e->d.type)) {
+    // NV parameters are written with NV access set to EEPROM (LinuxCNC and
+    // mesaflash write 0xEC = 1 first), whatever their process direction.
+    if (nvAccess_ != lbp::nonvolatile::kEeprom) return false;
+    eeprom_[address - memory::kEeprom] = value;
+    eepromDirty_ = true;
+    return true;
+  }
+  if (e->d.direction == Direction::Input) return false;  // read only
+  *storage(address) = value;
+  return true;
+}
+
+std::uint64_t RemoteDevice::raw(ElementId id) const {
+  const auto& e = elements_.at(id);
+  const std::uint8_t* p = storage(e.address);
+  if (p == nullptr) return 0;
+  std::uint64_t v = 0;
+  for (unsigned i = 0; i < byteSize(e.d); ++i) v |= static_cast<std::uint64_t>(p[i]) << (8 * i);
+  return e.d.bits >= 64 ? v : v & ((1ULL << e.d.bits) - 1);
+}
+
+std::int64_t RemoteDevice::rawSigned(ElementId id) const { return lbp::signExtend(raw(id), elements_.at(id).d.bits); }
+
+void RemoteDevice::setRaw(ElementId id, std::uint64_t value) {
+  const auto& e = elements_.at(id);
+  std::uint8_t* p = storage(e.address);
+  if (p == nullptr) return;
+  if (e.d.bits < 64) value &= (1ULL << e.d.bits) - 1;
+  for (unsigned i = 0; i < byteSize(e.d); ++i) p[i] = static_cast<std::uint8_t>(value >> (8 * i));
+}
+
+std::uint32_t RemoteDevice::unitNumber() const {
+  return static_cast<std::uint32_t>(raw(standard(Standard::UnitNumber)));
+}
+std::uint16_t RemoteDevice::watchdogTimeMs() const {
+  return static_cast<std::uint16_t>(raw(standard(Standard::WatchdogTime)));
+}
+
+// --- Local registers -------------------------------------------------------------
+
+std::optional<std::uint8_t> RemoteDevice::readLocal(std::uint8_t command) {
+  namespace r = lbp::local_read;
+  switch (command) {
+    case r::kUnitAddress: return 0;
+    case r::kRemoteSwMode: return swMode_;
+    case r::kClearFault: return 0;  // the clear is done by the time it can be read
+    case r::kNonVolatile: return nvAccess_;
+    case r::kCapability: return lbp::capability::kCrc | lbp::capability::kEeprom;
+    case r::kSwRevision: return identity_.swRevision;
+    case r::kHwMode: return identity_.hwMode;
+    case r::kFaultStatus: return faults_;
+    default: break;
+  }
+  if (command >= r::kCardName0 && command < r::kCardName0 + 4) {
+    const auto i = static_cast<std::size_t>(command - r::kCardName0);
+    return i < identity_.cardName.size() ? static_cast<std::uint8_t>(identity_.cardName[i]) : 0;
+  }
+  return std::nullopt;
+}
+
+bool RemoteDevice::writeLocal(std::uint8_t command, std::uint8_t value) {
+  namespace w = lbp::local_write;
+  switch (command) {
+    case w::kRemoteSwMode:
+      swMode_ = value;
+      if (swMode_ >= modes_.size()) raiseFault(fault::kIllegalMode);
+      return true;
+    case w::kClearFault:
+      if (value != 0) clearFaults();
+      return true;
+    case w::kNonVolatile:
+      // This remote has an EEPROM and no flash (capability 0x05).
+      if (value != lbp::nonvolatile::kNone && value != lbp::nonvolatile::kEeprom) return false;
+      nvAccess_ = value;
+      return true;
+    case w::kLeds:
+      leds_ = value;
+      return true;
+    default:
+      return false;
+  }
+}
+
+// --- Special RPCs ----------------------------------------------------------------
+
+const SoftwareMode& RemoteDevice::currentMode() const {
+  return swMode_ < modes_.size() ? modes_[swMode_] : modes_[0];
+}
+const RemoteDevice::ModeTables& RemoteDevice::currentTables() const {
+  return swMode_ < modes_.size() ? modeTables_[swMode_] : modeTables_[0];
+}
+
+bool RemoteDevice::processDataMode(ElementId id) const {
+  const auto& pd = currentMode().processData;
+  return std::find(pd.begin(), pd.end(), id) != pd.end();
+}
+
+RemoteDevice::Discovery RemoteDevice::discovery() const {
+  const auto& t = currentTables();
+  return {t.rxSize, t.txSize, t.ptoc, t.gtoc};
+}
+
+std::optional<lbp::Target::RpcSizes> RemoteDevice::specialRpc(std::uint8_t command) {
+  namespace rpc = lbp::special_rpc;
+  switch (command) {
+    case rpc::kDiscovery: return RpcSizes{0, 6};
+    case rpc::kUnitNumber: return RpcSizes{0, 4};
+    case rpc::kProcessData: return RpcSizes{currentTables().txSize, currentTables().rxSize};
+    default: return std::nullopt;
+  }
+}
+
+void RemoteDevice::runSpecialRpc(std::uint8_t command, std::span<const std::uint8_t> fromHost,
+                                 std::span<std::uint8_t> toHost) {
+  namespace rpc = lbp::special_rpc;
+  switch (command) {
+    case rpc::kDiscovery: {
+      const auto d = discovery();
+      const std::uint8_t bytes[6] = {d.rxSize,
+                                     d.txSize,
+                                     static_cast<std::uint8_t>(d.ptoc & 0xFFU),
+                                     static_cast<std::uint8_t>(d.ptoc >> 8),
+                                     static_cast<std::uint8_t>(d.gtoc & 0xFFU),
+                                     static_cast<std::uint8_t>(d.gtoc >> 8)};
+      std::copy_n(bytes, std::min<std::size_t>(6, toHost.size()), toHost.begin());
+      return;
+    }
+    case rpc::kUnitNumber: {
+      const std::uint32_t unit = unitNumber();
+      for (std::size_t i = 0; i < toHost.size() && i < 4; ++i) toHost[i] = static_cast<std::uint8_t>(unit >> (8 * i));
+      return;
+    }
+    case rpc::kProcessData: {
+      // Outputs from the host, then fault byte and inputs back, both packed
+      // in PTOC order (manual: PROCESS DATA RPC).
+      unsigned bit = 0;
+      for (ElementId id : currentMode().processData) {
+        const auto& d = elements_[id].d;
+        if (!receivesFromHost(d.direction)) continue;
+        if (d.type != DataType::Pad) setRaw(id, lbp::unpackBits(fromHost, bit, d.bits));
+        bit += d.bits;
+      }
+      if (toHost.empty()) return;
+      toHost[0] = faults_;
+      bit = 0;
+      for (ElementId id : currentMode().processData) {
+        const auto& d = elements_[id].d;
+        if (!sendsToHost(d.direction)) continue;
+        lbp::packBits(toHost.subspan(1), bit, d.bits, raw(id));
+        bit += d.bits;
+      }
+      ++processDataCount_;
+      return;
+    }
+    default:
+      return;
+  }
+}
+
+}  // namespace remote

@@ -1,0 +1,131 @@
+// `lbpkit remote --pty` as an external program sees it: open the pty, talk
+// LBP through it, stop the daemon with SIGTERM.
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "lbp/command.hpp"
+#include "lbp/crc8.hpp"
+
+namespace {
+
+using Bytes = std::vector<std::uint8_t>;
+
+class Daemon {
+ public:
+  explicit Daemon(std::vector<std::string> args) {
+    int out[2];
+    if (::pipe(out) != 0) throw std::runtime_error("pipe");
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      ::dup2(out[1], 1);
+      ::close(out[0]);
+      std::vector<char*> argv;
+      static std::string bin = LBPKIT_BINARY;
+      argv.push_back(bin.data());
+      for (auto& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      ::execv(bin.c_str(), argv.data());
+      ::_exit(127);
+    }
+    ::close(out[1]);
+    out_ = out[0];
+  }
+  ~Daemon() {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+    if (out_ >= 0) ::close(out_);
+  }
+  // Output up to and including a line containing `marker`, within 10 s.
+  std::string readUntil(const std::string& marker) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (text_.find(marker) == std::string::npos || text_.find('\n', text_.find(marker)) == std::string::npos) {
+      if (std::chrono::steady_clock::now() > deadline) break;
+      pollfd p{out_, POLLIN, 0};
+      if (::poll(&p, 1, 100) <= 0) continue;
+      char buf[256];
+      const ssize_t n = ::read(out_, buf, sizeof buf);
+      if (n <= 0) break;
+      text_.append(buf, static_cast<std::size_t>(n));
+    }
+    return text_;
+  }
+  int stop() {
+    ::kill(pid_, SIGTERM);
+    int status = 0;
+    ::waitpid(pid_, &status, 0);
+    pid_ = -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+
+ private:
+  pid_t pid_ = -1;
+  int out_ = -1;
+  std::string text_;
+};
+
+Bytes exchange(int fd, Bytes command, std::size_t expect) {
+  command.push_back(lbp::crc8(command));
+  EXPECT_EQ(::write(fd, command.data(), command.size()), static_cast<ssize_t>(command.size()));
+  Bytes reply;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(3);
+  while (reply.size() < expect && std::chrono::steady_clock::now() < deadline) {
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, 50) <= 0) continue;
+    std::uint8_t buf[64];
+    const ssize_t n = ::read(fd, buf, sizeof buf);
+    if (n > 0) reply.insert(reply.end(), buf, buf + n);
+  }
+  return reply;
+}
+
+TEST(PtyRemote, AnExternalProgramTalksLbpThroughThePty) {
+  const auto state = std::filesystem::temp_directory_path() / ("lbpkit-pty-" + std::to_string(::getpid()));
+  std::filesystem::remove(state);
+  Daemon d({"remote", "--pty", "--setup", "--state", state.string()});
+  const std::string out = d.readUntil("serial device:");
+  const auto at = out.find("serial device: ");
+  ASSERT_NE(at, std::string::npos) << out;
+  const std::string path = out.substr(at + 15, out.find('\n', at) - at - 15);
+  EXPECT_NE(out.find("setup mode at 115200 baud"), std::string::npos) << out;
+
+  const int fd = ::open(path.c_str(), O_RDWR | O_NOCTTY);
+  ASSERT_GE(fd, 0) << path;
+  termios tio{};
+  ASSERT_EQ(::tcgetattr(fd, &tio), 0);
+  ::cfmakeraw(&tio);
+  ASSERT_EQ(::tcsetattr(fd, TCSANOW, &tio), 0);
+
+  EXPECT_EQ(exchange(fd, {lbp::local_read::kCookie}, 2), (Bytes{0x5A, lbp::crc8(Bytes{0x5A})}));
+  Bytes name;
+  for (std::uint8_t c = 0xD0; c <= 0xD3; ++c) name.push_back(exchange(fd, {c}, 2).at(0));
+  EXPECT_EQ(std::string(name.begin(), name.end()), "7I77");
+  const Bytes unit = exchange(fd, {lbp::special_rpc::kUnitNumber}, 5);
+  ASSERT_EQ(unit.size(), 5U);
+  EXPECT_EQ(unit[3], 0x12);  // field I/O
+  EXPECT_EQ(lbp::crc8(unit), 0);
+  // A corrupted command gets no answer; the next one does.
+  Bytes bad{lbp::local_read::kCookie, 0x00};
+  EXPECT_EQ(::write(fd, bad.data(), 2), 2);
+  ::usleep(20000);
+  EXPECT_EQ(exchange(fd, {lbp::local_read::kCrcErrorCount}, 2).at(0), 1);
+  ::close(fd);
+
+  EXPECT_EQ(d.stop(), 0);
+  EXPECT_TRUE(std::filesystem::exists(state));  // EEPROM state saved
+  std::filesystem::remove(state);
+}
+
+}  // namespace
