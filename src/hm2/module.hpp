@@ -1,0 +1,61 @@
+// A HostMot2 module: a block of 32-bit registers in the card's address space
+// plus the IDROM module descriptor that tells drivers where it is
+// (HostMot2 regmap; REFERENCES.md). One module per file, like LinuxCNC's
+// hostmot2 driver.
+#pragma once
+
+#include <cstdint>
+#include <string_view>
+
+#include "lbp/sim_time.hpp"
+
+namespace hm2 {
+
+using lbp::SimTime;
+using namespace std::chrono_literals;
+
+// Module tags (GTag) as the IDROM reports them (IDROMConst.vhd).
+namespace tag {
+inline constexpr std::uint8_t kWatchdog = 0x02;
+inline constexpr std::uint8_t kIoPort = 0x03;
+inline constexpr std::uint8_t kMuxedQCount = 0x0C;
+inline constexpr std::uint8_t kMuxedQCountSel = 0x0D;
+inline constexpr std::uint8_t kLed = 0x80;
+inline constexpr std::uint8_t kSSerial = 0xC1;
+}  // namespace tag
+
+inline constexpr std::uint8_t kClockLow = 1;
+inline constexpr std::uint8_t kClockHigh = 2;
+
+// One IDROM module record (idrom.vhd): three 32-bit words.
+struct ModuleDescriptor {
+  std::uint8_t gtag = 0;
+  std::uint8_t version = 0;
+  std::uint8_t clockTag = kClockLow;
+  std::uint8_t instances = 0;
+  std::uint16_t baseAddress = 0;
+  std::uint8_t registers = 0;
+  std::uint8_t strides = 0;  // low nibble: register stride select, high: instance stride select
+  std::uint32_t multipleRegisters = 0;
+};
+
+class Module {
+ public:
+  virtual ~Module() = default;
+  [[nodiscard]] virtual std::string_view name() const = 0;
+  [[nodiscard]] virtual ModuleDescriptor descriptor() const = 0;
+  // Does this module answer at `address`?
+  [[nodiscard]] virtual bool decodes(std::uint16_t address) const = 0;
+  virtual std::uint32_t read(std::uint16_t address, SimTime now) = 0;
+  virtual void write(std::uint16_t address, std::uint32_t value, SimTime now) = 0;
+  // Let simulated time pass.
+  virtual void advance(SimTime now) { (void)now; }
+};
+
+// Register blocks are 0x100 bytes apart ("Addr byte << 8"); instances and
+// channels are 4 bytes apart inside a block (the IDROM strides below).
+inline constexpr std::uint16_t kRegisterStride = 0x100;
+inline constexpr std::uint16_t kInstanceStride0 = 4;
+inline constexpr std::uint16_t kInstanceStride1 = 0x40;
+
+}  // namespace hm2

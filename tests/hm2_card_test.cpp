@@ -1,0 +1,202 @@
+// The card as drivers see it: IDROM parsed the way LinuxCNC's hostmot2 and
+// mesaflash parse it; the watchdog; the muxed encoders.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "card_host.hpp"
+
+namespace {
+
+using namespace testing_hm2;
+
+std::string chars(std::uint32_t w) {
+  std::string s;
+  for (int i = 0; i < 4; ++i) s.push_back(static_cast<char>(w >> (8 * i)));
+  return s;
+}
+
+struct Md {
+  std::uint8_t gtag, version, clock, instances;
+  std::uint16_t base;
+  std::uint8_t registers, regStrideSel, instStrideSel;
+  std::uint32_t mp;
+};
+
+TEST(Idrom, ParsesLikeTheHostmot2Driver) {
+  for (bool two : {false, true}) {
+    hm2::HostMot2Card::Options o;
+    if (two) o.second = hm2::HostMot2Card::DaughterOptions{};
+    hm2::HostMot2Card card(o);
+    CardHost h{card};
+    ASSERT_EQ(h.read(0x0100), 0x55AACAFEU);
+    EXPECT_EQ(chars(h.read(0x0104)) + chars(h.read(0x0108)), "HOSTMOT2");
+    const auto idrom = static_cast<std::uint16_t>(h.read(0x010C) & 0xFFFF);
+    ASSERT_EQ(idrom, 0x0400);
+    auto word = [&](unsigned off) { return h.read(static_cast<std::uint16_t>(idrom + off)); };
+    const auto type = word(0);
+    EXPECT_TRUE(type == 2 || type == 3);
+    EXPECT_EQ(chars(word(0x0C)) + chars(word(0x10)), "MESA7I92");
+    const auto ioPorts = word(0x1C), ioWidth = word(0x20), portWidth = word(0x24);
+    EXPECT_EQ(portWidth, 17U);  // hm2_eth's 7I92: 2 connectors of 17 pins
+    EXPECT_EQ(ioPorts, 2U);
+    EXPECT_EQ(ioWidth, ioPorts * portWidth);
+    EXPECT_GE(word(0x28), 1'000'000U);
+    EXPECT_GE(word(0x2C), 1'000'000U);
+    const std::uint32_t instStride[2] = {word(0x30), word(0x34)};
+    const std::uint32_t regStride[2] = {word(0x38), word(0x3C)};
+    // Module descriptors until a zero tag; each checked as the driver does.
+    std::vector<Md> mds;
+    for (unsigned i = 0; i < 32; ++i) {
+      const auto w0 = word(word(4) + 12 * i), w1 = word(word(4) + 12 * i + 4), w2 = word(word(4) + 12 * i + 8);
+      Md m{static_cast<std::uint8_t>(w0), static_cast<std::uint8_t>(w0 >> 8), static_cast<std::uint8_t>(w0 >> 16),
+           static_cast<std::uint8_t>(w0 >> 24), static_cast<std::uint16_t>(w1), static_cast<std::uint8_t>(w1 >> 16),
+           static_cast<std::uint8_t>((w1 >> 24) & 0xF), static_cast<std::uint8_t>(w1 >> 28), w2};
+      if (m.gtag == 0) break;
+      EXPECT_TRUE(m.clock == 1 || m.clock == 2) << int(m.gtag);
+      ASSERT_LE(m.regStrideSel, 1);
+      ASSERT_LE(m.instStrideSel, 1);
+      mds.push_back(m);
+    }
+    auto consistent = [&](std::uint8_t gtag, std::uint8_t version, std::uint8_t regs, std::uint32_t stride,
+                          std::uint32_t mp) {
+      for (const auto& m : mds)
+        if (m.gtag == gtag)
+          return m.version == version && m.registers == regs && instStride[m.instStrideSel] == stride &&
+                 regStride[m.regStrideSel] == 0x100 && m.mp == mp;
+      return false;
+    };
+    EXPECT_TRUE(consistent(0x02, 0, 3, 4, 0x0));        // WatchDog
+    EXPECT_TRUE(consistent(0x03, 0, 5, 4, 0x1F));       // IOPort
+    EXPECT_TRUE(consistent(0x0C, 3, 5, 4, 0x3));        // MuxedQCount
+    EXPECT_TRUE(consistent(0xC1, 0, 6, 0x40, 0x3C));    // SmartSerial
+    EXPECT_TRUE(consistent(0x80, 0, 1, 4, 0x0));        // LED
+    for (const auto& m : mds) {
+      if (m.gtag == 0x03) {
+        EXPECT_EQ(m.instances, ioPorts);
+      }
+      if (m.gtag == 0x0C) {
+        EXPECT_EQ(m.instances, two ? 12 : 6);
+      }
+    }
+    // Pin descriptors: primary IOPort for all; the manual's P1 table on IO0..16.
+    std::vector<std::uint32_t> pins;
+    for (unsigned i = 0; i < ioWidth; ++i) pins.push_back(word(word(8) + 4 * i));
+    for (auto p : pins) EXPECT_EQ(p >> 24, 0x03U);
+    auto fn = [&](unsigned io) { return pins[io] & 0x00FFFFFFU; };  // unit, tag, pin
+    EXPECT_EQ(fn(0), 0x00C193U);   // IO0 SS2TXEN
+    EXPECT_EQ(fn(1), 0x00C183U);   // IO1 SS2TX
+    EXPECT_EQ(fn(2), 0x00C103U);   // IO2 SS2RX
+    EXPECT_EQ(fn(3), 0x00C182U);   // IO3 SS1TX
+    EXPECT_EQ(fn(4), 0x00C102U);   // IO4 SS1RX
+    EXPECT_EQ(fn(5), 0x00C181U);   // IO5 SS0TX
+    EXPECT_EQ(fn(6), 0x00C101U);   // IO6 SS0RX
+    EXPECT_EQ(fn(7), 0x000D81U);   // IO7 ENCMUX
+    EXPECT_EQ(fn(8), 0x000C01U);   // IO8 QCMUXA01
+    EXPECT_EQ(fn(9), 0x000C02U);   // IO9 QCMUXB01
+    EXPECT_EQ(fn(10), 0x000C03U);  // IO10 QCMUXI01
+    EXPECT_EQ(fn(13), 0x010C03U);  // IO13 QCMUXI23
+    EXPECT_EQ(fn(16), 0x020C03U);  // IO16 QCMUXI45
+    if (two) {
+      EXPECT_EQ(fn(17), 0x00C196U);  // SS5TXEN on the second connector
+      EXPECT_EQ(fn(23), 0x00C104U);  // SS3RX
+      EXPECT_EQ(fn(24), 0x010D81U);  // second ENCMUX
+      EXPECT_EQ(fn(33), 0x050C03U);
+    } else {
+      EXPECT_EQ(fn(17), 0U);  // plain GPIO
+    }
+  }
+}
+
+TEST(Card, UnmappedAccessesAreHarmless) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  EXPECT_EQ(h.read(0x7000), 0U);
+  h.write(0x7000, 0xFFFFFFFF);
+  h.write(0x0100, 0);  // the cookie is read only
+  EXPECT_EQ(h.read(0x0100), 0x55AACAFEU);
+  EXPECT_EQ(h.read(0x0802), 0U);  // just past the IDROM (mesaflash reads there)
+  EXPECT_EQ(card.unmappedWrites(), 2U);
+}
+
+TEST(Watchdog, BitesAfterItsTimeoutAndResetsGpio) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  EXPECT_EQ(h.read(hm2::Watchdog::kTimer), hm2::Watchdog::kDisarmed);  // power-up: disarmed
+  h.write(hm2::IoPort::kDdr, 0x1);
+  h.write(hm2::IoPort::kData, 0x1);
+  EXPECT_TRUE(card.ioPort().pin(0, 0));
+  h.write(hm2::Watchdog::kTimer, 499999);  // LinuxCNC's 5 ms at 100 MHz
+  for (int i = 0; i < 20; ++i) {
+    h.wait(1ms);
+    h.write(hm2::Watchdog::kReset, 0x5A000000);  // pet
+  }
+  EXPECT_EQ(h.read(hm2::Watchdog::kStatus), 0U);
+  h.wait(4900us);
+  EXPECT_EQ(h.read(hm2::Watchdog::kStatus), 0U);
+  h.wait(200us);
+  EXPECT_EQ(h.read(hm2::Watchdog::kStatus), 1U);
+  EXPECT_EQ(card.ioPort().ddr(0), 0U);
+  // A pet with the wrong key does not help; clearing the status and
+  // rewriting the timer re-arms.
+  h.write(hm2::Watchdog::kStatus, 0);
+  h.write(hm2::Watchdog::kTimer, 499999);
+  h.write(hm2::Watchdog::kReset, 0x12000000);
+  h.wait(5100us);
+  EXPECT_EQ(h.read(hm2::Watchdog::kStatus), 1U);
+  // hm2_eth's unload: timer = 1 bites at once.
+  h.write(hm2::Watchdog::kStatus, 0);
+  h.write(hm2::Watchdog::kTimer, 1);
+  h.wait(1us);
+  EXPECT_EQ(h.read(hm2::Watchdog::kStatus), 1U);
+}
+
+TEST(MuxedEncoder, ExactUpTo2MHzAndLosingCountsAbove) {
+  for (double rate : {1000.0, 250e3, 1e6, 2e6, 3e6, 6e6}) {
+    hm2::HostMot2Card card;
+    CardHost h{card};
+    h.write(static_cast<std::uint16_t>(hm2::MuxedEncoder::kControl), 0);  // 3-tick filter
+    card.encoders().setVelocity(0, rate, h.now);
+    card.encoders().setVelocity(1, -rate, h.now);
+    const SimTime span = 1ms;
+    h.wait(span);
+    const auto expected = static_cast<std::int64_t>(rate * 1e-3);
+    const auto got0 = static_cast<std::int16_t>(h.read(hm2::MuxedEncoder::kCount) & 0xFFFF);
+    const auto got1 = static_cast<std::int16_t>(h.read(hm2::MuxedEncoder::kCount + 4) & 0xFFFF);
+    if (rate <= 2e6) {
+      // Each register access takes 1 us of simulated time.
+      EXPECT_NEAR(got0, static_cast<double>(expected) + rate * 1e-6, 1) << rate;
+      EXPECT_NEAR(got1, -static_cast<double>(expected) - rate * 2e-6, 1) << rate;
+    } else {
+      EXPECT_LT(std::abs(got0), expected * 9 / 10) << rate << ": counts must be lost";
+    }
+  }
+}
+
+TEST(MuxedEncoder, IndexLatchesJustOnceAndTimestamps) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  auto& enc = card.encoders();
+  enc.setIndexPeriod(2, 1000);
+  h.write(hm2::MuxedEncoder::kTimestampDiv, 48);  // 2 MHz timestamps
+  // LinuxCNC's index-enable: latch on index + just once (+ filter).
+  h.write(hm2::MuxedEncoder::kControl + 8, (1U << 11) | (1U << 6) | (1U << 4));
+  enc.setVelocity(2, 100000, h.now);  // 100 k counts/s: index every 10 ms
+  h.wait(5ms);
+  EXPECT_TRUE(h.read(hm2::MuxedEncoder::kControl + 8) & (1U << 4));  // not yet
+  h.wait(6ms);
+  const auto ccr = h.read(hm2::MuxedEncoder::kControl + 8);
+  EXPECT_FALSE(ccr & (1U << 4));  // cleared itself
+  EXPECT_FALSE(ccr & (1U << 6));
+  EXPECT_EQ(ccr >> 16, 1000U);     // the count at the index
+  const auto count = h.read(hm2::MuxedEncoder::kCount + 8);
+  EXPECT_NEAR(count & 0xFFFF, 1100, 2);
+  // The count's timestamp is the timestamp counter at the last count.
+  const auto ts = h.read(hm2::MuxedEncoder::kTimestamp);
+  EXPECT_LE(static_cast<std::uint16_t>(ts - (count >> 16)), 30U);
+  // Any write clears the count.
+  h.write(hm2::MuxedEncoder::kCount + 8, 0);
+  EXPECT_LE(h.read(hm2::MuxedEncoder::kCount + 8) & 0xFFFF, 1U);
+}
+
+}  // namespace

@@ -1,0 +1,394 @@
+// The SSLBP register interface exactly as the manual's REFERENCE INFORMATION
+// describes it, against a virtual 7I92 carrying a 7I77.
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <map>
+#include <string>
+
+#include "card_host.hpp"
+#include "lbp/command.hpp"
+#include "lbp/discovery.hpp"
+
+namespace {
+
+using namespace testing_hm2;
+namespace cmd = hm2::command;
+namespace cs = hm2::cs;
+using hm2::SmartSerial;
+
+constexpr unsigned kFieldIo = 0;
+constexpr unsigned kAnalog = 1;
+
+std::uint8_t localRead(CardHost& h, std::uint16_t addr) { return h.command(cmd::kRequest | addr); }
+
+TEST(Sslbp, LocalParameters) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  EXPECT_EQ(localRead(h, hm2::local::kInterfaceType), 0x12);
+  EXPECT_EQ(localRead(h, hm2::local::kInterfaceWidth), 8);
+  EXPECT_EQ(localRead(h, hm2::local::kMajorRev), SmartSerial::kMajorRevision);
+  EXPECT_EQ(localRead(h, hm2::local::kMinorRev), SmartSerial::kMinorRevision);
+  // The manual calls 4 and 5 GP_INPUTS/GP_OUTPUTS (0); the firmware keeps the
+  // per-channel block start and stride there, and LinuxCNC and mesaflash use
+  // them so (local[4] + channel * local[5] + 42 is a channel's baud rate).
+  EXPECT_EQ(localRead(h, hm2::local::kChannelStart), hm2::local::kChannelBlock);
+  EXPECT_EQ(localRead(h, hm2::local::kChannelStride), hm2::local::kChannelBlockStride);
+  EXPECT_EQ(localRead(h, hm2::local::kProcessorType), 0xD8);
+  EXPECT_EQ(localRead(h, hm2::local::kChannels), 3);
+  // Local write then read back (the channel 0 baud rate, LSB).
+  const std::uint16_t baud0 = hm2::local::kChannelBlock + hm2::local::kBaudOffset;
+  EXPECT_EQ(localRead(h, baud0), 2500000 & 0xFF);
+  h.write(SmartSerial::kData, 0x42);
+  h.command(cmd::kWrite | cmd::kRequest | baud0);
+  EXPECT_EQ(localRead(h, baud0), 0x42);
+}
+
+TEST(Sslbp, StopAllResetsAndDataReadsAA) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  EXPECT_EQ(h.command(cmd::kStop), 0xAA);
+  EXPECT_EQ(h.read(CardHost::cs(0)), 0x0000C100U);  // not ready, no ID, remote fault; state 0
+}
+
+// NORMAL MODE OPERATION steps 1..11 at 1 kHz for 10 simulated seconds.
+TEST(Sslbp, NormalModeOperationAt1kHzFor10Seconds) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  auto& io = card.daughtercard(0).fieldIo;
+  auto& analog = card.daughtercard(0).analog;
+  // 1. STOP ALL.  2./3. START channels 0 and 1, wait.  4. DATA: all started.
+  h.command(cmd::kStop);
+  h.write(CardHost::cs(kFieldIo), 0);  // remote mode 0 in the CS top byte
+  h.write(CardHost::cs(kAnalog), 0);
+  h.write(SmartSerial::kCommand, cmd::kStart | 0x03);
+  const SimTime startTime = h.waitCommand();
+  ASSERT_GT(startTime.count(), 0);
+  EXPECT_GT(startTime, 400us);  // the silent start timeout, then the setup exchange
+  EXPECT_EQ(h.read(SmartSerial::kData) & 0x03, 0U);
+  // 5. Unit number, name, table pointers: only before the first DOIT.
+  EXPECT_EQ(h.read(CardHost::iface(0, kFieldIo)), io.unitNumber());
+  EXPECT_EQ(h.read(CardHost::iface(0, kAnalog)), analog.unitNumber());
+  EXPECT_EQ(h.read(CardHost::iface(1, kFieldIo)), 0x37374937U);  // "7I77", LSB first
+  EXPECT_NE(h.read(CardHost::iface(2, kFieldIo)) & 0xFFFF, 0U);
+  // After START: status OK, chattering (COM_STATE 0x3A/0x3B), no faults.
+  const auto csAfterStart = h.read(CardHost::cs(kFieldIo));
+  EXPECT_EQ(csAfterStart & 0xFFFF, 0U) << std::hex << csAfterStart;
+  EXPECT_EQ(csAfterStart >> 24, 0U);
+  // Chatter feeds the remote watchdogs while the host is busy elsewhere.
+  h.wait(200ms);
+  EXPECT_EQ(io.faults(), 0);
+
+  std::uint32_t lastInputs = 0;
+  int checked = 0;
+  for (int cycle = 0; cycle < 10000; ++cycle) {
+    // 6. COMMAND clear?  7. DATA: previous DOIT ok?
+    ASSERT_EQ(h.read(SmartSerial::kCommand), 0U) << "cycle " << cycle;
+    if (cycle > 0) {
+      ASSERT_EQ(h.read(SmartSerial::kData), 0U) << "cycle " << cycle;
+      // 8. Inputs.
+      lastInputs = h.read(CardHost::iface(0, kFieldIo));
+      const auto csr = h.read(CardHost::cs(kFieldIo));
+      ASSERT_EQ(csr & 0xFFFF, 0U) << std::hex << csr;
+      ASSERT_EQ(csr >> 24, 0U);
+      if (cycle % 1000 == 1) {
+        EXPECT_EQ(lastInputs, io.inputs()) << "cycle " << cycle;
+        ++checked;
+      }
+    }
+    // The world changes an input now and then.
+    if (cycle % 1000 == 0) io.setInputVoltage(static_cast<unsigned>(cycle / 1000), 24.0);
+    // 9. Outputs: a walking bit, and an analog ramp.
+    const std::uint32_t outputs = 1U << (cycle % 16);
+    h.write(CardHost::iface(0, kFieldIo), outputs);
+    const auto code = static_cast<std::int32_t>((cycle % 8192) - 4096);
+    std::array<std::uint8_t, 12> ao{};
+    for (unsigned ch = 0; ch < 6; ++ch) lbp::packBits(ao, ch * 13, 13, static_cast<std::uint32_t>(code) & 0x1FFF);
+    lbp::packBits(ao, 78, 1, 1);
+    lbp::packBits(ao, 79, 1, static_cast<std::uint64_t>(cycle % 2));
+    for (unsigned r = 0; r < 3; ++r)
+      h.write(CardHost::iface(r, kAnalog), std::uint32_t{ao[4 * r]} | (std::uint32_t{ao[4 * r + 1]} << 8) |
+                                               (std::uint32_t{ao[4 * r + 2]} << 16) |
+                                               (std::uint32_t{ao[4 * r + 3]} << 24));
+    // 10. DOIT.
+    h.write(SmartSerial::kCommand, cmd::kDoit | 0x03);
+    // The manual: at most 100 us from DOIT to COMMAND clear. The very first
+    // DOIT is picked up by the chatter loop at its next reply: a bit longer.
+    const SimTime doit = h.waitCommand(1ms);
+    ASSERT_GT(doit.count(), 0);
+    ASSERT_LT(doit, cycle == 0 ? 200us : 100us) << "cycle " << cycle;
+    ASSERT_EQ(io.outputs(), outputs) << "cycle " << cycle;
+    ASSERT_EQ(analog.dacCode(3), code);
+    ASSERT_EQ(analog.enable(5), cycle % 2 == 1);
+    // 11. Wait for the next cycle.
+    h.now = SimTime{std::chrono::milliseconds(cycle + 1)} + 200ms + startTime;
+  }
+  EXPECT_EQ(checked, 10);
+  EXPECT_EQ(lastInputs, 0x3FFU);  // inputs 0..9 were switched on
+  EXPECT_EQ(io.faults(), 0);
+  EXPECT_EQ(analog.faults(), 0);
+}
+
+// The manual's SETUP MODE remote read and write examples, and NVWATCHDOGTIME.
+TEST(Sslbp, SetupModeRemoteReadAndWrite) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  auto& io = card.daughtercard(0).fieldIo;
+  h.command(cmd::kStop);
+  h.write(CardHost::cs(kFieldIo), 0);
+  ASSERT_EQ(h.command(cmd::kSetupStart | 0x01) & 0x01, 0);
+  EXPECT_EQ(h.read(CardHost::cs(kFieldIo)) & 0xFF00U, 0U);  // status OK
+  // Remote word read (0x45) of the watchdog time.
+  const auto wd = io.address(io.standard(remote::Standard::WatchdogTime));
+  EXPECT_EQ(h.remote(kFieldIo, 0x45, wd) & 0xFFFF, 50U);
+  // Remote word write (0x65), then read back.
+  h.remote(kFieldIo, 0x65, wd, 20);
+  EXPECT_EQ(io.watchdogTimeMs(), 20);
+  EXPECT_EQ(h.remote(kFieldIo, 0x45, wd) & 0xFFFF, 20U);
+  // NVWATCHDOGTIME the way LinuxCNC writes NV parameters: NV access on
+  // (local write 0xEC = 1), sized write, NV access off.
+  const auto nvwd = io.address(io.standard(remote::Standard::NvWatchdogTimeout));
+  h.remote(kFieldIo, lbp::local_write::kNonVolatile, 0, lbp::nonvolatile::kEeprom);
+  h.remote(kFieldIo, 0x65, nvwd, 100);
+  h.remote(kFieldIo, lbp::local_write::kNonVolatile, 0, 0);
+  EXPECT_EQ(h.remote(kFieldIo, 0x45, nvwd) & 0xFFFF, 100U);
+  EXPECT_EQ(io.watchdogTimeMs(), 20);  // working value until a power cycle
+  io.setFieldVoltage(0, h.now);
+  io.setFieldVoltage(24, h.now);
+  EXPECT_EQ(io.watchdogTimeMs(), 100);
+  // The byte read LinuxCNC uses (0x4C: read 1 byte, auto-increment, address).
+  EXPECT_EQ(h.remote(kFieldIo, 0x4C, 0x0400) & 0xFF, lbp::kProcessDataRecord);
+}
+
+// The DISCOVERY SEQUENCE through the registers, for both remotes.
+TEST(Sslbp, DiscoverySequenceThroughTheRegisters) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  for (std::uint8_t mode : {std::uint8_t{0}, std::uint8_t{3}}) {
+    h.command(cmd::kStop);
+    h.write(CardHost::cs(kFieldIo), static_cast<std::uint32_t>(mode) << 24);
+    h.write(CardHost::cs(kAnalog), 0);
+    ASSERT_EQ(h.command(cmd::kSetupStart | 0x03) & 0x03, 0);
+    for (unsigned ch : {kFieldIo, kAnalog}) {
+      const auto ptocp = static_cast<std::uint16_t>(h.read(CardHost::iface(2, ch)) & 0xFFFF);
+      ASSERT_NE(ptocp, 0);
+      std::vector<std::uint16_t> ptoc;
+      for (std::uint16_t p = ptocp;; p += 2) {
+        const auto e = static_cast<std::uint16_t>(h.remote(ch, 0x45, p));
+        if (e == 0) break;
+        ptoc.push_back(e);
+      }
+      unsigned inBits = 0, outBits = 0;
+      std::map<std::string, int> names;
+      for (auto rec : ptoc) {
+        const auto type = static_cast<std::uint8_t>(h.remote(ch, 0x44, rec));
+        if (type == lbp::kModeRecord) continue;
+        ASSERT_EQ(type, lbp::kProcessDataRecord);
+        const auto bits = static_cast<std::uint8_t>(h.remote(ch, 0x44, rec + 1));
+        const auto dir = static_cast<std::uint8_t>(h.remote(ch, 0x44, rec + 3));
+        (void)std::bit_cast<float>(static_cast<std::uint32_t>(h.remote(ch, 0x46, rec + 4)));
+        std::string unit, name;
+        std::uint16_t p = static_cast<std::uint16_t>(rec + 14);
+        for (char c; (c = static_cast<char>(h.remote(ch, 0x44, p++))) != 0;) unit.push_back(c);
+        for (char c; (c = static_cast<char>(h.remote(ch, 0x44, p++))) != 0;) name.push_back(c);
+        names[name] = bits;
+        if (dir != 0x80) inBits += bits;
+        if (dir != 0x00) outBits += bits;
+      }
+      if (ch == kFieldIo) {
+        EXPECT_EQ(names.at("Input"), 32);
+        EXPECT_EQ(names.at("Output"), 16);
+        EXPECT_EQ(names.count("Enc1"), mode == 3 ? 1U : 0U);
+        EXPECT_EQ(inBits, mode == 3 ? 88U : 32U);
+        EXPECT_EQ(outBits, 16U);
+      } else {
+        EXPECT_EQ(names.at("AnalogOut5"), 13);
+        EXPECT_EQ(outBits, 80U);
+      }
+    }
+  }
+}
+
+TEST(Sslbp, StoppingDoitsDropsOutputsAndTheFaultShowsAtTheNextStart) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  auto& io = card.daughtercard(0).fieldIo;
+  auto& analog = card.daughtercard(0).analog;
+  h.command(cmd::kStop);
+  ASSERT_EQ(h.command(cmd::kStart | 0x03), 0);
+  h.write(CardHost::iface(0, kFieldIo), 0xFFFF);
+  h.write(CardHost::iface(2, kAnalog), 0xC000);  // both enables
+  for (int i = 0; i < 10; ++i) {
+    ASSERT_EQ(h.command(cmd::kDoit | 0x03), 0);
+    h.wait(1ms);
+  }
+  EXPECT_EQ(io.outputs(), 0xFFFF);
+  EXPECT_TRUE(analog.enable(0));
+  h.wait(60ms);  // the host stops: no DOIT, no chatter after the first DOIT
+  EXPECT_EQ(io.outputs(), 0);
+  EXPECT_FALSE(analog.enable(0));
+  EXPECT_EQ(io.faults(), remote::fault::kWatchdog);
+  // A DOIT now reports the remote fault in CS byte 3 (and status bit 0).
+  EXPECT_EQ(h.command(cmd::kDoit | 0x01), 0);
+  const auto csr = h.read(CardHost::cs(kFieldIo));
+  EXPECT_EQ(csr >> 24, remote::fault::kWatchdog);
+  EXPECT_TRUE(csr & (cs::kStatusRemoteFault << 8));
+  EXPECT_TRUE(csr & cs::kRemoteFault);
+  // Recovery: stop and start the channel; START clears the fault.
+  h.command(cmd::kStop | 0x03);
+  ASSERT_EQ(h.command(cmd::kStart | 0x03), 0);
+  EXPECT_EQ(io.faults(), 0);
+  EXPECT_EQ(h.read(CardHost::cs(kFieldIo)) >> 24, 0U);
+  ASSERT_EQ(h.command(cmd::kDoit | 0x03), 0);
+  EXPECT_EQ(io.outputs(), 0xFFFF);
+}
+
+TEST(Sslbp, AFaultThatDoesNotClearFailsTheStart) {
+  hm2::HostMot2Card::Options o;
+  o.first.fieldIo.vinFromField = false;  // W1 right: separate VIN
+  o.first.fieldIo.vin = 24;
+  hm2::HostMot2Card card(o);
+  CardHost h{card};
+  card.daughtercard(0).fieldIo.setFieldVoltage(2.0, h.now);  // field supply lost
+  h.command(cmd::kStop);
+  EXPECT_EQ(h.command(cmd::kStart | 0x01), 0x01);  // channel 0 failed
+  const auto csr = h.read(CardHost::cs(kFieldIo));
+  EXPECT_EQ(csr >> 24, remote::fault::kLowVoltage);
+  EXPECT_TRUE(csr & cs::kTooManyErrors);
+  EXPECT_TRUE(csr & cs::kRemoteFault);
+}
+
+TEST(Sslbp, NoRemoteFailsTheStartWithTimeouts) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  h.command(cmd::kStop);
+  h.write(SmartSerial::kCommand, cmd::kStart | 0x04);  // channel 2: TB6, nothing attached
+  const SimTime t = h.waitCommand();
+  ASSERT_GT(t.count(), 0);
+  EXPECT_GT(t, 10ms);  // 21 timeouts of 400 us plus the waits
+  EXPECT_EQ(h.read(SmartSerial::kData), 0x04U);
+  const auto csr = h.read(CardHost::cs(2));
+  EXPECT_EQ(csr & 0xFF, cs::kTimeout | cs::kTooManyErrors);
+  EXPECT_TRUE(csr & (cs::kStatusNotReady << 8));
+  // A DOIT on a channel that did not start: not requested, nothing flagged.
+  EXPECT_EQ(h.command(cmd::kDoit | 0x04), 0);
+}
+
+TEST(Sslbp, DoitTimingFollowsTheCharactersOnTheWire) {
+  // 2.5 MBaud, normal mode: field I/O mode 0 sends BD + 2 + CRC (4 chars)
+  // and gets 5 + CRC back; analog 12 out, 2 back.
+  {
+    hm2::HostMot2Card card;
+    CardHost h{card};
+    h.accessTime = SimTime{100};
+    h.command(cmd::kStop);
+    ASSERT_EQ(h.command(cmd::kStart | 0x01), 0);
+    h.write(SmartSerial::kCommand, cmd::kDoit | 0x01);
+    const SimTime first = h.waitCommand();  // the first DOIT waits for a chatter reply
+    h.write(SmartSerial::kCommand, cmd::kDoit | 0x01);
+    const SimTime t = h.waitCommand();
+    const SimTime wire = lbp::characterTime(2500000) * 10;  // 4 out + 6 back
+    EXPECT_GE(t, wire);
+    EXPECT_LT(t, wire + 15us);
+    EXPECT_GE(first, t);
+    h.write(SmartSerial::kCommand, cmd::kDoit | 0x02);  // analog: not started, trivially done
+    EXPECT_LT(h.waitCommand(), 10us);
+  }
+  // 115.2 kBaud: the remote jumpered for setup mode, the channel's baud rate
+  // changed through its local parameter, then a setup-mode word read.
+  {
+    hm2::HostMot2Card::Options o;
+    o.first.fieldIo.setupMode = true;
+    hm2::HostMot2Card card(o);
+    CardHost h{card};
+    const std::uint16_t baud0 = hm2::local::kChannelBlock + hm2::local::kBaudOffset;
+    for (unsigned i = 0; i < 4; ++i) {
+      h.write(SmartSerial::kData, (115200U >> (8 * i)) & 0xFF);
+      h.command(cmd::kWrite | cmd::kRequest | (baud0 + i));
+    }
+    h.command(cmd::kStop);  // STOP ALL reloads the baud rates
+    EXPECT_EQ(card.smartSerial().channelBaud(0), 115200U);
+    ASSERT_EQ(h.command(cmd::kSetupStart | 0x01), 0);
+    auto& io = card.daughtercard(0).fieldIo;
+    h.write(CardHost::cs(0), 0x45000000U | io.address(io.standard(remote::Standard::NvBaudRate)));
+    h.write(SmartSerial::kCommand, cmd::kDoit | 0x01);
+    const SimTime t = h.waitCommand();
+    const SimTime wire = lbp::characterTime(115200) * 7;  // 45 lo hi CRC, then 2 + CRC
+    EXPECT_GE(t, wire);
+    EXPECT_LT(t, wire + 20us);
+    EXPECT_EQ(h.read(SmartSerial::kData), 0U);
+    EXPECT_EQ(h.read(CardHost::iface(0, 0)) & 0xFFFF, 9U);  // NVBaudRate: 2.5 MBaud index
+  }
+}
+
+TEST(Sslbp, CommandWrittenWhileBusyIsLostAndReported) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  h.command(cmd::kStop);
+  h.write(SmartSerial::kCommand, cmd::kStart | 0x01);
+  h.write(SmartSerial::kCommand, cmd::kDoit | 0x01);  // busy: lost
+  EXPECT_EQ(h.read(SmartSerial::kCommand), cmd::kDoit | 0x01U);
+  ASSERT_GE(h.waitCommand().count(), 0);
+  EXPECT_EQ(h.read(SmartSerial::kData), 0xFFU);
+  EXPECT_EQ(card.smartSerial().counters().lostCommands, 1U);
+  // Writes with bit 31 set are ignored, even while busy.
+  h.write(SmartSerial::kCommand, cmd::kDoit | 0x01);
+  h.write(SmartSerial::kCommand, 0x80000000U | cmd::kStart | 0x02);
+  ASSERT_GE(h.waitCommand().count(), 0);
+  EXPECT_EQ(h.read(SmartSerial::kData), 0U);
+  // STOP ALL always works, even mid-START.
+  h.write(SmartSerial::kCommand, cmd::kStart | 0x02);
+  h.write(SmartSerial::kCommand, cmd::kStop);
+  ASSERT_GE(h.waitCommand().count(), 0);
+  EXPECT_EQ(h.read(SmartSerial::kData), 0xAAU);
+  // Unknown commands complete with DATA = 0xFF.
+  EXPECT_EQ(h.command(0x0123), 0xFF);
+}
+
+TEST(Sslbp, ResetBitHoldsTheProcessorUntilReleased) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  h.write(SmartSerial::kCommand, cmd::kReset);  // LinuxCNC: 0x4000, then 0x0001
+  h.wait(1ms);
+  EXPECT_EQ(h.read(SmartSerial::kCommand), cmd::kReset);
+  h.write(SmartSerial::kCommand, 0x0001);
+  EXPECT_GE(h.waitCommand().count(), 0);
+  EXPECT_NE(localRead(h, hm2::local::kMinorRev), 0xAA);
+}
+
+TEST(Sslbp, LinkFaultsShowAsCsBits) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  auto& link = card.smartSerial().link(kFieldIo);
+  h.command(cmd::kStop);
+  ASSERT_EQ(h.command(cmd::kStart | 0x01), 0);
+  ASSERT_EQ(h.command(cmd::kDoit | 0x01), 0);
+  // A corrupted reply: CRC error and a timeout, the DOIT fails.
+  link.corruptNext(hm2::SerialLink::Direction::FromRemote);
+  EXPECT_EQ(h.command(cmd::kDoit | 0x01), 0x01);
+  auto csr = h.read(CardHost::cs(kFieldIo));
+  EXPECT_EQ(csr & 0xFF, cs::kCrcError | cs::kTimeout);
+  EXPECT_TRUE(csr & (cs::kStatusCommunicationError << 8));
+  EXPECT_EQ(h.command(cmd::kDoit | 0x01), 0);  // next one is fine
+  // An extra character: flagged before the next transmit.
+  link.addExtra(hm2::SerialLink::Direction::FromRemote);
+  EXPECT_EQ(h.command(cmd::kDoit | 0x01), 0);
+  EXPECT_EQ(h.command(cmd::kDoit | 0x01), 0);
+  EXPECT_TRUE(h.read(CardHost::cs(kFieldIo)) & cs::kExtraCharacter);
+  // A break.
+  link.breakNext();
+  EXPECT_EQ(h.command(cmd::kDoit | 0x01), 0x01);
+  EXPECT_TRUE(h.read(CardHost::cs(kFieldIo)) & cs::kSerialBreak);
+  // A cut cable: every DOIT fails; the 21st timeout sets TooManyErrors.
+  link.setConnected(false);
+  for (int i = 0; i < 25; ++i) EXPECT_EQ(h.command(cmd::kDoit | 0x01), 0x01);
+  EXPECT_TRUE(h.read(CardHost::cs(kFieldIo)) & cs::kTooManyErrors);
+  // Errors are sticky until the channel is stopped.
+  link.setConnected(true);
+  h.command(cmd::kStop | 0x01);
+  EXPECT_EQ(h.read(CardHost::cs(kFieldIo)) & 0xFF, 0U);
+  ASSERT_EQ(h.command(cmd::kStart | 0x01), 0);
+  EXPECT_EQ(h.command(cmd::kDoit | 0x01), 0);
+}
+
+}  // namespace
