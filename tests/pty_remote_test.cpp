@@ -16,65 +16,11 @@
 
 #include "lbp/command.hpp"
 #include "lbp/crc8.hpp"
+#include "process.hpp"
 
 namespace {
 
 using Bytes = std::vector<std::uint8_t>;
-
-class Daemon {
- public:
-  explicit Daemon(std::vector<std::string> args) {
-    int out[2];
-    if (::pipe(out) != 0) throw std::runtime_error("pipe");
-    pid_ = ::fork();
-    if (pid_ == 0) {
-      ::dup2(out[1], 1);
-      ::close(out[0]);
-      std::vector<char*> argv;
-      static std::string bin = LBPKIT_BINARY;
-      argv.push_back(bin.data());
-      for (auto& a : args) argv.push_back(a.data());
-      argv.push_back(nullptr);
-      ::execv(bin.c_str(), argv.data());
-      ::_exit(127);
-    }
-    ::close(out[1]);
-    out_ = out[0];
-  }
-  ~Daemon() {
-    if (pid_ > 0) {
-      ::kill(pid_, SIGKILL);
-      ::waitpid(pid_, nullptr, 0);
-    }
-    if (out_ >= 0) ::close(out_);
-  }
-  // Output up to and including a line containing `marker`, within 10 s.
-  std::string readUntil(const std::string& marker) {
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-    while (text_.find(marker) == std::string::npos || text_.find('\n', text_.find(marker)) == std::string::npos) {
-      if (std::chrono::steady_clock::now() > deadline) break;
-      pollfd p{out_, POLLIN, 0};
-      if (::poll(&p, 1, 100) <= 0) continue;
-      char buf[256];
-      const ssize_t n = ::read(out_, buf, sizeof buf);
-      if (n <= 0) break;
-      text_.append(buf, static_cast<std::size_t>(n));
-    }
-    return text_;
-  }
-  int stop() {
-    ::kill(pid_, SIGTERM);
-    int status = 0;
-    ::waitpid(pid_, &status, 0);
-    pid_ = -1;
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  }
-
- private:
-  pid_t pid_ = -1;
-  int out_ = -1;
-  std::string text_;
-};
 
 Bytes exchange(int fd, Bytes command, std::size_t expect) {
   command.push_back(lbp::crc8(command));
@@ -94,7 +40,7 @@ Bytes exchange(int fd, Bytes command, std::size_t expect) {
 TEST(PtyRemote, AnExternalProgramTalksLbpThroughThePty) {
   const auto state = std::filesystem::temp_directory_path() / ("lbpkit-pty-" + std::to_string(::getpid()));
   std::filesystem::remove(state);
-  Daemon d({"remote", "--pty", "--setup", "--state", state.string()});
+  testing_process::Daemon d({"remote", "--pty", "--setup", "--state", state.string()});
   const std::string out = d.readUntil("serial device:");
   const auto at = out.find("serial device: ");
   ASSERT_NE(at, std::string::npos) << out;

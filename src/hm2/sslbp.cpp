@@ -469,6 +469,10 @@ void SmartSerial::step(unsigned index, SimTime now) {
       if (ok) {
         c.rxSize = c.reply[0];
         c.txSize = c.reply[1];
+        // Kept in the channel's RAM block, where a host can read them.
+        const auto block = local::kChannelBlock + index * local::kChannelBlockStride;
+        ram_[block + local::kRxSizeOffset] = c.rxSize;
+        ram_[block + local::kTxSizeOffset] = c.txSize;
         c.ifIn[2] = static_cast<std::uint32_t>(c.reply[2]) | (static_cast<std::uint32_t>(c.reply[3]) << 8) |
                     (static_cast<std::uint32_t>(c.reply[4]) << 16) | (static_cast<std::uint32_t>(c.reply[5]) << 24);
       }

@@ -66,6 +66,8 @@ inline constexpr std::uint16_t kChannels = 7;
 inline constexpr std::uint16_t kChannelBlock = 0x70;
 inline constexpr std::uint16_t kChannelBlockStride = 0x32;
 inline constexpr std::uint16_t kBaudOffset = 0x2A;  // 32-bit baud rate in each channel block
+inline constexpr std::uint16_t kRxSizeOffset = 0x2E;  // discovery RPC sizes in each channel block
+inline constexpr std::uint16_t kTxSizeOffset = 0x2F;
 inline constexpr std::uint16_t kRamSize = 0x200;
 }  // namespace local
 

@@ -1,0 +1,138 @@
+// lbpkit monitor: a live terminal view of a running 7I77: inputs, outputs,
+// analog values, encoders and faults, cycling at the servo rate.
+#include <fmt/core.h>
+
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <thread>
+
+#include "common.hpp"
+#include "lbpkit/encoders.hpp"
+#include "lbpkit/error.hpp"
+#include "lbpkit/faults.hpp"
+
+namespace app {
+extern std::function<int()> gRun;
+}
+
+namespace {
+
+struct MonitorOptions {
+  app::CardOptions card;
+  double servoHz = 1000;
+  double displayHz = 10;
+  unsigned frames = 0;  // 0: until Ctrl-C
+  bool demo = false;
+  bool plain = false;  // no screen clearing (logs, tests)
+};
+
+std::string bitsText(std::uint64_t v, unsigned n) {
+  std::string s;
+  for (unsigned b = 0; b < n; ++b) {
+    if (b && b % 8 == 0) s += ' ';
+    s += ((v >> b) & 1U) ? '1' : '.';
+  }
+  return s;
+}
+
+int runMonitor(const MonitorOptions& o) {
+  auto card = app::openCard(o.card);
+  auto& t = *card.transport;
+  if (o.demo && card.sim == nullptr) throw lbpkit::Error("--demo drives the virtual board's world: it needs --sim");
+  lbpkit::SmartSerial ss(t, card.info, o.card.serialOptions());
+  ss.discover(o.card.serialOptions().channelMask);
+  ss.startNormal();
+  lbpkit::MuxedEncoders enc(t, card.info);
+  enc.initialize();
+  app::installSignalHandlers();
+
+  const auto period = std::chrono::duration_cast<lbpkit::Nanoseconds>(std::chrono::duration<double>(1.0 / o.servoHz));
+  const auto perFrame = std::max(1U, static_cast<unsigned>(o.servoHz / o.displayHz));
+  const auto output = ss.find(0, "Output");
+  const auto analog0 = ss.find(1, "AnalogOut0");
+  const auto ena = ss.find(1, "AnalogEna");
+  std::uint64_t failedCycles = 0;
+  const auto wallStart = std::chrono::steady_clock::now();
+  for (unsigned frame = 0; (o.frames == 0 || frame < o.frames) && !app::gStop.load(); ++frame) {
+    for (unsigned c = 0; c < perFrame; ++c) {
+      const auto start = t.now();
+      const double seconds = std::chrono::duration<double>(start).count();
+      if (o.demo) {
+        // A small world: a walking output bit wired back to the inputs, a
+        // sine on analog 0 and an encoder turning at 10 000 counts/s.
+        auto& board = card.sim->card().daughtercard(0);
+        const auto walk = static_cast<unsigned>(seconds * 5) % 16;
+        if (output.valid()) ss.setRaw(output, 1ULL << walk);
+        if (analog0.valid()) ss.set(analog0, 5.0 * std::sin(seconds));
+        if (ena.valid()) ss.setRaw(ena, 1);
+        for (unsigned i = 0; i < 16; ++i) board.fieldIo.setInputVoltage(i, board.fieldIo.outputOn(i) ? 24.0 : 0.0);
+        if (frame == 0 && c == 0) card.sim->card().encoders().setVelocity(0, 10000, lbp::SimTime{start});
+      }
+      ss.queueOutputs();
+      enc.queue();
+      t.flush();
+      const auto st = ss.collectInputs();
+      enc.update();
+      if (!st.ok) {
+        ++failedCycles;
+        for (unsigned s = 0; s < ss.slots(); ++s)
+          if (st.failedMask & (1U << ss.slotIdentity(s).channel)) ss.recover(s);
+      }
+      const auto spent = t.now() - start;
+      if (spent < period) t.sleep(period - spent);
+    }
+    // Pace the virtual card to the wall clock.
+    if (card.sim) std::this_thread::sleep_until(wallStart + std::chrono::duration<double>((frame + 1) / o.displayHz));
+
+    std::string screen = o.plain ? "" : "\x1b[H\x1b[2J";
+    screen += fmt::format("lbpkit monitor: {} ({}), cycle {} at {:.0f} Hz, {} failed cycles\n", card.info.boardName,
+                          t.describe(), ss.cycles(), o.servoHz, failedCycles);
+    for (unsigned s = 0; s < ss.slots(); ++s) {
+      const auto& id = ss.slotIdentity(s);
+      const auto& d = ss.description(s);
+      screen += fmt::format("channel {}: {} {} (unit 0x{:08X})  CS: {}\n", id.channel, id.name, id.function(),
+                            id.unitNumber, lbpkit::describeCs(ss.cs(s)));
+      for (std::size_t i = 0; i < d.processData.size(); ++i) {
+        const auto& e = d.processData[i];
+        const lbpkit::ElementRef ref{static_cast<std::uint8_t>(s), static_cast<std::uint8_t>(i)};
+        std::string v;
+        if (e.type == lbpkit::DataType::Bits)
+          v = bitsText(ss.raw(ref), e.bits);
+        else if (e.numeric())
+          v = fmt::format("{:8.3f} {}", ss.value(ref), e.unit);
+        else
+          v = fmt::format("{}", ss.raw(ref));
+        screen += fmt::format("  {:<4} {:<13} {}\n", lbpkit::directionName(e.direction), e.name, v);
+      }
+    }
+    screen += "encoders:";
+    for (unsigned n = 0; n < enc.size(); ++n)
+      screen += fmt::format("  {}: {} ({:.0f}/s)", n, enc.counts(n), enc.velocity(n));
+    screen += "\n";
+    if (card.sim) {
+      const auto& io = card.sim->card().daughtercard(0).fieldIo;
+      screen += fmt::format("LEDs: CR3 {} CR15 {} CR16 {}  field {:.1f} V\n", io.fieldVoltageLed() ? "on" : "off",
+                            io.activityLed() ? "on" : "off", io.faultLed() ? "on" : "off", io.fieldVoltage());
+    }
+    fmt::print("{}", screen);
+    std::fflush(stdout);
+  }
+  ss.stopAll();
+  return 0;
+}
+
+}  // namespace
+
+void addMonitorCommand(CLI::App& app) {
+  auto o = std::make_shared<MonitorOptions>();
+  auto* cmd = app.add_subcommand("monitor", "Run the 7I77 and show its inputs, outputs, analog values, encoders and "
+                                            "faults live");
+  o->card.add(*cmd);
+  cmd->add_option("--rate", o->servoHz, "Servo cycle rate in Hz")->capture_default_str();
+  cmd->add_option("--display", o->displayHz, "Screen updates per second")->capture_default_str();
+  cmd->add_option("--frames", o->frames, "Stop after this many screens (0: until Ctrl-C)");
+  cmd->add_flag("--demo", o->demo, "With --sim: drive outputs, analog 0 and an encoder, and wire outputs to inputs");
+  cmd->add_flag("--plain", o->plain, "Print screens one after another instead of redrawing");
+  cmd->callback([o] { app::gRun = [o] { return runMonitor(*o); }; });
+}

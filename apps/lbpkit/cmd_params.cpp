@@ -1,0 +1,122 @@
+// lbpkit rpd / wpd: read and write a remote's parameters by name, like
+// Mesa's RPD and WPD (manual: RPD, WPD, AND UFLBP).
+#include <fmt/core.h>
+
+#include <functional>
+#include <memory>
+
+#include "common.hpp"
+#include "lbpkit/error.hpp"
+#include "lbpkit/parameters.hpp"
+#include "lbpkit/serial_remote.hpp"
+
+namespace app {
+extern std::function<int()> gRun;
+}
+
+namespace {
+
+struct ParamOptions {
+  app::CardOptions card;
+  std::string name;
+  std::string value;
+  std::string hex;  // "H" as RPD/WPD take it
+  unsigned channel = 0;
+  std::string serial;
+};
+
+// The remote to talk to and its description, from a card or a serial line.
+struct Target {
+  app::Card card;
+  std::unique_ptr<lbpkit::SmartSerial> ss;
+  std::unique_ptr<lbpkit::RemoteAccess> access;
+  lbpkit::RemoteDescription description;
+};
+
+Target open(const ParamOptions& o) {
+  Target t;
+  if (!o.serial.empty()) {
+    auto sr = std::make_unique<lbpkit::SerialRemote>(o.serial);
+    const auto d = sr->discoveryRpc();
+    t.description = lbpkit::discover(*sr, d.ptoc, d.gtoc, d.rxSize, d.txSize);
+    t.access = std::move(sr);
+    return t;
+  }
+  t.card = app::openCard(o.card);
+  auto options = o.card.serialOptions();
+  options.channelMask = static_cast<std::uint8_t>(1U << o.channel);
+  t.ss = std::make_unique<lbpkit::SmartSerial>(*t.card.transport, t.card.info, options);
+  t.ss->stopAll();
+  if (t.ss->start(options.channelMask, true))
+    throw lbpkit::Error(fmt::format("no remote answers on channel {} (setup START failed)", o.channel));
+  const auto id = t.ss->identity(o.channel);
+  t.access = t.ss->remote(o.channel);
+  t.description = lbpkit::discover(*t.access, id.ptoc, id.gtoc);
+  return t;
+}
+
+const lbpkit::ProcessDataElement& lookup(const Target& t, const std::string& name) {
+  if (const auto* e = t.description.find(name)) return *e;
+  std::string names;
+  for (const auto* list : {&t.description.parameters, &t.description.processData})
+    for (const auto& e : *list) names += " " + e.name;
+  throw lbpkit::Error(fmt::format("{} has no parameter \"{}\"; it has:{}", t.access->where(), name, names));
+}
+
+bool hexFlag(const std::string& h) {
+  if (h.empty()) return false;
+  if (h == "H" || h == "h") return true;
+  throw lbpkit::Error(fmt::format("\"{}\": the only format letter is H (hexadecimal)", h));
+}
+
+int runRpd(const ParamOptions& o) {
+  const bool hex = hexFlag(o.hex);
+  auto t = open(o);
+  const auto& e = lookup(t, o.name);
+  fmt::print("{}\n", lbpkit::formatElement(e, lbpkit::readElement(*t.access, e), hex));
+  return 0;
+}
+
+int runWpd(const ParamOptions& o) {
+  const bool hex = hexFlag(o.hex);
+  auto t = open(o);
+  const auto& e = lookup(t, o.name);
+  if (e.direction == lbpkit::Direction::Input && !lbpkit::isNonVolatile(e.type))
+    throw lbpkit::Error(fmt::format("{} is read only", e.name));
+  const auto raw = lbpkit::parseElement(e, o.value, hex);
+  lbpkit::writeElement(*t.access, e, raw);
+  if (lbpkit::isNonVolatile(e.type))
+    fmt::print("{} = {} written to the EEPROM: it takes effect after a power cycle\n", e.name,
+               lbpkit::formatElement(e, raw, hex));
+  else
+    fmt::print("{} = {}\n", e.name, lbpkit::formatElement(e, raw, hex));
+  return 0;
+}
+
+void common(CLI::App* cmd, ParamOptions& o) {
+  o.card.add(*cmd);
+  cmd->add_option("--channel", o.channel, "Smart-serial channel of the remote (0: 7I77 field I/O, 1: analog)")
+      ->capture_default_str();
+  cmd->add_option("--serial", o.serial,
+                  "Talk LBP straight to a remote on this serial device (setup mode, 115200 baud), e.g. the pty of "
+                  "lbpkit remote --pty");
+}
+
+}  // namespace
+
+void addParameterCommands(CLI::App& app) {
+  auto r = std::make_shared<ParamOptions>();
+  auto* rpd = app.add_subcommand("rpd", "Read a remote parameter by name, like Mesa's RPD (e.g. rpd FAULT H)");
+  rpd->add_option("name", r->name, "Parameter name (case does not matter; the manual's spellings work)")->required();
+  rpd->add_option("format", r->hex, "H for hexadecimal");
+  common(rpd, *r);
+  rpd->callback([r] { app::gRun = [r] { return runRpd(*r); }; });
+
+  auto w = std::make_shared<ParamOptions>();
+  auto* wpd = app.add_subcommand("wpd", "Write a remote parameter by name, like Mesa's WPD (e.g. wpd WATCHDOGTIME 0)");
+  wpd->add_option("name", w->name, "Parameter name")->required();
+  wpd->add_option("value", w->value, "New value (decimal, 0x.. or hex with H)")->required();
+  wpd->add_option("format", w->hex, "H for hexadecimal");
+  common(wpd, *w);
+  wpd->callback([w] { app::gRun = [w] { return runWpd(*w); }; });
+}

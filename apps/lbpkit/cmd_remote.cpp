@@ -1,0 +1,77 @@
+// lbpkit remote: one virtual 7I77 processor on a serial face (a pty).
+#include <fmt/core.h>
+
+#include <filesystem>
+#include <functional>
+#include <memory>
+
+#include "common.hpp"
+#include "net/pty_remote.hpp"
+#include "remote/analog.hpp"
+#include "remote/field_io.hpp"
+
+namespace app {
+extern std::function<int()> gRun;
+}
+
+namespace {
+
+struct RemoteOptions {
+  bool pty = false;
+  bool analog = false;
+  bool setup = false;
+  bool sinking = false;
+  std::string state;
+};
+
+int runRemote(const RemoteOptions& o) {
+  if (!o.pty) {
+    fmt::print(stderr, "lbpkit remote: say where to serve it: --pty (the only serial face so far)\n");
+    return 2;
+  }
+  std::filesystem::path state = o.state;
+  if (state.empty()) state = app::defaultStateDir() / (o.analog ? "7i77-analog.eeprom" : "7i77-fieldio.eeprom");
+  std::error_code ec;
+  if (state.has_parent_path()) std::filesystem::create_directories(state.parent_path(), ec);
+
+  std::unique_ptr<remote::RemoteDevice> device;
+  if (o.analog) {
+    remote::AnalogProcessor::Options a;
+    a.nvFile = state;
+    a.setupMode = o.setup;
+    device = std::make_unique<remote::AnalogProcessor>(a);
+  } else {
+    remote::FieldIoProcessor::Options f;
+    f.outputs = o.sinking ? remote::OutputType::Sinking : remote::OutputType::Sourcing;
+    f.nvFile = state;
+    f.setupMode = o.setup;
+    device = std::make_unique<remote::FieldIoProcessor>(f);
+  }
+  net::PtyRemote pty(*device);
+  app::installSignalHandlers();
+  fmt::print("lbpkit remote: virtual 7I77{} {} processor (unit 0x{:08X}), {} mode at {} baud\n",
+             o.sinking && !o.analog ? "D" : "", o.analog ? "analog" : "field I/O", device->unitNumber(),
+             o.setup ? "setup" : "operate", device->baud());
+  fmt::print("  serial device: {}\n", pty.path());
+  fmt::print("  EEPROM state:  {}\n", state.string());
+  fmt::print("  talk LBP to it as to a USB-RS422 adapter (e.g. lbpkit rpd FAULT H --serial {}); Ctrl-C stops it\n",
+             pty.path());
+  std::fflush(stdout);
+  pty.run(app::gStop);
+  fmt::print("lbpkit remote: stopped ({} bytes in, {} out); EEPROM state in {}\n", pty.bytesIn(), pty.bytesOut(),
+             state.string());
+  return 0;
+}
+
+}  // namespace
+
+void addRemoteCommand(CLI::App& app) {
+  auto o = std::make_shared<RemoteOptions>();
+  auto* cmd = app.add_subcommand("remote", "Run one virtual 7I77 LBP processor on a serial face");
+  cmd->add_flag("--pty", o->pty, "Serve it on a new pseudo-terminal and print its path");
+  cmd->add_flag("--analog", o->analog, "The analog processor (channel 1) instead of field I/O");
+  cmd->add_flag("--setup", o->setup, "Setup-mode jumper (W4/W12 right): 115.2 kBaud fixed");
+  cmd->add_flag("--sinking", o->sinking, "7I77D: sinking field outputs");
+  cmd->add_option("--state", o->state, "EEPROM file (non-volatile parameters)");
+  cmd->callback([o] { app::gRun = [o] { return runRemote(*o); }; });
+}

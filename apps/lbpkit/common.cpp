@@ -1,0 +1,73 @@
+#include "common.hpp"
+
+#include <fmt/core.h>
+
+#include <csignal>
+#include <cstdlib>
+#include <filesystem>
+
+#include "lbpkit/error.hpp"
+#include "lbpkit/sim_transport.hpp"
+
+namespace app {
+
+std::atomic<bool> gStop{false};
+namespace {
+extern "C" void onSignal(int) { gStop.store(true); }
+}  // namespace
+
+void installSignalHandlers() {
+  struct sigaction sa{};
+  sa.sa_handler = onSignal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+}
+
+std::filesystem::path defaultStateDir() {
+  if (const char* s = std::getenv("XDG_STATE_HOME"); s && *s) return std::filesystem::path(s) / "lbpkit";
+  if (const char* h = std::getenv("HOME"); h && *h) return std::filesystem::path(h) / ".local/state/lbpkit";
+  return std::filesystem::current_path() / ".lbpkit-state";
+}
+
+void CardOptions::add(CLI::App& cmd) {
+  cmd.add_flag("--sim", sim, "Use the in-process virtual 7I92 with a 7I77 (the default when no card is named)");
+  cmd.add_option("--addr", addr, "IP address of an Ethernet card (LBP16, UDP port 27181)");
+  cmd.add_option("--state", state, "EEPROM file for the virtual 7I77's field I/O processor (with --sim)");
+  cmd.add_option("--modes", modes,
+                 "Smart-serial channel modes, one character per channel from 0: a mode digit or x to skip "
+                 "the channel (like LinuxCNC's sserial_port_0), e.g. 30 for field I/O mode 3")
+      ->capture_default_str();
+  cmd.add_flag("--sinking", sinking, "With --sim: the virtual board is a 7I77D (sinking outputs)");
+}
+
+lbpkit::SmartSerial::Options CardOptions::serialOptions() const {
+  lbpkit::SmartSerial::Options o;
+  o.channelMask = 0;
+  for (std::size_t ch = 0; ch < modes.size() && ch < 8; ++ch) {
+    const char c = modes[ch];
+    if (c == 'x' || c == 'X') continue;
+    if (c < '0' || c > '9') throw lbpkit::Error(fmt::format("--modes: '{}' is neither a mode digit nor x", c));
+    o.modes[ch] = static_cast<std::uint8_t>(c - '0');
+    o.channelMask = static_cast<std::uint8_t>(o.channelMask | (1U << ch));
+  }
+  return o;
+}
+
+Card openCard(const CardOptions& o) {
+  Card c;
+  if (!o.addr.empty() && o.sim) throw lbpkit::Error("--sim and --addr name two different cards: give one");
+  if (!o.addr.empty()) {
+    throw lbpkit::Error("--addr: the LBP16 network transport is not built into this lbpkit yet");
+  }
+  hm2::HostMot2Card::Options card;
+  if (!o.state.empty()) card.first.fieldIo.nvFile = o.state;
+  if (o.sinking) card.first.fieldIo.outputs = remote::OutputType::Sinking;
+  auto sim = std::make_unique<lbpkit::SimTransport>(std::move(card));
+  c.sim = sim.get();
+  c.transport = std::move(sim);
+  c.info = lbpkit::readCardInfo(*c.transport);
+  return c;
+}
+
+}  // namespace app

@@ -1,0 +1,50 @@
+// What every lbpkit tool shares: how to reach a card, and output helpers.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "lbpkit/hostmot2.hpp"
+#include "lbpkit/sim_transport.hpp"
+#include "lbpkit/sserial.hpp"
+#include "lbpkit/transport.hpp"
+
+namespace app {
+
+extern std::atomic<bool> gStop;
+void installSignalHandlers();
+
+// --sim (the in-process virtual card, the default) or --addr IP.
+struct CardOptions {
+  bool sim = false;
+  std::string addr;
+  std::string state;   // EEPROM file of the virtual 7I77's field I/O processor
+  std::string modes = "00";  // per channel: mode digit, or x to leave it alone (like sserial_port_0)
+  bool sinking = false;
+
+  void add(CLI::App& cmd);
+  [[nodiscard]] lbpkit::SmartSerial::Options serialOptions() const;
+};
+
+struct Card {
+  std::unique_ptr<lbpkit::Transport> transport;
+  lbpkit::SimTransport* sim = nullptr;  // the virtual card's world, with --sim
+  lbpkit::CardInfo info;
+};
+Card openCard(const CardOptions& o);
+
+std::filesystem::path defaultStateDir();
+
+}  // namespace app
+
+int runRemote(CLI::App& app);
+void addRemoteCommand(CLI::App& app);
+void addInfoCommand(CLI::App& app);
+void addDiscoverCommand(CLI::App& app);
+void addParameterCommands(CLI::App& app);
+void addMonitorCommand(CLI::App& app);

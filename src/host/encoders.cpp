@@ -1,0 +1,93 @@
+#include "lbpkit/encoders.hpp"
+
+#include <fmt/format.h>
+
+#include "lbpkit/error.hpp"
+
+namespace lbpkit {
+
+namespace {
+constexpr std::uint32_t kFilter = 1U << 11;
+constexpr std::uint32_t kJustOnce = 1U << 6;
+constexpr std::uint32_t kLatchOnIndex = 1U << 4;
+}  // namespace
+
+MuxedEncoders::MuxedEncoders(Transport& t, const CardInfo& card) : t_(t) {
+  const ModuleInfo* md = card.module(0x0C);
+  if (md == nullptr) throw Error(fmt::format("the card ({}) has no muxed encoder module", card.boardName));
+  base_ = md->baseAddress;
+  regStride_ = md->registerStride;
+  clock_ = md->clockHz;
+  count_ = std::min<unsigned>(md->instances, kMax);
+  tsDivisor_ = clock_ / 2'000'000 - 2;  // 2 MHz timestamps
+}
+
+void MuxedEncoders::initialize() {
+  for (unsigned n = 0; n < count_; ++n) {
+    state_[n].controlOut = kFilter;
+    t_.queueWrite(static_cast<std::uint16_t>(base_ + regStride_ + 4 * n), &state_[n].controlOut);
+  }
+  const std::uint32_t rate = clock_ / 8'000'000 - 2;  // 8 MHz mux ticks: 2 MHz count rate
+  t_.queueWrite(static_cast<std::uint16_t>(base_ + 2 * regStride_), &tsDivisor_);
+  t_.queueWrite(static_cast<std::uint16_t>(base_ + 4 * regStride_), &rate);
+  t_.flush();
+}
+
+void MuxedEncoders::enableIndex(unsigned n) {
+  auto& s = state_.at(n);
+  s.indexArmed = true;
+  s.controlOut = kFilter | kJustOnce | kLatchOnIndex;
+  s.writeControl = true;
+}
+
+void MuxedEncoders::queue() {
+  for (unsigned n = 0; n < count_; ++n) {
+    auto& s = state_[n];
+    if (s.writeControl) {
+      t_.queueWrite(static_cast<std::uint16_t>(base_ + regStride_ + 4 * n), &s.controlOut);
+      s.writeControl = false;
+    }
+  }
+  t_.queueRead(static_cast<std::uint16_t>(base_ + 3 * regStride_), &timestamp_);
+  for (unsigned n = 0; n < count_; ++n) {
+    t_.queueRead(static_cast<std::uint16_t>(base_ + 4 * n), &state_[n].countReg);
+    t_.queueRead(static_cast<std::uint16_t>(base_ + regStride_ + 4 * n), &state_[n].ccr);
+  }
+}
+
+void MuxedEncoders::update() {
+  const double tick = static_cast<double>(tsDivisor_ + 2) / clock_;
+  for (unsigned n = 0; n < count_; ++n) {
+    auto& s = state_[n];
+    const auto raw = static_cast<std::uint16_t>(s.countReg);
+    const auto stamp = static_cast<std::uint16_t>(s.countReg >> 16);
+    if (s.first) {
+      s.lastRaw = raw;
+      s.lastTimestamp = stamp;
+      s.counts = static_cast<std::int16_t>(raw);
+      s.first = false;
+      continue;
+    }
+    const auto delta = static_cast<std::int16_t>(static_cast<std::uint16_t>(raw - s.lastRaw));
+    if (delta != 0) {
+      const auto dt = static_cast<std::uint16_t>(stamp - s.lastTimestamp);
+      if (dt > 0) s.velocity = delta / (dt * tick);
+      s.lastTimestamp = stamp;
+    } else {
+      const auto idle = static_cast<std::uint16_t>(timestamp_ - s.lastTimestamp) * tick;
+      if (idle > 0.5) s.velocity = 0;  // stopped
+    }
+    s.counts += delta;
+    s.lastRaw = raw;
+    // Index: latch-on-index reads back 0 once the index came.
+    if (s.indexArmed && !(s.ccr & kLatchOnIndex)) {
+      const auto latched = static_cast<std::uint16_t>(s.ccr >> 16);
+      s.offset = s.counts - static_cast<std::int16_t>(static_cast<std::uint16_t>(raw - latched));
+      s.indexArmed = false;
+      s.controlOut = kFilter;
+      s.writeControl = true;
+    }
+  }
+}
+
+}  // namespace lbpkit

@@ -1,0 +1,105 @@
+#include "lbpkit/parameters.hpp"
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <cstdlib>
+
+#include "lbpkit/error.hpp"
+
+namespace lbpkit {
+
+namespace {
+constexpr std::uint8_t kNonVolatileWrite = 0xEC;  // LBP local: NV access (LBP.INC)
+constexpr std::uint8_t kEeprom = 0x01;
+
+// The element's bytes with the widest LBP commands that fit (8, 4, 2, 1).
+template <typename Op>
+void chunks(const ProcessDataElement& e, Op&& op) {
+  const unsigned bytes = (e.bits + 7) / 8;
+  unsigned done = 0;
+  while (done < bytes) {
+    unsigned size = 8;
+    while (size > bytes - done) size /= 2;
+    op(done, size);
+    done += size;
+  }
+}
+
+struct NvAccess {
+  RemoteAccess& r;
+  bool on;
+  NvAccess(RemoteAccess& remote, bool nv) : r(remote), on(nv) {
+    if (on) r.localWrite(kNonVolatileWrite, kEeprom);
+  }
+  ~NvAccess() {
+    if (!on) return;
+    try {
+      r.localWrite(kNonVolatileWrite, 0);
+    } catch (...) {  // the first error is the one to report
+    }
+  }
+};
+}  // namespace
+
+std::uint64_t readElement(RemoteAccess& remote, const ProcessDataElement& e) {
+  if (e.bits > 64) throw Error(fmt::format("{} has {} bits: too wide to read as a number", e.name, e.bits));
+  NvAccess nv(remote, isNonVolatile(e.type));
+  std::uint64_t v = 0;
+  chunks(e, [&](unsigned offset, unsigned size) {
+    v |= remote.read(static_cast<std::uint16_t>(e.address + offset), size) << (8 * offset);
+  });
+  return e.bits >= 64 ? v : v & ((1ULL << e.bits) - 1);
+}
+
+void writeElement(RemoteAccess& remote, const ProcessDataElement& e, std::uint64_t raw) {
+  if (e.bits > 64) throw Error(fmt::format("{} has {} bits: too wide to write as a number", e.name, e.bits));
+  NvAccess nv(remote, isNonVolatile(e.type));
+  chunks(e, [&](unsigned offset, unsigned size) {
+    const std::uint64_t part = size >= 8 ? raw >> (8 * offset) : (raw >> (8 * offset)) & ((1ULL << (8 * size)) - 1);
+    remote.write(static_cast<std::uint16_t>(e.address + offset), size, part);
+  });
+}
+
+std::string formatElement(const ProcessDataElement& e, std::uint64_t raw, bool hex) {
+  if (hex) return fmt::format("{:0{}X}", raw, (e.bits + 3) / 4);
+  if (e.type == DataType::Signed || e.type == DataType::NonVolSigned) {
+    const unsigned n = std::min(e.bits, 64U);
+    const std::uint64_t sign = 1ULL << (n - 1);
+    const auto v = n >= 64 ? static_cast<std::int64_t>(raw)
+                           : static_cast<std::int64_t>((raw & ((sign << 1) - 1)) ^ sign) - static_cast<std::int64_t>(sign);
+    return fmt::format("{}", v);
+  }
+  return fmt::format("{}", raw);
+}
+
+std::uint64_t parseElement(const ProcessDataElement& e, const std::string& text, bool hex) {
+  const char* s = text.c_str();
+  int base = hex ? 16 : 10;
+  if (text.size() > 2 && text[0] == '0' && (text[1] == 'x' || text[1] == 'X')) {
+    s += 2;
+    base = 16;
+  }
+  if (*s == '\0') throw Error(fmt::format("\"{}\" is not a number", text));
+  errno = 0;
+  char* end = nullptr;
+  const bool negative = *s == '-';
+  const unsigned n = std::min(e.bits, 64U);
+  const std::uint64_t mask = n >= 64 ? ~0ULL : (1ULL << n) - 1;
+  const bool isSigned = e.type == DataType::Signed || e.type == DataType::NonVolSigned;
+  std::uint64_t v = 0;
+  if (negative) {
+    const long long x = std::strtoll(s, &end, base);
+    if (!isSigned) throw Error(fmt::format("{} is unsigned: {} is out of range", e.name, text));
+    if (n < 64 && x < -(1LL << (n - 1))) throw Error(fmt::format("{} does not fit {} ({} bits)", text, e.name, e.bits));
+    v = static_cast<std::uint64_t>(x);
+  } else {
+    v = std::strtoull(s, &end, base);
+  }
+  if (errno != 0 || end == s || *end != '\0')
+    throw Error(fmt::format("\"{}\" is not a {} number", text, base == 16 ? "hexadecimal" : "decimal"));
+  if (!negative && (v & ~mask)) throw Error(fmt::format("{} does not fit {} ({} bits)", text, e.name, e.bits));
+  return v & mask;
+}
+
+}  // namespace lbpkit

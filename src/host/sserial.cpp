@@ -1,0 +1,386 @@
+#include "lbpkit/sserial.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cctype>
+
+#include "lbp/command.hpp"
+#include "lbp/discovery.hpp"
+#include "lbpkit/error.hpp"
+#include "lbpkit/faults.hpp"
+
+namespace lbpkit {
+
+namespace {
+constexpr std::uint16_t kDoit = 0x1000;
+constexpr std::uint16_t kStop = 0x0800;
+constexpr std::uint16_t kStart = 0x0900;
+constexpr std::uint16_t kSetupStart = 0x0F00;
+constexpr std::uint16_t kRequest = 0x2000;
+constexpr std::uint16_t kWrite = 0x8000;
+// Local RAM: per-channel blocks hold the sizes the discovery RPC reported.
+constexpr std::uint16_t kChannelStartLocal = 4;
+constexpr std::uint16_t kChannelStrideLocal = 5;
+constexpr std::uint16_t kRxSizeOffset = 0x2E;
+constexpr std::uint16_t kTxSizeOffset = 0x2F;
+
+std::string lower(std::string s) {
+  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+// LBP through SSLBP setup mode: the command header in CS byte 3, the
+// address in bytes 1..0, data in interface 0/1; one DOIT per command
+// (manual: SETUP MODE OPERATION). Each DOIT is one write exchange and one
+// read exchange (more only while the DOIT is still running).
+class SetupChannelAccess final : public RemoteAccess {
+ public:
+  SetupChannelAccess(Transport& t, const SmartSerialRegisters& regs, unsigned channel, Nanoseconds timeout,
+                     Nanoseconds poll)
+      : t_(t), regs_(regs), channel_(channel), timeout_(timeout), poll_(poll) {}
+
+  std::uint64_t read(std::uint16_t address, unsigned size) override {
+    const std::uint8_t header = lbp::readHeader(static_cast<std::uint8_t>(size), true);
+    return run(header, address, 0, true, fmt::format("read of {} bytes at 0x{:04X}", size, address));
+  }
+  void write(std::uint16_t address, unsigned size, std::uint64_t value) override {
+    const std::uint8_t header = lbp::writeHeader(static_cast<std::uint8_t>(size), true);
+    run(header, address, value, false, fmt::format("write of {} bytes at 0x{:04X}", size, address));
+  }
+  std::uint8_t localRead(std::uint8_t command) override {
+    return static_cast<std::uint8_t>(run(command, 0, 0, true, fmt::format("local read 0x{:02X}", command)));
+  }
+  void localWrite(std::uint8_t command, std::uint8_t value) override {
+    run(command, 0, value, false, fmt::format("local write 0x{:02X}", command));
+  }
+  [[nodiscard]] std::uint64_t transactions() const override { return transactions_; }
+  [[nodiscard]] std::string where() const override { return fmt::format("channel {}", channel_); }
+
+ private:
+  std::uint64_t run(std::uint8_t header, std::uint16_t address, std::uint64_t data, bool read,
+                    const std::string& what) {
+    const std::uint32_t words[2] = {static_cast<std::uint32_t>(data), static_cast<std::uint32_t>(data >> 32)};
+    const std::uint32_t cs = (static_cast<std::uint32_t>(header) << 24) | address;
+    const std::uint32_t doit = kDoit | (1U << channel_);
+    if (!read) {
+      t_.queueWrite(regs_.interface(0, channel_), &words[0]);
+      t_.queueWrite(regs_.interface(1, channel_), &words[1]);
+    }
+    t_.queueWrite(regs_.cs(channel_), &cs);
+    t_.queueWrite(regs_.command(), &doit);
+    t_.flush();
+    ++transactions_;
+    const Nanoseconds start = t_.now();
+    std::uint32_t cmd = 0, dataReg = 0, csNow = 0, in[2] = {};
+    for (;;) {
+      t_.queueRead(regs_.command(), &cmd);
+      t_.queueRead(regs_.data(), &dataReg);
+      t_.queueRead(regs_.cs(channel_), &csNow);
+      t_.queueRead(regs_.interface(0, channel_), &in[0]);
+      t_.queueRead(regs_.interface(1, channel_), &in[1]);
+      t_.flush();
+      if (cmd == 0) break;
+      if (t_.now() - start > timeout_)
+        throw Error(fmt::format("channel {}: {} never completed (COMMAND still 0x{:04X})", channel_, what, cmd));
+      t_.sleep(poll_);
+    }
+    // In setup mode SSLBP flags a failed request in DATA only once errors are
+    // too many; a new bit in the CS error byte shows it at once.
+    const auto newErrors = static_cast<std::uint8_t>(csNow & ~lastErrors_ & 0xFFU);
+    lastErrors_ = static_cast<std::uint8_t>(csNow);
+    if ((dataReg & (1U << channel_)) || newErrors)
+      throw Error(fmt::format("channel {}: remote {} failed: {}", channel_, what, describeCs(csNow)));
+    return in[0] | (static_cast<std::uint64_t>(in[1]) << 32);
+  }
+
+  Transport& t_;
+  const SmartSerialRegisters& regs_;
+  unsigned channel_;
+  Nanoseconds timeout_;
+  Nanoseconds poll_;
+  std::uint64_t transactions_ = 0;
+  std::uint8_t lastErrors_ = 0;
+};
+
+}  // namespace
+
+SmartSerialRegisters::SmartSerialRegisters(const ModuleInfo& md, unsigned instance)
+    : command_(static_cast<std::uint16_t>(md.baseAddress + instance * md.instanceStride)),
+      data_(static_cast<std::uint16_t>(command_ + md.registerStride)),
+      cs_(static_cast<std::uint16_t>(md.baseAddress + 2 * md.registerStride + instance * md.instanceStride)),
+      stride_(md.registerStride) {}
+
+std::string ChannelIdentity::function() const {
+  if (name != "7I77") return {};
+  switch (unitNumber >> 24) {
+    case 0x12: return "field I/O";
+    case 0x11: return "analog";
+    default: return {};
+  }
+}
+
+static const ModuleInfo& sserialModule(const CardInfo& card) {
+  const ModuleInfo* md = card.module(0xC1);
+  if (md == nullptr)
+    throw Error(fmt::format("the card ({}) has no SSerial module: its firmware has no smart-serial interface",
+                            card.boardName));
+  return *md;
+}
+
+SmartSerial::SmartSerial(Transport& t, const CardInfo& card, Options options)
+    : t_(t), options_(options), regs_(sserialModule(card), options.instance), channels_(card.sserialChannels()) {
+  if (channels_ == 0) channels_ = 8;
+}
+
+SmartSerial::~SmartSerial() = default;
+
+std::uint8_t SmartSerial::waitCommand() {
+  const Nanoseconds start = t_.now();
+  for (;;) {
+    t_.queueRead(regs_.command(), &pollCommand_);
+    t_.queueRead(regs_.data(), &pollData_);
+    t_.flush();
+    if (pollCommand_ == 0) return static_cast<std::uint8_t>(pollData_);
+    if (t_.now() - start > options_.commandTimeout)
+      throw Error(fmt::format("SSLBP command 0x{:04X} did not complete within {} ms", pollCommand_,
+                              options_.commandTimeout.count() / 1'000'000));
+    t_.sleep(options_.pollInterval);
+  }
+}
+
+std::uint8_t SmartSerial::command(std::uint16_t cmd) {
+  // Never write COMMAND while it is busy (manual: COMMAND REGISTER), except a stop.
+  if ((cmd & 0xFF00U) != kStop) waitCommand();
+  const std::uint32_t v = cmd;
+  t_.queueWrite(regs_.command(), &v);
+  t_.flush();
+  if (cmd & kDoit) ++doits_;
+  return waitCommand();
+}
+
+std::uint8_t SmartSerial::localRead(std::uint16_t address) { return command(static_cast<std::uint16_t>(kRequest | address)); }
+
+void SmartSerial::localWrite(std::uint16_t address, std::uint8_t value) {
+  const std::uint32_t v = value;
+  waitCommand();
+  t_.queueWrite(regs_.data(), &v);
+  t_.flush();
+  command(static_cast<std::uint16_t>(kWrite | kRequest | address));
+}
+
+std::uint8_t SmartSerial::stopAll() { return command(kStop); }
+
+std::uint8_t SmartSerial::start(std::uint8_t mask, bool setup) {
+  mask = static_cast<std::uint8_t>(mask & options_.channelMask & ((1U << channels_) - 1));
+  for (unsigned ch = 0; ch < channels_; ++ch) {
+    if (!(mask & (1U << ch))) continue;
+    const std::uint32_t cs = static_cast<std::uint32_t>(options_.modes[ch]) << 24;  // REMOTE MODES
+    t_.queueWrite(regs_.cs(ch), &cs);
+  }
+  t_.flush();
+  return static_cast<std::uint8_t>(command(static_cast<std::uint16_t>((setup ? kSetupStart : kStart) | mask)) & mask);
+}
+
+ChannelIdentity SmartSerial::identity(unsigned channel) {
+  std::uint32_t v[4] = {};
+  t_.queueRead(regs_.interface(0, channel), &v[0]);
+  t_.queueRead(regs_.interface(1, channel), &v[1]);
+  t_.queueRead(regs_.interface(2, channel), &v[2]);
+  t_.queueRead(regs_.cs(channel), &v[3]);
+  t_.flush();
+  ChannelIdentity id;
+  id.channel = channel;
+  id.unitNumber = v[0];
+  for (int i = 0; i < 4; ++i) {
+    const char c = static_cast<char>(v[1] >> (8 * i));
+    if (c) id.name.push_back(c);
+  }
+  id.ptoc = static_cast<std::uint16_t>(v[2]);
+  id.gtoc = static_cast<std::uint16_t>(v[2] >> 16);
+  id.cs = v[3];
+  id.present = id.ptoc != 0;  // as LinuxCNC decides
+  return id;
+}
+
+std::unique_ptr<RemoteAccess> SmartSerial::remote(unsigned channel) {
+  return std::make_unique<SetupChannelAccess>(t_, regs_, channel, options_.commandTimeout, options_.pollInterval);
+}
+
+std::vector<ChannelIdentity> SmartSerial::discover(std::uint8_t mask) {
+  const Nanoseconds t0 = t_.now();
+  slots_.clear();
+  discoveryStats_ = {};
+  const std::uint64_t doitsBefore = doits_;
+  stopAll();
+  const std::uint8_t failed = start(mask, true);
+  std::vector<ChannelIdentity> found;
+  const unsigned chStart = localRead(kChannelStartLocal);
+  const unsigned chStride = localRead(kChannelStrideLocal);
+  for (unsigned ch = 0; ch < channels_; ++ch) {
+    if (!(mask & options_.channelMask & (1U << ch))) continue;
+    ChannelIdentity id = identity(ch);
+    if (failed & (1U << ch)) id.present = false;
+    found.push_back(id);
+    if (!id.present) continue;
+    // The discovery RPC's sizes, as SSLBP stored them in its channel block.
+    const auto block = static_cast<std::uint16_t>(chStart + ch * chStride);
+    const unsigned rx = localRead(static_cast<std::uint16_t>(block + kRxSizeOffset));
+    const unsigned tx = localRead(static_cast<std::uint16_t>(block + kTxSizeOffset));
+    auto access = remote(ch);
+    Slot s;
+    s.identity = id;
+    s.description = lbpkit::discover(*access, id.ptoc, id.gtoc, rx ? std::optional<unsigned>(rx) : std::nullopt,
+                                     rx ? std::optional<unsigned>(tx) : std::nullopt);
+    discoveryStats_.doits += access->transactions();
+    slots_.push_back(std::move(s));
+  }
+  discoveryStats_.doits += doits_ - doitsBefore;
+  discoveryStats_.time = t_.now() - t0;
+  return found;
+}
+
+std::uint8_t SmartSerial::runningMask() const {
+  std::uint8_t m = 0;
+  for (const auto& s : slots_) m = static_cast<std::uint8_t>(m | (1U << s.identity.channel));
+  return m;
+}
+
+void SmartSerial::startNormal() {
+  if (slots_.empty()) throw Error("no smart-serial remotes discovered: nothing to start");
+  stopAll();
+  const std::uint8_t failed = start(runningMask(), false);
+  if (failed) {
+    std::string why;
+    for (unsigned ch = 0; ch < channels_; ++ch) {
+      if (!(failed & (1U << ch))) continue;
+      std::uint32_t cs = 0;
+      t_.queueRead(regs_.cs(ch), &cs);
+      t_.flush();
+      why += fmt::format(" channel {}: {};", ch, describeCs(cs));
+    }
+    throw Error("smart-serial channels failed to start:" + why + " check cabling, field power and remote faults");
+  }
+  for (auto& s : slots_) {
+    const auto& pd = s.description.processData;
+    s.raw.assign(pd.size(), 0);
+    s.inOffset.assign(pd.size(), 0);
+    s.outOffset.assign(pd.size(), 0);
+    unsigned in = 0, out = 0;
+    for (std::size_t i = 0; i < pd.size(); ++i) {
+      if (pd[i].fromRemote()) {
+        s.inOffset[i] = in;
+        in += pd[i].bits;
+      }
+      if (pd[i].toRemote()) {
+        s.outOffset[i] = out;
+        out += pd[i].bits;
+      }
+    }
+    s.inRegs = (in + 31) / 32;
+    s.outRegs = (out + 31) / 32;
+    s.ifIn = {};
+    s.ifOut = {};
+  }
+  doitWord_ = kDoit | runningMask();
+}
+
+ElementRef SmartSerial::find(unsigned channel, const std::string& name) const {
+  const std::string want = lower(name);
+  for (std::size_t s = 0; s < slots_.size(); ++s) {
+    if (slots_[s].identity.channel != channel) continue;
+    const auto& pd = slots_[s].description.processData;
+    for (std::size_t i = 0; i < pd.size(); ++i)
+      if (lower(pd[i].name) == want) return ElementRef{static_cast<std::uint8_t>(s), static_cast<std::uint8_t>(i)};
+  }
+  return {};
+}
+
+void SmartSerial::set(ElementRef e, double value) {
+  auto& s = slots_.at(e.slot);
+  s.raw.at(e.element) = s.description.processData[e.element].unscale(value);
+}
+void SmartSerial::setRaw(ElementRef e, std::uint64_t raw) { slots_.at(e.slot).raw.at(e.element) = raw; }
+void SmartSerial::setBit(ElementRef e, unsigned bit, bool on) {
+  auto& r = slots_.at(e.slot).raw.at(e.element);
+  r = on ? (r | (1ULL << bit)) : (r & ~(1ULL << bit));
+}
+double SmartSerial::value(ElementRef e) const {
+  const auto& s = slots_.at(e.slot);
+  return s.description.processData[e.element].scale(s.raw.at(e.element));
+}
+std::uint64_t SmartSerial::raw(ElementRef e) const { return slots_.at(e.slot).raw.at(e.element); }
+
+void SmartSerial::queueOutputs() {
+  for (auto& s : slots_) {
+    // PROCESS ELEMENT PACKING: PTOC order, LSB first across interface 0..2.
+    std::array<std::uint8_t, 12> bytes{};
+    const auto& pd = s.description.processData;
+    for (std::size_t i = 0; i < pd.size(); ++i)
+      if (pd[i].toRemote()) lbp::packBits(bytes, s.outOffset[i], pd[i].bits, s.raw[i]);
+    for (unsigned r = 0; r < 3; ++r)
+      s.ifOut[r] = std::uint32_t{bytes[4 * r]} | (std::uint32_t{bytes[4 * r + 1]} << 8) |
+                   (std::uint32_t{bytes[4 * r + 2]} << 16) | (std::uint32_t{bytes[4 * r + 3]} << 24);
+    for (unsigned r = 0; r < s.outRegs; ++r) t_.queueWrite(regs_.interface(r, s.identity.channel), &s.ifOut[r]);
+  }
+  t_.queueWrite(regs_.command(), &doitWord_);
+  ++doits_;
+}
+
+CycleStatus SmartSerial::collectInputs() {
+  CycleStatus st;
+  const Nanoseconds start = t_.now();
+  // Poll no earlier than the last DOIT took: over a network each poll is a
+  // round trip.
+  if (lastDoit_ > options_.pollInterval) t_.sleep(lastDoit_ - options_.pollInterval);
+  for (;;) {
+    t_.queueRead(regs_.command(), &pollCommand_);
+    t_.queueRead(regs_.data(), &pollData_);
+    for (auto& s : slots_) {
+      t_.queueRead(regs_.cs(s.identity.channel), &s.cs);
+      for (unsigned r = 0; r < s.inRegs; ++r) t_.queueRead(regs_.interface(r, s.identity.channel), &s.ifIn[r]);
+    }
+    t_.flush();
+    if (pollCommand_ == 0) break;
+    if (t_.now() - start > options_.commandTimeout) {
+      st.ok = false;
+      st.commandBusy = true;
+      return st;
+    }
+    t_.sleep(options_.pollInterval);
+  }
+  st.doitTime = t_.now() - start;
+  lastDoit_ = st.doitTime;
+  st.failedMask = static_cast<std::uint8_t>(pollData_);
+  st.ok = st.failedMask == 0;
+  for (auto& s : slots_) {
+    if (st.failedMask & (1U << s.identity.channel)) continue;  // stale data: keep the last inputs
+    std::array<std::uint8_t, 12> bytes{};
+    for (unsigned r = 0; r < 3; ++r)
+      for (unsigned b = 0; b < 4; ++b) bytes[4 * r + b] = static_cast<std::uint8_t>(s.ifIn[r] >> (8 * b));
+    const auto& pd = s.description.processData;
+    for (std::size_t i = 0; i < pd.size(); ++i)
+      if (pd[i].direction != Direction::Output) s.raw[i] = lbp::unpackBits(bytes, s.inOffset[i], pd[i].bits);
+  }
+  ++cycles_;
+  return st;
+}
+
+CycleStatus SmartSerial::cycle() {
+  queueOutputs();
+  t_.flush();
+  return collectInputs();
+}
+
+bool SmartSerial::recover(unsigned slot) {
+  auto& s = slots_.at(slot);
+  const Nanoseconds now = t_.now();
+  if (s.lastRecovery.count() >= 0 && now - s.lastRecovery < options_.recoveryInterval) return false;
+  s.lastRecovery = now;
+  const auto bit = static_cast<std::uint8_t>(1U << s.identity.channel);
+  command(static_cast<std::uint16_t>(kStop | bit));  // individual stop: error recovery
+  start(bit, false);
+  return true;
+}
+
+}  // namespace lbpkit
