@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "lbpkit/error.hpp"
+#include "lbpkit/lbp16_transport.hpp"
 #include "lbpkit/sim_transport.hpp"
 
 namespace app {
@@ -32,7 +33,7 @@ std::filesystem::path defaultStateDir() {
 
 void CardOptions::add(CLI::App& cmd) {
   cmd.add_flag("--sim", sim, "Use the in-process virtual 7I92 with a 7I77 (the default when no card is named)");
-  cmd.add_option("--addr", addr, "IP address of an Ethernet card (LBP16, UDP port 27181)");
+  cmd.add_option("--addr", addr, "IP address of an Ethernet card (LBP16 on UDP port 27181; ADDR:PORT for another port)");
   cmd.add_option("--state", state, "EEPROM file for the virtual 7I77's field I/O processor (with --sim)");
   cmd.add_option("--modes", modes,
                  "Smart-serial channel modes, one character per channel from 0: a mode digit or x to skip "
@@ -58,7 +59,18 @@ Card openCard(const CardOptions& o) {
   Card c;
   if (!o.addr.empty() && o.sim) throw lbpkit::Error("--sim and --addr name two different cards: give one");
   if (!o.addr.empty()) {
-    throw lbpkit::Error("--addr: the LBP16 network transport is not built into this lbpkit yet");
+    std::string host = o.addr;
+    std::uint16_t port = lbpkit::Lbp16Transport::kPort;
+    if (const auto colon = host.find(':'); colon != std::string::npos) {
+      port = static_cast<std::uint16_t>(std::stoul(host.substr(colon + 1)));
+      host = host.substr(0, colon);
+    }
+    auto t = std::make_unique<lbpkit::Lbp16Transport>(host, port);
+    const auto name = t->boardName();
+    if (name.empty()) throw lbpkit::Error(fmt::format("{} answers but gives no board name", t->describe()));
+    c.transport = std::move(t);
+    c.info = lbpkit::readCardInfo(*c.transport);
+    return c;
   }
   hm2::HostMot2Card::Options card;
   if (!o.state.empty()) card.first.fieldIo.nvFile = o.state;

@@ -48,3 +48,4 @@ void addInfoCommand(CLI::App& app);
 void addDiscoverCommand(CLI::App& app);
 void addParameterCommands(CLI::App& app);
 void addMonitorCommand(CLI::App& app);
+void addSimCommand(CLI::App& app);

@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   addDiscoverCommand(app);
   addParameterCommands(app);
   addMonitorCommand(app);
+  addSimCommand(app);
   addRemoteCommand(app);
   CLI11_PARSE(app, argc, argv);
   try {

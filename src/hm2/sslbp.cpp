@@ -167,9 +167,9 @@ void SmartSerial::execute(std::uint16_t cmd, SimTime now) {
     ++counters_.doits;
     doit(static_cast<std::uint8_t>(mask & existing), now);
   } else if (high == (command::kStart >> 8)) {
-    startChannels(static_cast<std::uint8_t>(mask & existing), Mode::Normal, now);
+    startChannels(mask, Mode::Normal, now);  // channels that do not exist fail
   } else if (high == (command::kSetupStart >> 8)) {
-    startChannels(static_cast<std::uint8_t>(mask & existing), Mode::Setup, now);
+    startChannels(mask, Mode::Setup, now);
   } else if (high == (command::kStop >> 8)) {
     if (mask == 0) {
       globalInit();  // STOP ALL: every channel variable reset, DATA = 0xAA
@@ -261,7 +261,8 @@ void SmartSerial::doit(std::uint8_t mask, SimTime now) {
 }
 
 void SmartSerial::checkCommandDone(SimTime now) {
-  std::uint8_t bits = 0;
+  // Channels the instance does not have never start.
+  auto bits = static_cast<std::uint8_t>(busy_ == Busy::Start ? ~((1U << channelCount_) - 1) : 0);
   for (unsigned i = 0; i < channelCount_; ++i) {
     const auto& c = channels_[i];
     if (busy_ == Busy::Start && c.startPending) return;

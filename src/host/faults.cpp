@@ -3,6 +3,8 @@
 #include <array>
 #include <string_view>
 
+#include "remote/remote_device.hpp"
+
 namespace lbpkit {
 
 namespace {
@@ -24,10 +26,7 @@ std::string describeLocalFaults(std::uint8_t v) {
 std::string describeStatus(std::uint8_t v) {
   return bits(v, {"RemoteFault", "", "", "", "", "CommunicationError", "NoRemoteID", "CommunicationNotReady"});
 }
-std::string describeRemoteFaults(std::uint8_t v) {
-  return bits(v, {"WatchdogFault", "NoEnableFault", "OverTempFault", "OverCurrentFault", "HighVoltageFault",
-                  "LowVoltageFault", "IllegalModeFault", "LBPCOMFault"});
-}
+std::string describeRemoteFaults(std::uint8_t v) { return bits(v, remote::fault::kNames); }
 std::string describeLbpStatus(std::uint8_t v) {
   return bits(v, {"CRCError", "", "", "WatchdogTimeoutError", "BufferOverflowError", "InvalidWriteError",
                   "CommandTimeoutError", ""});

@@ -32,7 +32,7 @@ constexpr ProcessDataDescriptor kElements[] = {
     {"AnalogOut5", "V", DataType::Signed, Direction::Output, 13, -10.0F, 10.0F},
     {"AnalogEna", "none", DataType::Boolean, Direction::Output, 1, 0.0F, 1.0F},
     {"SpinEna", "none", DataType::Boolean, Direction::Output, 1, 0.0F, 1.0F},
-    {"HwRevision", "none", DataType::Unsigned, Direction::Input, 8, 0.0F, 255.0F},
+    {"HwRevision", "none", DataType::Unsigned, Direction::Input, 16, 0.0F, 65535.0F},  // mesaflash reads 16 bits
 };
 
 constexpr ElementId kMode0[] = {kAnalogOut0, kAnalogOut1, kAnalogOut2, kAnalogOut3,

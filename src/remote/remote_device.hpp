@@ -56,6 +56,10 @@ inline constexpr std::uint8_t kHighVoltage = 0x10;
 inline constexpr std::uint8_t kLowVoltage = 0x20;
 inline constexpr std::uint8_t kIllegalMode = 0x40;
 inline constexpr std::uint8_t kLbpCom = 0x80;
+// Bit names as the manual spells them, bit 0 first.
+inline constexpr std::array<std::string_view, 8> kNames = {"WatchdogFault",   "NoEnableFault",    "OverTempFault",
+                                                          "OverCurrentFault", "HighVoltageFault", "LowVoltageFault",
+                                                          "IllegalModeFault", "LBPCOMFault"};
 }  // namespace fault
 
 // Operate mode baud rates by NVBAUDRATE index (manual: OPERATE MODE BAUD RATE).

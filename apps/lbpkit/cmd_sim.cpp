@@ -1,0 +1,148 @@
+// lbpkit sim: a virtual 7I92 with 7I77s on the network (LBP16 over UDP),
+// with an HTTP control API to watch the board and change its world.
+#include <fmt/core.h>
+
+#include <filesystem>
+#include <functional>
+#include <toml++/toml.h>
+
+#include "common.hpp"
+#include "lbpkit/error.hpp"
+#include "net/sim_daemon.hpp"
+
+namespace app {
+extern std::function<int()> gRun;
+}
+
+namespace {
+
+struct SimCommandOptions {
+  std::string bind = "127.0.0.1";
+  std::string config;
+  std::string state;
+  std::string api = "127.0.0.1:27182";
+  bool noApi = false;
+  std::string logLevel = "info";
+  double speed = 1.0;
+  bool paused = false;
+};
+
+std::pair<std::string, int> hostPort(const std::string& text, int defaultPort, const char* what) {
+  const auto colon = text.find(':');
+  if (colon == std::string::npos) {
+    // A bare number is a port (for --api), anything else an address.
+    if (!text.empty() && text.find_first_not_of("0123456789") == std::string::npos) return {"127.0.0.1", std::stoi(text)};
+    return {text, defaultPort};
+  }
+  const auto port = text.substr(colon + 1);
+  if (port.empty() || port.find_first_not_of("0123456789") != std::string::npos || std::stoul(port) > 65535)
+    throw lbpkit::Error(fmt::format("{}: \"{}\" is not a port number", what, port));
+  return {text.substr(0, colon), std::stoi(port)};
+}
+
+// The TOML configuration (see README): which daughtercards, field voltage,
+// 7I77 or 7I77D, jumpers, unit numbers.
+void loadConfig(const std::string& path, hm2::HostMot2Card::Options& card) {
+  toml::table t;
+  try {
+    t = toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    throw lbpkit::Error(fmt::format("{}: {} (line {})", path, e.description(), e.source().begin.line));
+  }
+  if (auto name = t["card"]["name"].value<std::string>(); name && *name != "7I92")
+    throw lbpkit::Error(fmt::format("{}: card.name \"{}\": only the 7I92 is modelled", path, *name));
+  const auto* boards = t["daughtercard"].as_array();
+  if (!boards) return;
+  if (boards->size() > 2) throw lbpkit::Error(fmt::format("{}: a 7I92 has two connectors, not {}", path, boards->size()));
+  for (std::size_t i = 0; i < boards->size(); ++i) {
+    const auto* b = boards->get(i)->as_table();
+    if (!b) throw lbpkit::Error(fmt::format("{}: daughtercard {} is not a table", path, i));
+    const auto where = fmt::format("{}: daughtercard {}", path, i);
+    const auto type = (*b)["type"].value_or(std::string("7I77"));
+    if (type == "none") {
+      if (i == 0) throw lbpkit::Error(where + ": the first connector must carry a 7I77");
+      continue;
+    }
+    if (type != "7I77" && type != "7I77D") throw lbpkit::Error(fmt::format("{}: type \"{}\": 7I77, 7I77D or none", where, type));
+    hm2::HostMot2Card::DaughterOptions d;
+    if (i == 1 && card.first.fieldIo.nvFile.empty() == false) d.fieldIo.nvFile = card.first.fieldIo.nvFile.string() + ".2";
+    d.fieldIo.outputs = type == "7I77D" ? remote::OutputType::Sinking : remote::OutputType::Sourcing;
+    d.fieldIo.fieldVoltage = (*b)["field_voltage"].value_or(24.0);
+    const auto w1 = (*b)["w1"].value_or(std::string("field"));
+    if (w1 != "field" && w1 != "separate") throw lbpkit::Error(where + ": w1 is \"field\" or \"separate\"");
+    d.fieldIo.vinFromField = w1 == "field";
+    d.fieldIo.vin = (*b)["vin"].value_or(24.0);
+    d.fieldIo.setupMode = (*b)["w12_setup"].value_or(false);
+    d.analog.setupMode = (*b)["w4_setup"].value_or(false);
+    d.fieldIo.unitNumber = static_cast<std::uint32_t>((*b)["field_io_unit"].value_or(std::int64_t{0x12000AEE}));
+    d.analog.unitNumber = static_cast<std::uint32_t>((*b)["analog_unit"].value_or(std::int64_t{0x11000AEE}));
+    if ((d.fieldIo.unitNumber >> 24) != 0x12 || (d.analog.unitNumber >> 24) != 0x11)
+      throw lbpkit::Error(where + ": unit numbers of a 7I77 start with 0x12 (field I/O) and 0x11 (analog)");
+    if (i == 0) {
+      d.fieldIo.nvFile = card.first.fieldIo.nvFile;
+      d.analog.nvFile = card.first.analog.nvFile;
+      card.first = d;
+    } else {
+      card.second = d;
+    }
+  }
+}
+
+int runSim(const SimCommandOptions& o) {
+  net::SimOptions s;
+  const auto [bindHost, bindPort] = hostPort(o.bind, net::lbp16::kPort, "--bind");
+  s.bindAddress = bindHost;
+  s.port = static_cast<std::uint16_t>(bindPort);
+  if (o.noApi) {
+    s.apiPort = -1;
+  } else {
+    const auto [apiHost, apiPort] = hostPort(o.api, 27182, "--api");
+    s.apiAddress = apiHost;
+    s.apiPort = apiPort;
+  }
+  s.speed = o.speed;
+  s.paused = o.paused;
+  if (!(o.speed > 0)) throw lbpkit::Error("--speed must be above 0");
+  static const std::map<std::string, net::LogLevel> kLevels = {
+      {"error", net::LogLevel::Error}, {"warn", net::LogLevel::Warn}, {"info", net::LogLevel::Info}, {"debug", net::LogLevel::Debug}};
+  if (!kLevels.count(o.logLevel)) throw lbpkit::Error("--log-level: error, warn, info or debug");
+  s.logLevel = kLevels.at(o.logLevel);
+  std::filesystem::path state = o.state;
+  if (state.empty()) state = app::defaultStateDir() / "sim-7i77.eeprom";
+  std::error_code ec;
+  if (state.has_parent_path()) std::filesystem::create_directories(state.parent_path(), ec);
+  s.card.first.fieldIo.nvFile = state;
+  s.card.first.analog.nvFile = state.string() + ".analog";
+  if (!o.config.empty()) {
+    loadConfig(o.config, s.card);
+    s.configDescription = o.config;
+  } else {
+    s.configDescription = "built-in default: a 7I92 with one 7I77, 24 V field power";
+  }
+  net::SimDaemon daemon(s);
+  app::installSignalHandlers();
+  fmt::print("{}", daemon.banner());
+  fmt::print("  point LinuxCNC at it: loadrt hm2_eth board_ip={} config=\"num_encoders=6 sserial_port_0=00xxxx\"\n",
+             s.bindAddress);
+  std::fflush(stdout);
+  daemon.run(app::gStop);
+  fmt::print("lbpkit sim: stopped; the 7I77's EEPROM state is in {}\n", state.string());
+  return 0;
+}
+
+}  // namespace
+
+void addSimCommand(CLI::App& app) {
+  auto o = std::make_shared<SimCommandOptions>();
+  auto* cmd = app.add_subcommand("sim", "Run a virtual 7I92 with a 7I77 on the network (LBP16, UDP port 27181)");
+  cmd->add_option("--bind", o->bind, "ADDR[:PORT] to serve LBP16 on (127.0.0.1:27181 unless you say otherwise)")
+      ->capture_default_str();
+  cmd->add_option("--config", o->config, "TOML file: daughtercards, field voltage, 7I77 or 7I77D, jumpers, unit numbers");
+  cmd->add_option("--state", o->state, "EEPROM file of the 7I77 (non-volatile parameters)");
+  cmd->add_option("--api", o->api, "[ADDR:]PORT of the HTTP control API (0: any free port)")->capture_default_str();
+  cmd->add_flag("--no-api", o->noApi, "No control API");
+  cmd->add_option("--log-level", o->logLevel, "error, warn, info or debug")->capture_default_str();
+  cmd->add_option("--speed", o->speed, "Simulated seconds per wall-clock second")->capture_default_str();
+  cmd->add_flag("--paused", o->paused, "Start with simulated time stopped (the API can run or step it)");
+  cmd->callback([o] { app::gRun = [o] { return runSim(*o); }; });
+}
