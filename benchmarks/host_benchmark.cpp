@@ -71,4 +71,4 @@ BENCHMARK(BM_Discovery)->Arg(0)->Arg(3)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+

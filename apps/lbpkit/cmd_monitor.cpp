@@ -39,7 +39,6 @@ std::string bitsText(std::uint64_t v, unsigned n) {
 int runMonitor(const MonitorOptions& o) {
   auto card = app::openCard(o.card);
   auto& t = *card.transport;
-  if (o.demo && card.sim == nullptr) throw lbpkit::Error("--demo drives the virtual board's world: it needs --sim");
   lbpkit::SmartSerial ss(t, card.info, o.card.serialOptions());
   ss.discover(o.card.serialOptions().channelMask);
   ss.startNormal();
@@ -59,15 +58,19 @@ int runMonitor(const MonitorOptions& o) {
       const auto start = t.now();
       const double seconds = std::chrono::duration<double>(start).count();
       if (o.demo) {
-        // A small world: a walking output bit wired back to the inputs, a
-        // sine on analog 0 and an encoder turning at 10 000 counts/s.
-        auto& board = card.sim->card().daughtercard(0);
+        // Drive the board: a walking output bit and a sine on analog 0. With
+        // --sim, also the world: outputs wired back to the inputs and an
+        // encoder turning at 10 000 counts/s (`lbpkit sim --demo` does the
+        // same on the network).
         const auto walk = static_cast<unsigned>(seconds * 5) % 16;
         if (output.valid()) ss.setRaw(output, 1ULL << walk);
         if (analog0.valid()) ss.set(analog0, 5.0 * std::sin(seconds));
         if (ena.valid()) ss.setRaw(ena, 1);
-        for (unsigned i = 0; i < 16; ++i) board.fieldIo.setInputVoltage(i, board.fieldIo.outputOn(i) ? 24.0 : 0.0);
-        if (frame == 0 && c == 0) card.sim->card().encoders().setVelocity(0, 10000, lbp::SimTime{start});
+        if (card.sim) {
+          auto& board = card.sim->card().daughtercard(0);
+          for (unsigned i = 0; i < 16; ++i) board.fieldIo.setInputVoltage(i, board.fieldIo.outputOn(i) ? 24.0 : 0.0);
+          if (frame == 0 && c == 0) card.sim->card().encoders().setVelocity(0, 10000, lbp::SimTime{start});
+        }
       }
       ss.queueOutputs();
       enc.queue();
@@ -132,7 +135,8 @@ void addMonitorCommand(CLI::App& app) {
   cmd->add_option("--rate", o->servoHz, "Servo cycle rate in Hz")->capture_default_str();
   cmd->add_option("--display", o->displayHz, "Screen updates per second")->capture_default_str();
   cmd->add_option("--frames", o->frames, "Stop after this many screens (0: until Ctrl-C)");
-  cmd->add_flag("--demo", o->demo, "With --sim: drive outputs, analog 0 and an encoder, and wire outputs to inputs");
+  cmd->add_flag("--demo", o->demo, "Drive a walking output bit and a sine on analog 0 (with --sim also wire the "
+                                   "outputs to the inputs and turn an encoder)");
   cmd->add_flag("--plain", o->plain, "Print screens one after another instead of redrawing");
   cmd->callback([o] { app::gRun = [o] { return runMonitor(*o); }; });
 }

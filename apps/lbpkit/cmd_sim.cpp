@@ -25,6 +25,8 @@ struct SimCommandOptions {
   std::string logLevel = "info";
   double speed = 1.0;
   bool paused = false;
+  bool noRealtime = false;
+  bool demo = false;
 };
 
 std::pair<std::string, int> hostPort(const std::string& text, int defaultPort, const char* what) {
@@ -102,6 +104,8 @@ int runSim(const SimCommandOptions& o) {
   }
   s.speed = o.speed;
   s.paused = o.paused;
+  s.realtime = !o.noRealtime;
+  s.demo = o.demo;
   if (!(o.speed > 0)) throw lbpkit::Error("--speed must be above 0");
   static const std::map<std::string, net::LogLevel> kLevels = {
       {"error", net::LogLevel::Error}, {"warn", net::LogLevel::Warn}, {"info", net::LogLevel::Info}, {"debug", net::LogLevel::Debug}};
@@ -126,7 +130,8 @@ int runSim(const SimCommandOptions& o) {
              s.bindAddress);
   std::fflush(stdout);
   daemon.run(app::gStop);
-  fmt::print("lbpkit sim: stopped; the 7I77's EEPROM state is in {}\n", state.string());
+  fmt::print("lbpkit sim: stopped; server time per datagram: {}\n", daemon.latencySummary());
+  fmt::print("lbpkit sim: the 7I77's EEPROM state is in {}\n", state.string());
   return 0;
 }
 
@@ -143,6 +148,8 @@ void addSimCommand(CLI::App& app) {
   cmd->add_flag("--no-api", o->noApi, "No control API");
   cmd->add_option("--log-level", o->logLevel, "error, warn, info or debug")->capture_default_str();
   cmd->add_option("--speed", o->speed, "Simulated seconds per wall-clock second")->capture_default_str();
+  cmd->add_flag("--demo", o->demo, "Demo world: field outputs 0..15 wired back to inputs 0..15, encoder 0 turning");
+  cmd->add_flag("--no-realtime", o->noRealtime, "Do not ask for real-time (SCHED_FIFO) scheduling of the card thread");
   cmd->add_flag("--paused", o->paused, "Start with simulated time stopped (the API can run or step it)");
   cmd->callback([o] { app::gRun = [o] { return runSim(*o); }; });
 }

@@ -1,6 +1,8 @@
 #include "net/sim_daemon.hpp"
 
 #include <httplib.h>
+#include <pthread.h>
+#include <sched.h>
 #include <fmt/format.h>
 
 #include <nlohmann/json.hpp>
@@ -45,7 +47,7 @@ namespace {
 json faultList(std::uint8_t faults) {
   json a = json::array();
   for (unsigned b = 0; b < 8; ++b)
-    if ((faults >> b) & 1U) a.push_back(std::string(remote::fault::kNames[b]));
+    if ((static_cast<unsigned>(faults) >> b) & 1U) a.push_back(std::string(remote::fault::kNames[b]));
   return a;
 }
 
@@ -82,6 +84,11 @@ std::string SimDaemon::stateJson() {
                 {"parse_errors", c.parseErrors},
                 {"memory_errors", c.memoryErrors},
                 {"write_errors", c.writeErrors}};
+  s["server"] = {{"datagrams", latency_.count},
+                 {"scheduling", schedule_},
+                 {"median_us", latency_.percentileUs(0.5)},
+                 {"p99_us", latency_.percentileUs(0.99)},
+                 {"max_us", static_cast<double>(latency_.maxNs) / 1000.0}};
   s["watchdog"] = {{"bitten", card_.watchdog().bitten()}, {"timer", card_.watchdog().timer(now)}};
   s["card_leds"] = card_.led().leds();
   auto& ss = card_.smartSerial();
@@ -320,15 +327,59 @@ void SimDaemon::log(LogLevel level, const std::string& text) const {
   std::fprintf(stderr, "lbpkit sim: %s: %s\n", kNames[static_cast<int>(level)], text.c_str());
 }
 
+void SimDaemon::Latency::add(std::chrono::nanoseconds d) {
+  const auto us = static_cast<std::size_t>(d.count() / 1000);
+  ++buckets[std::min(us, buckets.size() - 1)];
+  ++count;
+  maxNs = std::max<std::uint64_t>(maxNs, static_cast<std::uint64_t>(d.count()));
+}
+
+double SimDaemon::Latency::percentileUs(double p) const {
+  if (count == 0) return 0;
+  const auto want = static_cast<std::uint64_t>(p * static_cast<double>(count - 1)) + 1;
+  std::uint64_t seen = 0;
+  for (std::size_t i = 0; i < buckets.size(); ++i) {
+    seen += buckets[i];
+    if (seen >= want) return static_cast<double>(i) + 0.5;
+  }
+  return static_cast<double>(buckets.size());
+}
+
+std::string SimDaemon::latencySummary() const {
+  return fmt::format("median {:.1f} us, 99th percentile {:.1f} us, max {:.1f} us over {} datagrams",
+                     latency_.percentileUs(0.5), latency_.percentileUs(0.99), static_cast<double>(latency_.maxNs) / 1000.0,
+                     latency_.count);
+}
+
 void SimDaemon::run(const std::atomic<bool>& stop) {
   running_ = true;
+  if (options_.realtime) {
+    sched_param p{};
+    p.sched_priority = 40;
+    if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0)
+      schedule_ = "SCHED_FIFO priority 40";
+    else
+      log(LogLevel::Info, "real-time scheduling not permitted: running at normal priority");
+  }
   auto& lbp16 = *lbp16_;
   std::uint64_t errorsSeen = 0;
+  if (options_.demo) card_.encoders().setVelocity(0, 10000, clock_.now());
   while (!stop.load()) {
-    udp_->serveOnce(std::chrono::milliseconds(1), [&](std::span<const std::uint8_t> req, std::span<std::uint8_t> reply) {
-      return lbp16.handle(req, reply, clock_.now());
-    });
+    std::chrono::steady_clock::time_point received;
+    const bool served = udp_->serveOnce(std::chrono::milliseconds(1),
+                                        [&](std::span<const std::uint8_t> req, std::span<std::uint8_t> reply) {
+                                          received = std::chrono::steady_clock::now();
+                                          return lbp16.handle(req, reply, clock_.now());
+                                        });
+    if (served) latency_.add(std::chrono::steady_clock::now() - received);
     card_.advance(clock_.now());
+    if (options_.demo) {
+      auto& io = card_.daughtercard(0).fieldIo;
+      for (unsigned i = 0; i < remote::FieldIoProcessor::kOutputs; ++i) {
+        const double v = io.outputOn(i) ? io.fieldVoltage() : 0.0;
+        if (io.inputVoltage(i) != v) io.setInputVoltage(i, v);
+      }
+    }
     drainJobs();
     // Bad datagrams: logged, at most once a second, with how many.
     const auto& c = lbp16.counters();

@@ -1,0 +1,336 @@
+// The real clients against `lbpkit sim`: Mesa's mesaflash and LinuxCNC's
+// hm2_eth (Debian packages, installed by scripts/test). Each test starts its
+// own virtual card and stops everything it started.
+#include <arpa/inet.h>
+#include <sys/prctl.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+#include <httplib.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "process.hpp"
+
+namespace {
+
+using namespace std::chrono_literals;
+using nlohmann::json;
+using testing_process::Daemon;
+
+struct Shell {
+  int exit = -1;
+  std::string out;
+};
+
+// Runs a shell command; its output goes through a file, not a pipe, since
+// what it starts (rtapi_app) may keep its output open long after it exits.
+Shell sh(const std::string& command) {
+  static int serial = 0;
+  const auto file = std::filesystem::temp_directory_path() /
+                    ("lbpkit-sh-" + std::to_string(::getpid()) + "-" + std::to_string(serial++));
+  Shell r;
+  const int status = std::system((command + " > " + file.string() + " 2>&1 < /dev/null").c_str());
+  r.exit = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream in(file);
+  r.out.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  std::filesystem::remove(file);
+  return r;
+}
+
+template <typename... A>
+std::string fmt(const char* f, A... a) {
+  char buf[128];
+  std::snprintf(buf, sizeof buf, f, a...);
+  return buf;
+}
+
+bool have(const char* tool) { return sh(std::string("command -v ") + tool).exit == 0; }
+
+void reapOrphans() {
+  while (::waitpid(-1, nullptr, WNOHANG) > 0) {
+  }
+}
+
+// `lbpkit sim` on ADDRESS with its control API on a free port.
+class Sim {
+ public:
+  explicit Sim(const std::string& address, std::vector<std::string> extra = {}) {
+    std::vector<std::string> args = {"sim", "--bind", address, "--api", "0", "--state", state_};
+    args.insert(args.end(), extra.begin(), extra.end());
+    std::filesystem::remove(state_);
+    daemon_ = std::make_unique<Daemon>(args);
+    const auto url = daemon_->value("control API: http://127.0.0.1:");
+    apiPort_ = std::atoi(url.c_str());
+  }
+  ~Sim() {
+    if (daemon_) daemon_->stop();
+    std::filesystem::remove(state_);
+    std::filesystem::remove(state_ + ".analog");
+  }
+  [[nodiscard]] bool up() const { return apiPort_ > 0; }
+  json get(const std::string& path = "/api/state") {
+    httplib::Client c("127.0.0.1", apiPort_);
+    auto r = c.Get(path.c_str());
+    return r && r->status == 200 ? json::parse(r->body) : json{};
+  }
+  json post(const std::string& path, const json& body) {
+    httplib::Client c("127.0.0.1", apiPort_);
+    auto r = c.Post(path.c_str(), body.dump(), "application/json");
+    return r ? json::parse(r->body, nullptr, false) : json{};
+  }
+  int stop() {
+    const int rc = daemon_->stop();
+    daemon_.reset();
+    return rc;
+  }
+
+ private:
+  std::string state_ = (std::filesystem::temp_directory_path() / ("lbpkit-interop-" + std::to_string(::getpid()))).string();
+  std::unique_ptr<Daemon> daemon_;
+  int apiPort_ = 0;
+};
+
+template <typename F>
+bool waitFor(F&& ok, std::chrono::milliseconds limit) {
+  const auto end = std::chrono::steady_clock::now() + limit;
+  while (std::chrono::steady_clock::now() < end) {
+    if (ok()) return true;
+    std::this_thread::sleep_for(2ms);
+  }
+  return ok();
+}
+
+// A loopback address of this test's own (several cards can run side by side).
+std::string loopback() { return "127.77." + std::to_string(::getpid() % 200) + ".1"; }
+
+TEST(Mesaflash, ReadsTheVirtualCard) {
+  if (!have("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
+  Sim sim(loopback());
+  ASSERT_TRUE(sim.up());
+  const std::string card = "timeout 30 mesaflash --device 7i92 --addr " + loopback();
+  auto r = sh(card + " --readhmid");
+  ASSERT_EQ(r.exit, 0) << r.out;
+  EXPECT_NE(r.out.find("BoardName : MESA7I92"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("Module: SSerial"), std::string::npos);
+  EXPECT_NE(r.out.find("Module: MuxedQCount"), std::string::npos);
+  EXPECT_NE(r.out.find("TXData0"), std::string::npos);   // IO5 SS0TX
+  EXPECT_NE(r.out.find("MuxSel0"), std::string::npos);   // IO7 ENCMUX
+  EXPECT_NE(r.out.find("MuxQ-IDX"), std::string::npos);  // IO10 QCMUXI01
+  r = sh(card + " --sserial");
+  ASSERT_EQ(r.exit, 0) << r.out;
+  EXPECT_NE(r.out.find("channel 0: 7I77 GPIO (unit 0x12000AEE)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("channel 1: 7I77 ANALOG (unit 0x11000AEE)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("NVWatchDogTimeout = 50ms"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("channel 2:"), std::string::npos) << "nothing on TB6: " << r.out;
+  EXPECT_EQ(sh(card + " --rpo 0x100").out, "55AACAFE\n");
+  sh(card + " --wpo 0x1400=0x5");  // IOPort output invert: a plain register
+  EXPECT_EQ(sh(card + " --rpo 0x1400").out, "00000005\n");
+  r = sh(card + " --verbose");
+  EXPECT_NE(r.out.find("7I92"), std::string::npos) << r.out;
+  EXPECT_EQ(sim.stop(), 0);
+}
+
+TEST(Lbp16, GarbageFromAnotherPortDoesNotStopService) {
+  Sim sim(loopback());
+  ASSERT_TRUE(sim.up());
+  const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+  sockaddr_in sa{};
+  sa.sin_family = AF_INET;
+  sa.sin_port = htons(27181);
+  ::inet_pton(AF_INET, loopback().c_str(), &sa.sin_addr);
+  std::uint32_t x = 7;
+  std::vector<std::uint8_t> junk(3000);
+  for (int i = 0; i < 2000; ++i) {
+    for (auto& b : junk) b = static_cast<std::uint8_t>((x = x * 1103515245U + 12345U) >> 16);
+    const std::size_t len = 1 + (x % junk.size());
+    ::sendto(fd, junk.data(), len, 0, reinterpret_cast<sockaddr*>(&sa), sizeof sa);
+  }
+  ::close(fd);
+  std::this_thread::sleep_for(100ms);
+  const auto s = sim.get();
+  ASSERT_FALSE(s.is_null());
+  EXPECT_GT(s["lbp16"]["parse_errors"].get<int>(), 0);
+  // A legitimate client is still served.
+  const auto r = testing_process::run({"rpd", "nvunitnumber", "H", "--addr", loopback()});
+  EXPECT_EQ(r.exit, 0) << r.err;
+  EXPECT_EQ(r.out, "12000AEE\n");
+}
+
+// LinuxCNC's hm2_eth in a network namespace joined by a veth pair to the
+// namespace `lbpkit sim` answers in (Debian's hm2_eth cannot use loopback).
+class LinuxCnc : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (::geteuid() != 0) GTEST_SKIP() << "network namespaces need root";
+    if (!have("halcmd") || !have("ip")) GTEST_SKIP() << "linuxcnc-uspace or iproute2 is not installed (scripts/test installs them)";
+    ::prctl(PR_SET_CHILD_SUBREAPER, 1);  // rtapi_app outlives halcmd: reap it ourselves
+    const auto id = std::to_string(::getpid() % 100000);
+    ns_ = "lbpkit-" + id;
+    vethCard_ = "lbk" + id + "c";
+    vethHost_ = "lbk" + id + "h";
+    const auto net = "10.211." + std::to_string(::getpid() % 250) + ".";
+    cardIp_ = net + "1";
+    hostIp_ = net + "2";
+    fifo_ = "/tmp/lbpkit-rtapi-" + id;
+    const auto r = sh("ip netns add " + ns_ + " && ip link add " + vethCard_ + " type veth peer name " + vethHost_ +
+                      " && ip link set " + vethHost_ + " netns " + ns_ + " && ip addr add " + cardIp_ + "/24 dev " +
+                      vethCard_ + " && ip link set " + vethCard_ + " up && ip -n " + ns_ + " addr add " + hostIp_ +
+                      "/24 dev " + vethHost_ + " && ip -n " + ns_ + " link set " + vethHost_ + " up && ip -n " + ns_ +
+                      " link set lo up");
+    ASSERT_EQ(r.exit, 0) << r.out;
+    created_ = true;
+  }
+  void TearDown() override {
+    if (!created_) return;
+    hal("halrun -U");
+    sim_.reset();
+    sh("ip link del " + vethCard_);
+    sh("ip netns del " + ns_);
+    std::filesystem::remove(fifo_);
+    std::this_thread::sleep_for(100ms);
+    reapOrphans();
+  }
+  Shell hal(const std::string& command) {
+    return sh("ip netns exec " + ns_ + " env RTAPI_UID=" + std::to_string(65534) + " RTAPI_FIFO_PATH=" + fifo_ +
+              " timeout 60 " + command);
+  }
+  std::string getp(const std::string& pin) {
+    auto v = hal("halcmd getp " + pin).out;
+    while (!v.empty() && (v.back() == '\n' || v.back() == ' ')) v.pop_back();
+    return v;
+  }
+  // Loads hostmot2 + hm2_eth with the servo thread running.
+  Shell load(const std::string& sserialPort) {
+    const auto file = fifo_ + ".hal";
+    std::ofstream(file) << "loadrt hostmot2\n"
+                        << "loadrt hm2_eth board_ip=" << cardIp_ << " config=\"num_encoders=6 sserial_port_0="
+                        << sserialPort << "\"\n"
+                        << "loadrt threads name1=servo period1=1000000\n"
+                        << "addf hm2_7i92.0.read servo\naddf hm2_7i92.0.write servo\nstart\n";
+    auto r = hal("halcmd -f " + file);
+    std::filesystem::remove(file);
+    return r;
+  }
+  void startSim() {
+    sim_ = std::make_unique<Sim>(cardIp_);
+    ASSERT_TRUE(sim_->up());
+  }
+
+  std::string ns_, vethCard_, vethHost_, cardIp_, hostIp_, fifo_;
+  bool created_ = false;
+  std::unique_ptr<Sim> sim_;
+};
+
+TEST_F(LinuxCnc, Hm2EthRunsTheVirtual7i77) {
+  startSim();
+  // The MAC the card reports is its veth's: hm2_eth pins an ARP entry to it.
+  std::ifstream macFile("/sys/class/net/" + vethCard_ + "/address");
+  std::string mac;
+  macFile >> mac;
+  EXPECT_EQ(sim_->get()["card"]["mac"], mac);
+
+  const auto r = load("00xxxxxx");
+  ASSERT_EQ(r.exit, 0) << r.out;
+  const auto pins = hal("halcmd show pin").out + hal("halcmd show param").out;
+  for (int i = 0; i < 32; ++i) EXPECT_NE(pins.find(fmt("hm2_7i92.0.7i77.0.0.input-%02d", i)), std::string::npos) << i;
+  for (int i = 0; i < 16; ++i) EXPECT_NE(pins.find(fmt("hm2_7i92.0.7i77.0.0.output-%02d", i)), std::string::npos) << i;
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_NE(pins.find(fmt("hm2_7i92.0.7i77.0.1.analogout%d", i)), std::string::npos) << i;
+    EXPECT_NE(pins.find(fmt("hm2_7i92.0.encoder.%02d.count", i)), std::string::npos) << i;
+  }
+  EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.1.analogena"), std::string::npos);
+  EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.1.spinena"), std::string::npos);
+  EXPECT_NE(pins.find("hm2_7i92.0.watchdog.has_bit"), std::string::npos);
+  EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.0.nvwatchdogtimeout"), std::string::npos);
+
+  // HAL -> terminals.
+  hal("halcmd setp hm2_7i92.0.7i77.0.0.output-03 1");
+  hal("halcmd setp hm2_7i92.0.7i77.0.0.output-12 1");
+  hal("halcmd setp hm2_7i92.0.7i77.0.1.analogout2 4.5");
+  hal("halcmd setp hm2_7i92.0.7i77.0.1.analogout5 -7.25");
+  hal("halcmd setp hm2_7i92.0.7i77.0.1.analogena 1");
+  EXPECT_TRUE(waitFor(
+      [&] {
+        const auto s = sim_->get()["daughtercards"][0];
+        return s["field_io"]["outputs"][3]["on"] == true && s["field_io"]["outputs"][12]["on"] == true &&
+               std::abs(s["analog"]["outputs"][2]["volts"].get<double>() - 4.5) < 0.005 &&
+               std::abs(s["analog"]["outputs"][5]["volts"].get<double>() + 7.25) < 0.005 &&
+               s["analog"]["outputs"][0]["enable"] == true && s["analog"]["outputs"][5]["enable"] == false;
+      },
+      500ms))
+      << sim_->get().dump();
+  // Terminals -> HAL within a few periods.
+  sim_->post("/api/input", {{"input", 7}, {"on", true}});
+  EXPECT_TRUE(waitFor([&] { return getp("hm2_7i92.0.7i77.0.0.input-07") == "TRUE"; }, 500ms));
+  sim_->post("/api/encoder", {{"encoder", 2}, {"velocity", 20000}});
+  EXPECT_TRUE(waitFor([&] { return std::atoi(getp("hm2_7i92.0.encoder.02.count").c_str()) > 1000; }, 1000ms));
+  EXPECT_EQ(getp("hm2_7i92.0.io_error"), "FALSE");
+
+  // Stop the thread: within the 50 ms watchdog the outputs and enables drop,
+  // and the HostMot2 watchdog bites.
+  hal("halcmd stop");
+  const auto stopped = std::chrono::steady_clock::now();
+  EXPECT_TRUE(waitFor(
+      [&] {
+        const auto s = sim_->get()["daughtercards"][0];
+        return s["field_io"]["outputs"][3]["on"] == false && s["analog"]["outputs"][0]["enable"] == false &&
+               s["analog"]["outputs"][2]["volts"].get<double>() == 0.0;
+      },
+      1000ms));
+  const auto dropped = std::chrono::steady_clock::now() - stopped;
+  EXPECT_LT(dropped, 400ms) << "including halcmd's own start-up";
+  const auto s = sim_->get();
+  EXPECT_EQ(s["daughtercards"][0]["field_io"]["faults"][0], "WatchdogFault");
+  EXPECT_EQ(s["watchdog"]["bitten"], true);
+  hal("halcmd start");
+  EXPECT_TRUE(waitFor([&] { return getp("hm2_7i92.0.watchdog.has_bit") == "TRUE"; }, 1000ms));
+}
+
+TEST_F(LinuxCnc, FieldIoModesProduceTheirPins) {
+  startSim();
+  const auto r = load("30xxxxxx");  // field I/O mode 3
+  ASSERT_EQ(r.exit, 0) << r.out;
+  const auto pins = hal("halcmd show pin").out;
+  for (int i = 0; i < 4; ++i) EXPECT_NE(pins.find(fmt("hm2_7i92.0.7i77.0.0.analogin%d", i)), std::string::npos) << pins;
+  EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.0.fieldvoltage"), std::string::npos);
+  EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.0.enc0.count"), std::string::npos);
+  EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.0.enc1.count"), std::string::npos);
+  // The field voltage reaches HAL in volts.
+  EXPECT_TRUE(waitFor(
+      [&] {
+        const double v = std::atof(getp("hm2_7i92.0.7i77.0.0.fieldvoltage").c_str());
+        return std::abs(v - 24.0) < 0.2;
+      },
+      500ms));
+}
+
+// A measurement, not a pass/fail test: scripts/test runs it with
+// LBPKIT_SOAK_SECONDS=60 and prints the figures.
+TEST_F(LinuxCnc, SixtySecondsAt1kHz) {
+  const char* env = std::getenv("LBPKIT_SOAK_SECONDS");
+  if (env == nullptr) GTEST_SKIP() << "set LBPKIT_SOAK_SECONDS to run the soak";
+  const int seconds = std::atoi(env);
+  startSim();
+  ASSERT_EQ(load("00xxxxxx").exit, 0);
+  const auto before = sim_->get()["lbp16"]["packets"].get<std::uint64_t>();
+  std::this_thread::sleep_for(std::chrono::seconds(seconds));
+  const auto after = sim_->get()["lbp16"]["packets"].get<std::uint64_t>();
+  const auto errors = getp("hm2_7i92.0.packet-error-total");
+  const auto server = sim_->get()["server"];
+  const auto ioError = getp("hm2_7i92.0.io_error");
+  // A figure, printed for the README: the goal is none, but this machine's
+  // LinuxCNC runs without a real-time kernel.
+  std::printf("LinuxCNC hm2_eth, 1 kHz servo thread, %d s: %llu datagrams served, packet-error-total %s, io_error %s; "
+              "server time per datagram: median %.1f us, p99 %.1f us, max %.1f us\n",
+              seconds, static_cast<unsigned long long>(after - before), errors.c_str(), ioError.c_str(),
+              server["median_us"].get<double>(), server["p99_us"].get<double>(), server["max_us"].get<double>());
+  EXPECT_GT(after - before, static_cast<std::uint64_t>(seconds) * 1000);  // about 2 per cycle
+}
+
+}  // namespace
