@@ -185,6 +185,30 @@ TEST(HostCycle, SixtySecondsAt1kHz) {
   EXPECT_NEAR(enc.velocity(3), 5000, 50);
 }
 
+// Over a network every poll of COMMAND costs a round trip; the wait before
+// the first poll must follow the DOIT's real duration, not grow cycle after
+// cycle (it once did, until a cycle took 200 ms).
+TEST(HostCycle, DoitWaitStaysBoundedOverASlowLink) {
+  lbpkit::SimTransport t;
+  t.setExchangeLatency(std::chrono::microseconds(120));
+  const auto info = lbpkit::readCardInfo(t);
+  lbpkit::SmartSerial::Options o;
+  o.channelMask = 0x03;
+  lbpkit::SmartSerial ss(t, info, o);
+  ss.discover(0x03);
+  ss.startNormal();
+  const auto exchanges0 = t.exchanges();
+  lbpkit::Nanoseconds longest{0};
+  for (int cycle = 0; cycle < 2000; ++cycle) {
+    const auto start = t.now();
+    ASSERT_TRUE(ss.cycle().ok) << "cycle " << cycle;
+    longest = std::max(longest, t.now() - start);
+    t.sleep(lbpkit::Nanoseconds{1ms} - std::min<lbpkit::Nanoseconds>(1ms, t.now() - start));
+  }
+  EXPECT_LT(longest, 800us);
+  EXPECT_LE(t.exchanges() - exchanges0, 2000U * 4);
+}
+
 // A remote with bad discovery data: every case gets an error that names what
 // is wrong and where, and nothing hangs.
 struct FakeRemote final : lbpkit::RemoteAccess {

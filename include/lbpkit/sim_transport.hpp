@@ -28,6 +28,8 @@ class SimTransport final : public Transport {
   [[nodiscard]] std::string describe() const override { return "in-process virtual 7I92 with 7I77"; }
 
   hm2::HostMot2Card& card() { return card_; }
+  // Simulated network round trip added to every flush (0: a local bus).
+  void setExchangeLatency(Nanoseconds d) { exchangeLatency_ = d; }
 
  private:
   struct Op {
@@ -40,6 +42,7 @@ class SimTransport final : public Transport {
   hm2::HostMot2Card& card_;
   Nanoseconds accessTime_;
   Nanoseconds now_{0};
+  Nanoseconds exchangeLatency_{0};
   std::array<Op, kMaxQueued> ops_{};
   std::size_t queued_ = 0;
   std::uint64_t exchanges_ = 0;

@@ -158,7 +158,8 @@ class SmartSerial {
   std::uint64_t cycles_ = 0;
   std::uint32_t pollCommand_ = 0, pollData_ = 0;
   std::uint32_t doitWord_ = 0;
-  Nanoseconds lastDoit_{0};
+  Nanoseconds busyEstimate_{0};
+  static constexpr Nanoseconds kMaxBusyEstimate = std::chrono::microseconds(500);
 };
 
 }  // namespace lbpkit

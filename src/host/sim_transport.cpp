@@ -24,6 +24,7 @@ void SimTransport::queueWrite(std::uint16_t address, const std::uint32_t* from, 
 }
 
 void SimTransport::flush() {
+  if (queued_) now_ += exchangeLatency_ / 2;  // the request's way there
   for (std::size_t i = 0; i < queued_; ++i) {
     const Op& op = ops_[i];
     now_ += accessTime_;
@@ -32,7 +33,10 @@ void SimTransport::flush() {
     else
       *op.into = card_.read32(op.address, now_);
   }
-  if (queued_) ++exchanges_;
+  if (queued_) {
+    ++exchanges_;
+    now_ += exchangeLatency_ / 2;  // and the reply's way back
+  }
   queued_ = 0;
 }
 

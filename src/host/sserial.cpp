@@ -330,9 +330,12 @@ void SmartSerial::queueOutputs() {
 CycleStatus SmartSerial::collectInputs() {
   CycleStatus st;
   const Nanoseconds start = t_.now();
-  // Poll no earlier than the last DOIT took: over a network each poll is a
-  // round trip.
-  if (lastDoit_ > options_.pollInterval) t_.sleep(lastDoit_ - options_.pollInterval);
+  // Over a network every poll is a round trip: first wait about as long as
+  // a DOIT was last seen to be still running. The estimate is a lower bound
+  // (the last poll that found COMMAND busy), halved whenever the first poll
+  // already finds it done, so it cannot creep up.
+  if (busyEstimate_.count() > 0) t_.sleep(busyEstimate_);
+  bool sawBusy = false;
   for (;;) {
     t_.queueRead(regs_.command(), &pollCommand_);
     t_.queueRead(regs_.data(), &pollData_);
@@ -342,6 +345,8 @@ CycleStatus SmartSerial::collectInputs() {
     }
     t_.flush();
     if (pollCommand_ == 0) break;
+    sawBusy = true;
+    busyEstimate_ = std::min(t_.now() - start, kMaxBusyEstimate);
     if (t_.now() - start > options_.commandTimeout) {
       st.ok = false;
       st.commandBusy = true;
@@ -349,8 +354,8 @@ CycleStatus SmartSerial::collectInputs() {
     }
     t_.sleep(options_.pollInterval);
   }
+  if (!sawBusy) busyEstimate_ /= 2;
   st.doitTime = t_.now() - start;
-  lastDoit_ = st.doitTime;
   st.failedMask = static_cast<std::uint8_t>(pollData_);
   st.ok = st.failedMask == 0;
   for (auto& s : slots_) {
