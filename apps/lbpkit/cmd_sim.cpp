@@ -76,8 +76,10 @@ void loadConfig(const std::string& path, hm2::HostMot2Card::Options& card) {
     d.fieldIo.vin = (*b)["vin"].value_or(24.0);
     d.fieldIo.setupMode = (*b)["w12_setup"].value_or(false);
     d.analog.setupMode = (*b)["w4_setup"].value_or(false);
-    d.fieldIo.unitNumber = static_cast<std::uint32_t>((*b)["field_io_unit"].value_or(std::int64_t{0x12000AEE}));
-    d.analog.unitNumber = static_cast<std::uint32_t>((*b)["analog_unit"].value_or(std::int64_t{0x11000AEE}));
+    // Each board has its own serial number (the low 24 bits of both units).
+    const std::int64_t serial = 0x000AEE + static_cast<std::int64_t>(i);
+    d.fieldIo.unitNumber = static_cast<std::uint32_t>((*b)["field_io_unit"].value_or(0x12000000 + serial));
+    d.analog.unitNumber = static_cast<std::uint32_t>((*b)["analog_unit"].value_or(0x11000000 + serial));
     if ((d.fieldIo.unitNumber >> 24) != 0x12 || (d.analog.unitNumber >> 24) != 0x11)
       throw lbpkit::Error(where + ": unit numbers of a 7I77 start with 0x12 (field I/O) and 0x11 (analog)");
     if (i == 0) {

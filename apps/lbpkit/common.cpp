@@ -36,21 +36,24 @@ void CardOptions::add(CLI::App& cmd) {
   cmd.add_option("--addr", addr, "IP address of an Ethernet card (LBP16 on UDP port 27181; ADDR:PORT for another port)");
   cmd.add_option("--state", state, "EEPROM file for the virtual 7I77's field I/O processor (with --sim)");
   cmd.add_option("--modes", modes,
-                 "Smart-serial channel modes, one character per channel from 0: a mode digit or x to skip "
-                 "the channel (like LinuxCNC's sserial_port_0), e.g. 30 for field I/O mode 3")
-      ->capture_default_str();
+                 "Smart-serial channel modes, one character per channel from 0: a mode digit, or x to skip "
+                 "the channel; channels past the string run in mode 0 (as LinuxCNC's sserial_port_0), "
+                 "e.g. 3 for field I/O mode 3, 00x for the first 7I77 without its TB6 port");
   cmd.add_flag("--sinking", sinking, "With --sim: the virtual board is a 7I77D (sinking outputs)");
 }
 
 lbpkit::SmartSerial::Options CardOptions::serialOptions() const {
   lbpkit::SmartSerial::Options o;
-  o.channelMask = 0;
-  for (std::size_t ch = 0; ch < modes.size() && ch < 8; ++ch) {
+  o.channelMask = 0xFF;
+  if (modes.size() > 8) throw lbpkit::Error("--modes: an SSLBP port has at most 8 channels");
+  for (std::size_t ch = 0; ch < modes.size(); ++ch) {
     const char c = modes[ch];
-    if (c == 'x' || c == 'X') continue;
+    if (c == 'x' || c == 'X') {
+      o.channelMask = static_cast<std::uint8_t>(o.channelMask & ~(1U << ch));
+      continue;
+    }
     if (c < '0' || c > '9') throw lbpkit::Error(fmt::format("--modes: '{}' is neither a mode digit nor x", c));
     o.modes[ch] = static_cast<std::uint8_t>(c - '0');
-    o.channelMask = static_cast<std::uint8_t>(o.channelMask | (1U << ch));
   }
   return o;
 }

@@ -24,7 +24,9 @@ struct CardOptions {
   bool sim = false;
   std::string addr;
   std::string state;   // EEPROM file of the virtual 7I77's field I/O processor
-  std::string modes = "00";  // per channel: mode digit, or x to leave it alone (like sserial_port_0)
+  // Per channel from 0: a mode digit, or x to leave the channel alone; channels
+  // past the string run in mode 0 (LinuxCNC's sserial_port_0 semantics).
+  std::string modes;
   bool sinking = false;
 
   void add(CLI::App& cmd);
