@@ -162,6 +162,34 @@ TEST(Lbp16, GarbageFromAnotherPortDoesNotStopService) {
   EXPECT_EQ(r.out, "12000AEE\n");
 }
 
+TEST(ControlApi, ChangesTheWorldAndRefusesBadRequests) {
+  Sim sim(loopback());
+  ASSERT_TRUE(sim.up());
+  auto s = sim.post("/api/input", {{"input", 4}, {"volts", 20.0}});
+  EXPECT_EQ(s["daughtercards"][0]["field_io"]["inputs"][4]["on"], true);
+  s = sim.post("/api/output", {{"output", 2}, {"ohms", 80.0}});
+  EXPECT_FALSE(s.contains("error"));
+  s = sim.post("/api/field", {{"volts", 36.0}});
+  const auto faults = s["daughtercards"][0]["field_io"]["faults"];
+  EXPECT_NE(std::find(faults.begin(), faults.end(), "HighVoltageFault"), faults.end()) << faults.dump();
+  s = sim.post("/api/cable", {{"channel", 1}, {"connected", false}});
+  EXPECT_EQ(s["sserial"]["channels"][1]["cable_connected"], false);
+  s = sim.post("/api/time", {{"paused", true}});
+  const double t0 = s["time_s"].get<double>();
+  std::this_thread::sleep_for(50ms);
+  EXPECT_EQ(sim.get()["time_s"].get<double>(), t0);
+  s = sim.post("/api/time", {{"step_ms", 100}});
+  EXPECT_NEAR(s["time_s"].get<double>() - t0, 0.1, 1e-6);
+  // Bad requests: 400 with a message, and the card keeps running.
+  EXPECT_NE(sim.post("/api/input", {{"input", 40}, {"on", true}})["error"].get<std::string>().find("below 32"),
+            std::string::npos);
+  EXPECT_NE(sim.post("/api/input", {{"on", true}})["error"].get<std::string>().find("missing \"input\""),
+            std::string::npos);
+  EXPECT_NE(sim.post("/api/time", {{"speed", 0}})["error"].get<std::string>().find("above 0"), std::string::npos);
+  EXPECT_NE(sim.post("/api/encoder", {{"encoder", "two"}})["error"].get<std::string>().size(), 0U);
+  EXPECT_FALSE(sim.get().is_null());
+}
+
 // LinuxCNC's hm2_eth in a network namespace joined by a veth pair to the
 // namespace `lbpkit sim` answers in (Debian's hm2_eth cannot use loopback).
 class LinuxCnc : public ::testing::Test {
