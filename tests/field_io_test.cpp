@@ -285,6 +285,20 @@ TEST(FieldIo, PowerCutDuringAnNvWriteLeavesTheOldOrNewValue) {
   }
 }
 
+TEST(FieldIo, AnEepromFileThatCannotBeWrittenDoesNotKillTheProcessor) {
+  FieldIoProcessor::Options o;
+  o.nvFile = "/nonexistent-lbpkit-dir/eeprom";
+  FieldIoProcessor io(o);
+  Host h(io);
+  const auto nvwd = io.address(io.standard(remote::Standard::NvWatchdogTimeout));
+  ASSERT_TRUE(h.setLocal(lbp::local_write::kNonVolatile, lbp::nonvolatile::kEeprom));
+  ASSERT_TRUE(h.setLocal(lbp::local_write::kStatus, 0));
+  EXPECT_TRUE(h.write(nvwd, 2, 100));
+  EXPECT_TRUE(io.powered());
+  EXPECT_TRUE(io.lbpStatus() & lbp::status::kInvalidWrite);  // it did not take
+  EXPECT_EQ(h.read(nvwd, 2), 50U);
+}
+
 TEST(FieldIo, WritesToReadOnlyOrUnmappedMemoryChangeNothing) {
   FieldIoProcessor io;
   Host h(io);

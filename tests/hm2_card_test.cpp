@@ -151,6 +151,20 @@ TEST(Watchdog, BitesAfterItsTimeoutAndResetsGpio) {
   EXPECT_EQ(h.read(hm2::Watchdog::kStatus), 1U);
 }
 
+TEST(Watchdog, LongTimesDoNotOverflow) {
+  // 185 s at 100 MHz is more than 2^64 nanosecond-cycles.
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  h.write(hm2::Watchdog::kTimer, 499'999'999);  // 5 s
+  h.wait(185s);
+  EXPECT_EQ(h.read(hm2::Watchdog::kStatus), 1U);
+  const auto before = h.read(hm2::MuxedEncoder::kTimestamp);
+  h.wait(200s);
+  const auto after = h.read(hm2::MuxedEncoder::kTimestamp);
+  // 200 s (and the 1 us the read takes) of the 50 MHz timestamp counter, modulo 2^16.
+  EXPECT_EQ(static_cast<std::uint16_t>(after - before), static_cast<std::uint16_t>((200ULL * 50'000'000ULL + 50) & 0xFFFF));
+}
+
 TEST(MuxedEncoder, ExactUpTo2MHzAndLosingCountsAbove) {
   for (double rate : {1000.0, 250e3, 1e6, 2e6, 3e6, 6e6}) {
     hm2::HostMot2Card card;

@@ -332,6 +332,31 @@ TEST(HostDiscovery, BadTablesGiveClearErrors) {
   }
 }
 
+TEST(HostEncoders, VelocityFallsToZeroWhenTheEncoderStops) {
+  lbpkit::SimTransport t;
+  const auto info = lbpkit::readCardInfo(t);
+  lbpkit::MuxedEncoders enc(t, info);
+  enc.initialize();
+  t.card().encoders().setVelocity(0, 10000, hm2::SimTime{t.now()});
+  t.card().encoders().setVelocity(1, 5, hm2::SimTime{t.now()});  // slower than the timestamps span
+  for (int i = 0; i < 3000; ++i) {
+    enc.queue();
+    t.flush();
+    enc.update();
+    t.sleep(1ms);
+  }
+  EXPECT_NEAR(enc.velocity(0), 10000, 100);
+  EXPECT_NEAR(enc.velocity(1), 5, 1);
+  t.card().encoders().setVelocity(0, 0, hm2::SimTime{t.now()});
+  for (int i = 0; i < 1000; ++i) {
+    enc.queue();
+    t.flush();
+    enc.update();
+    t.sleep(1ms);
+  }
+  EXPECT_EQ(enc.velocity(0), 0.0);
+}
+
 TEST(HostParameters, ParseAndFormat) {
   lbpkit::ProcessDataElement wd{"WatchDogTime", "mS", lbpkit::DataType::Unsigned, lbpkit::Direction::Bidirectional,
                                 16, 0, 65535, 0x200, 0};
@@ -344,6 +369,9 @@ TEST(HostParameters, ParseAndFormat) {
   EXPECT_EQ(lbpkit::formatElement(wd, 100, true), "0064");
   lbpkit::ProcessDataElement s{"A", "V", lbpkit::DataType::Signed, lbpkit::Direction::Output, 13, -10, 10, 0, 0};
   EXPECT_EQ(lbpkit::formatElement(s, 0x1FFF, false), "-1");
+  EXPECT_EQ(lbpkit::parseElement(s, "4095", false), 4095U);
+  EXPECT_THROW(lbpkit::parseElement(s, "5000", false), Error);  // over 2^12-1: would read as negative
+  EXPECT_EQ(lbpkit::parseElement(s, "-4096", false), 0x1000U);
   EXPECT_EQ(s.unscale(10.0), 4095U);
   EXPECT_EQ(s.unscale(-10.0), 0x1FFFU & static_cast<std::uint64_t>(-4095));
   EXPECT_DOUBLE_EQ(s.scale(4095), 10.0);

@@ -262,6 +262,30 @@ TEST_F(ParserTest, ResetCommands) {
   EXPECT_EQ(send({0xDF}).at(0), 0x5A);
 }
 
+TEST_F(ParserTest, AnRpcThatRewritesItsOwnListConsumesOnlyWhatArrived) {
+  ASSERT_EQ(send({0xEA, 0x01}), Bytes{0x00});
+  // RPC 0: "write 1 byte at 0x0003 from the stream"; byte 3 is where the list
+  // would continue, and the stream byte puts a 0x6B (8-byte write) there.
+  ASSERT_EQ(send({lbp::writeHeader(4, true), 0x00, 0x00, 0x64, 0x03, 0x00, 0x00}), Bytes{0x00});
+  EXPECT_EQ(send({0x80, 0x6B}), Bytes{0x00});
+  EXPECT_EQ(target.mem[3], 0x6B);
+  EXPECT_FALSE(parser.midCommand());
+  EXPECT_EQ(send({0xDF}).at(0), 0x5A);
+}
+
+TEST_F(ParserTest, ALongestAnswerStillEndsWithItsCrc) {
+  ASSERT_EQ(send({0xEA, 0x01}), Bytes{0x00});
+  // RPC 0 fills the table with "read 8 bytes" (0x43): 511 reads, capped at
+  // the 4096-byte answer, then the CRC.
+  for (std::uint16_t a = 0; a < 0x200; a += 8)
+    ASSERT_EQ(send({lbp::writeHeader(8, true), static_cast<std::uint8_t>(a), static_cast<std::uint8_t>(a >> 8), 0x43,
+                    0x43, 0x43, 0x43, 0x43, 0x43, 0x43, 0x43}),
+              Bytes{0x00});
+  const Bytes r = send({0x80});
+  ASSERT_EQ(r.size(), lbp::Parser::kMaxResponse + 1);
+  EXPECT_EQ(lbp::crc8(r), 0);
+}
+
 TEST_F(ParserTest, RandomBytesNeverBreakTheParser) {
   std::uint32_t x = 12345;
   for (int i = 0; i < 200000; ++i) {

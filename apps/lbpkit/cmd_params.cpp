@@ -43,6 +43,9 @@ Target open(const ParamOptions& o) {
     return t;
   }
   t.card = app::openCard(o.card);
+  const unsigned channels = std::max(1U, t.card.info.sserialChannels());
+  if (o.channel >= channels)
+    throw lbpkit::Error(fmt::format("--channel {}: this card has smart-serial channels 0..{}", o.channel, channels - 1));
   auto options = o.card.serialOptions();
   options.channelMask = static_cast<std::uint8_t>(1U << o.channel);
   t.ss = std::make_unique<lbpkit::SmartSerial>(*t.card.transport, t.card.info, options);

@@ -29,17 +29,21 @@ struct SimCommandOptions {
   bool demo = false;
 };
 
+int portNumber(const std::string& text, const char* what) {
+  if (text.empty() || text.size() > 5 || text.find_first_not_of("0123456789") != std::string::npos ||
+      std::stoul(text) > 65535)
+    throw lbpkit::Error(fmt::format("{}: \"{}\" is not a port number (0..65535)", what, text));
+  return static_cast<int>(std::stoul(text));
+}
+
 std::pair<std::string, int> hostPort(const std::string& text, int defaultPort, const char* what) {
   const auto colon = text.find(':');
   if (colon == std::string::npos) {
     // A bare number is a port (for --api), anything else an address.
-    if (!text.empty() && text.find_first_not_of("0123456789") == std::string::npos) return {"127.0.0.1", std::stoi(text)};
+    if (!text.empty() && text.find_first_not_of("0123456789") == std::string::npos) return {"127.0.0.1", portNumber(text, what)};
     return {text, defaultPort};
   }
-  const auto port = text.substr(colon + 1);
-  if (port.empty() || port.find_first_not_of("0123456789") != std::string::npos || std::stoul(port) > 65535)
-    throw lbpkit::Error(fmt::format("{}: \"{}\" is not a port number", what, port));
-  return {text.substr(0, colon), std::stoi(port)};
+  return {text.substr(0, colon), portNumber(text.substr(colon + 1), what)};
 }
 
 // The TOML configuration (see README): which daughtercards, field voltage,
@@ -67,7 +71,10 @@ void loadConfig(const std::string& path, hm2::HostMot2Card::Options& card) {
     }
     if (type != "7I77" && type != "7I77D") throw lbpkit::Error(fmt::format("{}: type \"{}\": 7I77, 7I77D or none", where, type));
     hm2::HostMot2Card::DaughterOptions d;
-    if (i == 1 && card.first.fieldIo.nvFile.empty() == false) d.fieldIo.nvFile = card.first.fieldIo.nvFile.string() + ".2";
+    if (i == 1 && !card.first.fieldIo.nvFile.empty()) {
+      d.fieldIo.nvFile = card.first.fieldIo.nvFile.string() + ".2";
+      d.analog.nvFile = card.first.analog.nvFile.string() + ".2";
+    }
     d.fieldIo.outputs = type == "7I77D" ? remote::OutputType::Sinking : remote::OutputType::Sourcing;
     d.fieldIo.fieldVoltage = (*b)["field_voltage"].value_or(24.0);
     const auto w1 = (*b)["w1"].value_or(std::string("field"));

@@ -65,7 +65,11 @@ Card openCard(const CardOptions& o) {
     std::string host = o.addr;
     std::uint16_t port = lbpkit::Lbp16Transport::kPort;
     if (const auto colon = host.find(':'); colon != std::string::npos) {
-      port = static_cast<std::uint16_t>(std::stoul(host.substr(colon + 1)));
+      const auto text = host.substr(colon + 1);
+      if (text.empty() || text.size() > 5 || text.find_first_not_of("0123456789") != std::string::npos ||
+          std::stoul(text) > 65535)
+        throw lbpkit::Error(fmt::format("--addr: \"{}\" is not a port number (0..65535)", text));
+      port = static_cast<std::uint16_t>(std::stoul(text));
       host = host.substr(0, colon);
     }
     auto t = std::make_unique<lbpkit::Lbp16Transport>(host, port);

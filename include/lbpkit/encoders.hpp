@@ -39,6 +39,7 @@ class MuxedEncoders {
     std::uint16_t lastRaw = 0, lastTimestamp = 0;
     std::int64_t counts = 0, offset = 0;
     double velocity = 0, scale = 1;
+    Nanoseconds lastChange{0};
     bool indexArmed = false, writeControl = false, first = true;
     std::uint32_t controlOut = 0;
   };

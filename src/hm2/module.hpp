@@ -52,6 +52,13 @@ class Module {
   virtual void advance(SimTime now) { (void)now; }
 };
 
+// Whole clock cycles in a (non-negative) span of simulated time, without
+// overflow: nanoseconds times 100 MHz would pass 2^64 after 184 s.
+constexpr std::uint64_t clockTicks(SimTime t, std::uint32_t hz) {
+  const auto ns = static_cast<std::uint64_t>(t.count() < 0 ? 0 : t.count());
+  return ns / 1'000'000'000U * hz + ns % 1'000'000'000U * hz / 1'000'000'000U;
+}
+
 // Register blocks are 0x100 bytes apart ("Addr byte << 8"); instances and
 // channels are 4 bytes apart inside a block (the IDROM strides below).
 inline constexpr std::uint16_t kRegisterStride = 0x100;

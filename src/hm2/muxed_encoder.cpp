@@ -26,7 +26,7 @@ SimTime MuxedEncoder::samplePeriod() const {
 }
 
 std::uint16_t MuxedEncoder::timestampAt(SimTime t) const {
-  const auto ticks = static_cast<std::uint64_t>(t.count()) * clockLow_ / 1'000'000'000ULL / (tsDivisor_ + 2);
+  const auto ticks = clockTicks(t, clockLow_) / (tsDivisor_ + 2);
   return static_cast<std::uint16_t>(ticks);
 }
 

@@ -1,7 +1,6 @@
 #include "hm2/sslbp.hpp"
 
 #include <algorithm>
-#include <vector>
 
 #include "lbp/command.hpp"
 #include "lbp/crc8.hpp"
@@ -384,8 +383,8 @@ void SmartSerial::step(unsigned index, SimTime now) {
   const bool ok = c.outcome == Outcome::Ok;
   auto send = [&](std::initializer_list<std::uint8_t> frame, unsigned expect, std::uint8_t wait,
                   SimTime timeout = SimTime{0}) {
-    const std::vector<std::uint8_t> f(frame);
-    transact(c, f, expect, timeout.count() ? timeout : startTimeout(c), wait, now);
+    transact(c, std::span<const std::uint8_t>(frame.begin(), frame.size()), expect,
+             timeout.count() ? timeout : startTimeout(c), wait, now);
   };
   auto sendProcessData = [&](bool zeros, std::uint8_t wait, SimTime timeout) {
     std::array<std::uint8_t, 13> f{};

@@ -7,7 +7,7 @@ Watchdog::Watchdog(std::uint32_t clockLow, std::function<void()> onBite)
 
 std::uint32_t Watchdog::timer(SimTime now) const {
   if (!running_) return reload_;
-  const auto ticks = static_cast<std::uint64_t>((now - loadedAt_).count()) * clockLow_ / 1'000'000'000ULL;
+  const auto ticks = clockTicks(now - loadedAt_, clockLow_);
   if (ticks > reload_) return 0xFFFFFFFFU;  // passed zero: bit 31 set, counting stopped
   return static_cast<std::uint32_t>(reload_ - ticks);
 }

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+
 #include "lbpkit/error.hpp"
 
 namespace lbpkit {
@@ -57,6 +59,8 @@ void MuxedEncoders::queue() {
 
 void MuxedEncoders::update() {
   const double tick = static_cast<double>(tsDivisor_ + 2) / clock_;
+  const double span = 65536.0 * tick;  // the 16-bit timestamps wrap after this
+  const auto now = t_.now();
   for (unsigned n = 0; n < count_; ++n) {
     auto& s = state_[n];
     const auto raw = static_cast<std::uint16_t>(s.countReg);
@@ -64,18 +68,27 @@ void MuxedEncoders::update() {
     if (s.first) {
       s.lastRaw = raw;
       s.lastTimestamp = stamp;
+      s.lastChange = now;
       s.counts = static_cast<std::int16_t>(raw);
       s.first = false;
       continue;
     }
     const auto delta = static_cast<std::int16_t>(static_cast<std::uint16_t>(raw - s.lastRaw));
+    const double sinceChange = std::chrono::duration<double>(now - s.lastChange).count();
     if (delta != 0) {
+      // The card's timestamps when they cannot have wrapped; the host's
+      // clock for slow encoders (fewer than ~30 counts/s).
       const auto dt = static_cast<std::uint16_t>(stamp - s.lastTimestamp);
-      if (dt > 0) s.velocity = delta / (dt * tick);
+      if (sinceChange < 0.9 * span && dt > 0)
+        s.velocity = delta / (dt * tick);
+      else if (sinceChange > 0)
+        s.velocity = delta / sinceChange;
       s.lastTimestamp = stamp;
-    } else {
-      const auto idle = static_cast<std::uint16_t>(timestamp_ - s.lastTimestamp) * tick;
-      if (idle > 0.5) s.velocity = 0;  // stopped
+      s.lastChange = now;
+    } else if (sinceChange > 0.5) {
+      s.velocity = 0;  // stopped
+    } else if (sinceChange > 0 && std::abs(s.velocity) * sinceChange > 1.0) {
+      s.velocity = (s.velocity > 0 ? 1.0 : -1.0) / sinceChange;  // slowing down: at most a count since
     }
     s.counts += delta;
     s.lastRaw = raw;

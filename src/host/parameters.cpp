@@ -98,7 +98,8 @@ std::uint64_t parseElement(const ProcessDataElement& e, const std::string& text,
   }
   if (errno != 0 || end == s || *end != '\0')
     throw Error(fmt::format("\"{}\" is not a {} number", text, base == 16 ? "hexadecimal" : "decimal"));
-  if (!negative && (v & ~mask)) throw Error(fmt::format("{} does not fit {} ({} bits)", text, e.name, e.bits));
+  const std::uint64_t largest = isSigned ? mask >> 1 : mask;  // 2^(n-1)-1 for signed elements
+  if (!negative && v > largest) throw Error(fmt::format("{} does not fit {} ({} bits)", text, e.name, e.bits));
   return v & mask;
 }
 

@@ -6,20 +6,13 @@ namespace lbp {
 
 namespace {
 
-// One stored command of an RPC list (manual: RPC COMMANDS): a data header,
-// its address when AS is set, and its data when RID is set.
-struct StoredCommand {
-  DataCommand cmd;
-  std::uint16_t address = 0;
-  std::array<std::uint8_t, 8> inlineData{};
-};
-
 // Walks the RPC list of `header` in the table at 0..rpcSize-1, calling
 // `visit` for each stored command. The list ends at a 0 byte, at a byte that
 // is not a data command, or at the end of the table; it is linear, so the
 // walk always terminates.
 template <typename Visit>
 void walkRpcList(Target& target, std::uint16_t rpcSize, std::uint8_t header, Visit&& visit) {
+  using StoredCommand = Parser::StoredCommand;
   std::uint32_t p = static_cast<std::uint32_t>(header & 0x3FU) * kRpcPitch;
   auto next = [&]() { return target.readMemory(static_cast<std::uint16_t>(p++)); };
   while (p < rpcSize) {
@@ -118,12 +111,26 @@ void Parser::startCommand(std::uint8_t header) {
       if (auto sizes = target_.specialRpc(header)) {
         body = sizes->fromHost;
       } else {
-        unsigned stream = 0;
-        // Stored commands carry their addresses (and RID data) in the table:
-        // only the data of stream writes follows the RPC byte on the wire.
+        // The list is taken now, when the header says how long the command
+        // is; a stored write that rewrites the table while the RPC runs
+        // cannot change what this command consumes.
+        rpcLength_ = 0;
+        bool truncated = false;
         walkRpcList(target_, config_.rpcSize, header, [&](const StoredCommand& s) {
-          if (s.cmd.write && !s.cmd.rpcIncludesData) stream += s.cmd.dataSize;
+          if (rpcLength_ < rpcList_.size())
+            rpcList_[rpcLength_++] = s;
+          else
+            truncated = true;
         });
+        if (truncated) {  // longer than the parser keeps: a buffer overflow
+          raiseStatus(status::kBufferOverflow);
+          skipping_ = true;
+          ++discarded_;
+          return;
+        }
+        unsigned stream = 0;
+        for (std::size_t i = 0; i < rpcLength_; ++i)
+          if (rpcList_[i].cmd.write && !rpcList_[i].cmd.rpcIncludesData) stream += rpcList_[i].cmd.dataSize;
         body = stream;
       }
       break;
@@ -141,7 +148,8 @@ void Parser::startCommand(std::uint8_t header) {
 }
 
 void Parser::emit(std::uint8_t byte) {
-  if (responseLength_ < response_.size() - 1) response_[responseLength_++] = byte;
+  // Data fills at most kMaxResponse bytes; the CRC always has its place after.
+  if (responseLength_ < kMaxResponse) response_[responseLength_++] = byte;
 }
 
 void Parser::execute(SimTime now) {
@@ -173,7 +181,8 @@ void Parser::execute(SimTime now) {
     case CommandType::Undefined:
       break;
   }
-  emit(crc8({response_.data(), responseLength_}));
+  response_[responseLength_] = crc8({response_.data(), responseLength_});
+  ++responseLength_;
   target_.endCommand(now);
 }
 
@@ -201,10 +210,11 @@ void Parser::executeRpc(std::uint8_t header, const std::uint8_t* stream) {
     for (unsigned i = 0; i < sizes->toHost; ++i) emit(out[i]);
     return;
   }
-  walkRpcList(target_, config_.rpcSize, header, [&](const StoredCommand& s) {
+  for (std::size_t i = 0; i < rpcLength_; ++i) {
+    const StoredCommand& s = rpcList_[i];
     executeData(s.cmd, stream, s.address, s.cmd.hasAddress,
                 s.cmd.write && s.cmd.rpcIncludesData ? s.inlineData.data() : nullptr);
-  });
+  }
 }
 
 void Parser::executeLocal(std::uint8_t header, std::uint8_t value) {

@@ -66,9 +66,19 @@ class Parser {
   // Commands thrown away whole: unknown headers and bytes skipped until a gap.
   [[nodiscard]] std::uint32_t discardedCommands() const { return discarded_; }
 
+ // One stored command of an RPC list (manual: RPC COMMANDS): a data header,
+  // its address when AS is set, and its data when RID is set.
+  struct StoredCommand {
+    DataCommand cmd;
+    std::uint16_t address = 0;
+    std::array<std::uint8_t, 8> inlineData{};
+  };
+  // Stored commands of one RPC list the parser keeps (a 512-byte table of
+  // one-byte commands).
+  static constexpr std::size_t kMaxRpcList = 512;
+
  private:
   void startCommand(std::uint8_t header);
-  bool rpcStreamBytes(std::uint8_t header, unsigned& stream);
   void execute(SimTime now);
   void executeData(DataCommand cmd, const std::uint8_t*& stream, std::uint16_t address, bool addressGiven,
                    const std::uint8_t* inlineData);
@@ -99,7 +109,9 @@ class Parser {
   SimTime last_{};
   std::uint32_t discarded_ = 0;
 
-  std::array<std::uint8_t, kMaxResponse> response_{};
+  std::array<std::uint8_t, kMaxResponse + 1> response_{};  // data, then the CRC
+  std::array<StoredCommand, kMaxRpcList> rpcList_{};  // the RPC being received, taken at its header
+  std::size_t rpcLength_ = 0;
   std::size_t responseLength_ = 0;
 };
 

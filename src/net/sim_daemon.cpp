@@ -7,6 +7,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
+#include <limits>
+#include <type_traits>
+
 #include "net/udp_server.hpp"
 
 namespace net {
@@ -61,7 +65,17 @@ json body(const httplib::Request& req) {
 template <typename T>
 T need(const json& j, const char* key) {
   if (!j.contains(key)) throw std::invalid_argument(std::string("missing \"") + key + "\"");
-  return j.at(key).get<T>();
+  const auto& v = j.at(key);
+  if constexpr (std::is_same_v<T, bool>) {
+    if (!v.is_boolean()) throw std::invalid_argument(std::string("\"") + key + "\" must be true or false");
+  } else if constexpr (std::is_integral_v<T>) {
+    if (!v.is_number_unsigned() || v.get<std::uint64_t>() > std::numeric_limits<T>::max())
+      throw std::invalid_argument(std::string("\"") + key + "\" must be a whole number from 0");
+  } else {
+    if (!v.is_number() || !std::isfinite(v.get<double>()))
+      throw std::invalid_argument(std::string("\"") + key + "\" must be a number");
+  }
+  return v.get<T>();
 }
 
 }  // namespace
@@ -192,8 +206,9 @@ SimDaemon::SimDaemon(SimOptions options)
   auto handle = [this](std::function<std::string(const json&)> f) {
     return [this, f](const httplib::Request& req, httplib::Response& res) {
       try {
-        const json j = body(req);
-        res.set_content(runJob([&] { return f(j); }), "application/json");
+        // The job owns what it needs: if it outlives this request (a timeout),
+        // nothing it touches has gone away.
+        res.set_content(runJob([f, j = body(req)] { return f(j); }), "application/json");
       } catch (const std::exception& e) {
         res.status = 400;
         res.set_content(json{{"error", e.what()}}.dump(), "application/json");
@@ -201,7 +216,7 @@ SimDaemon::SimDaemon(SimOptions options)
     };
   };
   auto board = [this](const json& j) -> hm2::SevenI77& {
-    const auto d = j.value("connector", 0U);
+    const auto d = j.contains("connector") ? need<unsigned>(j, "connector") : 0U;
     if (d >= card_.daughtercards()) throw std::invalid_argument(fmt::format("no 7I77 on connector {}", d));
     return card_.daughtercard(d);
   };
@@ -225,8 +240,8 @@ SimDaemon::SimDaemon(SimOptions options)
              return stateJson();
            }));
   srv.Post("/api/encoder", handle([=, this](const json& j) {
-             const auto n = index(j, "encoder", 6) + 6 * j.value("connector", 0U);
-             if (n >= card_.encoders().counters()) throw std::invalid_argument("no such encoder");
+             (void)board(j);  // checks "connector"
+             const auto n = index(j, "encoder", 6) + 6 * (j.contains("connector") ? need<unsigned>(j, "connector") : 0U);
              if (j.contains("counts_per_rev")) card_.encoders().setIndexPeriod(n, need<std::uint32_t>(j, "counts_per_rev"));
              if (j.contains("velocity")) card_.encoders().setVelocity(n, need<double>(j, "velocity"), clock_.now());
              return stateJson();
@@ -251,9 +266,14 @@ SimDaemon::SimDaemon(SimOptions options)
            }));
   srv.Post("/api/time", handle([this](const json& j) {
              const double speed = j.value("speed", clock_.speed());
-             if (!(speed > 0)) throw std::invalid_argument("\"speed\" must be above 0");
+             if (!(speed > 0) || speed > 1000) throw std::invalid_argument("\"speed\" must be above 0 and at most 1000");
+             double step = 0;
+             if (j.contains("step_ms")) {
+               step = need<double>(j, "step_ms");
+               if (!(step >= 0) || step > 60000) throw std::invalid_argument("\"step_ms\" must be 0 to 60000");
+             }
              clock_.set(speed, j.value("paused", clock_.paused()));
-             if (j.contains("step_ms")) clock_.advanceBy(hm2::SimTime{static_cast<std::int64_t>(need<double>(j, "step_ms") * 1e6)});
+             if (step > 0) clock_.advanceBy(hm2::SimTime{static_cast<std::int64_t>(step * 1e6)});
              return stateJson();
            }));
   if (options_.apiPort == 0)
@@ -305,20 +325,21 @@ std::string SimDaemon::runJob(std::function<std::string()> job) {
     std::lock_guard<std::mutex> lock(jobsMutex_);
     jobs_.push_back(std::move(task));
   }
-  if (result.wait_for(std::chrono::seconds(2)) != std::future_status::ready)
-    throw std::runtime_error("the card thread is not running");
+  if (result.wait_for(std::chrono::seconds(5)) != std::future_status::ready)
+    throw std::runtime_error("the card thread is busy: the request is queued and will still be applied");
   return result.get();
 }
 
 void SimDaemon::drainJobs() {
   // Never wait for the API threads: if they hold the lock, try next time.
-  std::unique_lock<std::mutex> lock(jobsMutex_, std::try_to_lock);
-  if (!lock.owns_lock()) return;
-  while (!jobs_.empty()) {
-    auto task = std::move(jobs_.front());
-    jobs_.pop_front();
-    task();
+  // The jobs run with the lock released, so API threads never wait on them.
+  std::deque<std::packaged_task<std::string()>> ready;
+  {
+    std::unique_lock<std::mutex> lock(jobsMutex_, std::try_to_lock);
+    if (!lock.owns_lock() || jobs_.empty()) return;
+    ready.swap(jobs_);
   }
+  for (auto& task : ready) task();
 }
 
 void SimDaemon::log(LogLevel level, const std::string& text) const {

@@ -93,6 +93,7 @@ bool NvStore::load() {
 bool NvStore::writeSlot(unsigned slot, std::span<const std::uint8_t> bytes) {
   std::size_t count = bytes.size();
   const bool cut = cutAfter_.has_value() && *cutAfter_ < count;
+  lostPower_ = cut;
   if (cut) count = *cutAfter_;
   cutAfter_.reset();
   const std::size_t offset = slot * slotBytes();

@@ -34,6 +34,9 @@ class NvStore {
   [[nodiscard]] const std::filesystem::path& file() const { return file_; }
   [[nodiscard]] const std::string& lastError() const { return error_; }
   [[nodiscard]] std::uint32_t writes() const { return writes_; }
+  // The last commit failed because power went away mid-write (fault
+  // injection), rather than because the file could not be written.
+  [[nodiscard]] bool lostPower() const { return lostPower_; }
 
   // Fault injection for tests: the next commit loses power after this many
   // bytes of its slot record reached the medium (the rest is never written).
@@ -53,6 +56,7 @@ class NvStore {
   std::string error_;
   std::uint32_t writes_ = 0;
   std::optional<std::size_t> cutAfter_;
+  bool lostPower_ = false;
   std::vector<std::uint8_t> memory_;  // the medium when there is no file
 };
 

@@ -159,12 +159,15 @@ void RemoteDevice::powerUp(SimTime now) {
   now_ = now;
   rpcTable_.fill(0);
   ram_.fill(0);
-  if (!nv_.load()) {
-    // Blank EEPROM: program the factory defaults.
+  if (nv_.load()) {
+    std::copy(nv_.image().begin(), nv_.image().end(), eeprom_.begin());
+  } else {
+    // Blank EEPROM: the factory defaults, programmed if the medium takes them
+    // (and used this power-up either way).
     const auto image = factoryEeprom();
     nv_.commit(image);
+    std::copy(image.begin(), image.end(), eeprom_.begin());
   }
-  std::copy(nv_.image().begin(), nv_.image().end(), eeprom_.begin());
   eepromDirty_ = false;
   // NV values become working values only here (manual: NON-VOLATILE FIELD I/O PARAMETERS).
   const auto baudIndex = raw(standard(Standard::NvBaudRate));
@@ -225,6 +228,7 @@ void RemoteDevice::checkWatchdog(SimTime now) {
 
 void RemoteDevice::beginCommand(SimTime now) {
   now_ = now;
+  eepromBefore_ = eeprom_;
   checkWatchdog(now);
   lastHostCommand_ = now;
   sampleInputs();
@@ -237,8 +241,14 @@ void RemoteDevice::endCommand(SimTime) {
     // One command's NV bytes are written as one EEPROM commit, so a
     // multi-byte parameter is never half old, half new.
     if (!nv_.commit(eeprom_)) {
-      powerDown();  // the write failed because power went away
-      return;
+      if (nv_.lostPower()) {
+        powerDown();  // power went away in the middle of the write
+        return;
+      }
+      // The medium refused the write (a read-only or full disk): the old
+      // values stay, and the host learns the write did not take.
+      eeprom_ = eepromBefore_;
+      parser_.raiseStatus(status::kInvalidWrite);
     }
   }
   driveOutputs();  // may trip outputs: the fault byte follows

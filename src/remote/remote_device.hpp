@@ -225,6 +225,7 @@ class RemoteDevice : public lbp::Target {
   std::array<std::uint8_t, memory::kRpcSize> rpcTable_{};
   std::array<std::uint8_t, memory::kRamSize> ram_{};
   std::array<std::uint8_t, memory::kEepromSize> eeprom_{};  // pending image of this command
+  std::array<std::uint8_t, memory::kEepromSize> eepromBefore_{};  // as it was before this command
   bool eepromDirty_ = false;
   std::vector<std::uint8_t> rom_;
 
