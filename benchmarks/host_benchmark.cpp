@@ -53,14 +53,7 @@ void BM_Discovery(benchmark::State& state) {
     doits += ss.discoveryStats().doits;
     simulatedMs += std::chrono::duration<double, std::milli>(ss.discoveryStats().time).count();
     // What one-DOIT-per-byte reading (LinuxCNC's driver) would take.
-    for (unsigned s = 0; s < ss.slots(); ++s) {
-      const auto& d = ss.description(s);
-      const std::size_t records = d.processData.size() + d.modes.size();
-      bytewise += 2 * (records + 1) + 2 * (records + d.parameters.size() + 1);
-      for (const auto* list : {&d.processData, &d.parameters})
-        for (const auto& e : *list) bytewise += 14 + e.unit.size() + 1 + e.name.size() + 1;
-      for (const auto& m : d.modes) bytewise += 4 + m.name.size() + 1;
-    }
+    for (unsigned s = 0; s < ss.slots(); ++s) bytewise += ss.description(s).bytewiseReads();
     ++runs;
   }
   state.counters["doits"] = static_cast<double>(doits) / static_cast<double>(runs);

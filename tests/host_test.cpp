@@ -72,16 +72,7 @@ TEST(HostDiscovery, BothChannelsEveryModeAndFewDoits) {
     ASSERT_NE(io.find("OUTPUT"), nullptr);
     EXPECT_EQ(ss.description(1).outputBits, 80U);
     // Byte-wise reading (LinuxCNC: one DOIT per byte) would take this many.
-    unsigned bytewise = 0;
-    for (unsigned s = 0; s < 2; ++s) {
-      const auto& d = ss.description(s);
-      const std::size_t records = d.processData.size() + d.modes.size();
-      bytewise += static_cast<unsigned>(2 * (records + 1));                               // PTOC
-      bytewise += static_cast<unsigned>(2 * (records + d.parameters.size() + 1));         // GTOC
-      for (const auto* list : {&d.processData, &d.parameters})
-        for (const auto& e : *list) bytewise += static_cast<unsigned>(14 + e.unit.size() + 1 + e.name.size() + 1);
-      for (const auto& m : d.modes) bytewise += static_cast<unsigned>(4 + m.name.size() + 1);
-    }
+    const unsigned bytewise = ss.description(0).bytewiseReads() + ss.description(1).bytewiseReads();
     EXPECT_LE(ss.discoveryStats().doits * 6, bytewise)
         << ss.discoveryStats().doits << " DOITs vs " << bytewise << " byte-wise";
   }

@@ -43,7 +43,10 @@ int runDiscover(const DiscoverOptions& o) {
   nlohmann::json out;
   out["card"] = card.info.boardName;
   out["transport"] = card.transport->describe();
+  unsigned bytewise = 0;
+  for (unsigned s = 0; s < ss.slots(); ++s) bytewise += ss.description(s).bytewiseReads();
   out["discovery"] = {{"doits", stats.doits},
+                      {"bytewise_doits", bytewise},
                       {"time_ms", std::chrono::duration<double, std::milli>(stats.time).count()},
                       {"exchanges", card.transport->exchanges() - exchanges0}};
   out["channels"] = nlohmann::json::array();
@@ -75,8 +78,9 @@ int runDiscover(const DiscoverOptions& o) {
     fmt::print("{}\n", out.dump(2));
     return 0;
   }
-  fmt::print("{} ({}): discovery took {} DOITs, {:.1f} ms\n", card.info.boardName, card.transport->describe(),
-             stats.doits, std::chrono::duration<double, std::milli>(stats.time).count());
+  fmt::print("{} ({}): discovery took {} DOITs ({} at one byte per DOIT), {:.1f} ms\n", card.info.boardName,
+             card.transport->describe(), stats.doits, bytewise,
+             std::chrono::duration<double, std::milli>(stats.time).count());
   slot = 0;
   for (const auto& id : found) {
     if (!id.present) {

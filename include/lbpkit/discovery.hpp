@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "lbp/discovery.hpp"
+
 namespace lbpkit {
 
 // Byte-level access to a remote's memory and LBP locals, one LBP command per
@@ -25,24 +27,13 @@ class RemoteAccess {
   [[nodiscard]] virtual std::string where() const = 0;  // "channel 0", "/dev/ttyUSB0"
 };
 
-enum class DataType : std::uint8_t {
-  Pad = 0x00,
-  Bits = 0x01,
-  Unsigned = 0x02,
-  Signed = 0x03,
-  NonVolUnsigned = 0x04,
-  NonVolSigned = 0x05,
-  Stream = 0x06,
-  Boolean = 0x07,
-  Encoder = 0x08,
-  Float = 0x10,
-  NonVolFloat = 0x11,
-};
-enum class Direction : std::uint8_t { Input = 0x00, Bidirectional = 0x40, Output = 0x80 };
+// DATA_TYPE and DATA_DIRECTION, as the protocol layer defines them.
+using DataType = lbp::DataType;
+using Direction = lbp::Direction;
+using lbp::isNonVolatile;
 
 std::string typeName(DataType t);
 std::string directionName(Direction d);
-bool isNonVolatile(DataType t);
 
 struct ProcessDataElement {
   std::string name;  // as the remote reports it ("Output", "AnalogOut0")
@@ -80,6 +71,10 @@ struct RemoteDescription {
 
   [[nodiscard]] unsigned rxBytes() const { return 1 + (inputBits + 7) / 8; }  // with the fault byte
   [[nodiscard]] unsigned txBytes() const { return (outputBits + 7) / 8; }
+  // The remote reads discovering this would take at one byte per read (as
+  // LinuxCNC's driver does: one DOIT per byte): both tables with their
+  // sentinels, every record and its strings.
+  [[nodiscard]] unsigned bytewiseReads() const;
   // Case-insensitive lookup in parameters then process data; also accepts
   // the manual's spellings (WATCHDOGTIME, NVWATCHDOGTIME, OUTPUT, FAULT...).
   [[nodiscard]] const ProcessDataElement* find(const std::string& name) const;

@@ -104,10 +104,6 @@ std::string directionName(Direction d) {
   return "?";
 }
 
-bool isNonVolatile(DataType t) {
-  return t == DataType::NonVolUnsigned || t == DataType::NonVolSigned || t == DataType::NonVolFloat;
-}
-
 bool ProcessDataElement::numeric() const {
   return type == DataType::Unsigned || type == DataType::Signed || type == DataType::NonVolUnsigned ||
          type == DataType::NonVolSigned;
@@ -115,14 +111,10 @@ bool ProcessDataElement::numeric() const {
 
 double ProcessDataElement::scale(std::uint64_t raw) const {
   const unsigned n = std::min(bits, 64U);
-  const bool isSigned = type == DataType::Signed || type == DataType::NonVolSigned;
-  if (isSigned) {
-    const std::uint64_t sign = n ? 1ULL << (n - 1) : 0;
-    const std::int64_t v = n >= 64 ? static_cast<std::int64_t>(raw)
-                                   : static_cast<std::int64_t>((raw & ((sign << 1) - 1)) ^ sign) -
-                                         static_cast<std::int64_t>(sign);
+  if (type == DataType::Signed || type == DataType::NonVolSigned) {
+    const std::int64_t v = lbp::signExtend(raw, n);
     if (min == max || n < 2) return static_cast<double>(v);
-    return static_cast<double>(v) * static_cast<double>(max) / static_cast<double>(sign - 1);
+    return static_cast<double>(v) * static_cast<double>(max) / static_cast<double>((1ULL << (n - 1)) - 1);
   }
   if (type == DataType::Unsigned || type == DataType::NonVolUnsigned) {
     if (min == max || n == 0) return static_cast<double>(raw);
@@ -151,6 +143,17 @@ std::string canonicalParameterName(const std::string& name) {
   if (l == "nvwatchdogtime" || l == "nvwatchdogtimeout") return "nvwatchdogtimeout";
   if (l == "watchdogtime" || l == "watchdogtimeout") return "watchdogtime";
   return l;
+}
+
+unsigned RemoteDescription::bytewiseReads() const {
+  std::size_t n = 0;
+  const std::size_t records = processData.size() + modes.size();
+  n += 2 * (records + 1);                      // PTOC
+  n += 2 * (records + parameters.size() + 1);  // GTOC
+  for (const auto* list : {&processData, &parameters})
+    for (const auto& e : *list) n += 14 + e.unit.size() + 1 + e.name.size() + 1;
+  for (const auto& m : modes) n += 4 + m.name.size() + 1;
+  return static_cast<unsigned>(n);
 }
 
 const ProcessDataElement* RemoteDescription::find(const std::string& name) const {

@@ -63,13 +63,8 @@ void writeElement(RemoteAccess& remote, const ProcessDataElement& e, std::uint64
 
 std::string formatElement(const ProcessDataElement& e, std::uint64_t raw, bool hex) {
   if (hex) return fmt::format("{:0{}X}", raw, (e.bits + 3) / 4);
-  if (e.type == DataType::Signed || e.type == DataType::NonVolSigned) {
-    const unsigned n = std::min(e.bits, 64U);
-    const std::uint64_t sign = 1ULL << (n - 1);
-    const auto v = n >= 64 ? static_cast<std::int64_t>(raw)
-                           : static_cast<std::int64_t>((raw & ((sign << 1) - 1)) ^ sign) - static_cast<std::int64_t>(sign);
-    return fmt::format("{}", v);
-  }
+  if (e.type == DataType::Signed || e.type == DataType::NonVolSigned)
+    return fmt::format("{}", lbp::signExtend(raw, std::min(e.bits, 64U)));
   return fmt::format("{}", raw);
 }
 
