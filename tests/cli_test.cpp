@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "process.hpp"
@@ -125,6 +126,26 @@ TEST(Cli, ErrorsSayWhatFailed) {
   r = run({"wpd", "WATCHDOGTIME", "70000"});
   EXPECT_EQ(r.exit, 1);
   EXPECT_NE(r.err.find("does not fit"), std::string::npos) << r.err;
+}
+
+TEST(Cli, SimRefusesBadConfigurationsClearly) {
+  const auto bad = tempPath("bad.toml");
+  {
+    std::ofstream(bad) << "[[daughtercard]]\ntype = \"7I88\"\n";
+  }
+  auto r = run({"sim", "--config", bad, "--api", "0"});
+  EXPECT_EQ(r.exit, 1);
+  EXPECT_NE(r.err.find("daughtercard 0: type \"7I88\""), std::string::npos) << r.err;
+  {
+    std::ofstream(bad) << "[[daughtercard\n";
+  }
+  r = run({"sim", "--config", bad, "--api", "0"});
+  EXPECT_EQ(r.exit, 1);
+  EXPECT_NE(r.err.find("line 1"), std::string::npos) << r.err;
+  r = run({"sim", "--bind", "127.0.0.1:70000", "--api", "0"});
+  EXPECT_EQ(r.exit, 1);
+  EXPECT_NE(r.err.find("not a port number"), std::string::npos) << r.err;
+  std::filesystem::remove(bad);
 }
 
 TEST(Cli, InfoAndMonitor) {
