@@ -11,6 +11,7 @@
 #include "lbpkit/sim_transport.hpp"
 #include "lbpkit/sserial.hpp"
 #include "net/lbp16_card.hpp"
+#include "running_card.hpp"
 
 namespace {
 std::atomic<std::uint64_t> gAllocations{0};
@@ -29,14 +30,10 @@ namespace {
 using namespace std::chrono_literals;
 
 TEST(RealTime, TheHostCycleDoesNotAllocate) {
-  lbpkit::SimTransport t;
-  const auto info = lbpkit::readCardInfo(t);
-  lbpkit::SmartSerial::Options o;
-  o.channelMask = 0x03;
-  lbpkit::SmartSerial ss(t, info, o);
-  ss.discover(0x03);
-  ss.startNormal();
-  lbpkit::MuxedEncoders enc(t, info);
+  testing_host::RunningCard rc;
+  auto& t = rc.t;
+  auto& ss = rc.ss;
+  lbpkit::MuxedEncoders enc(t, rc.info);
   enc.initialize();
   const auto out = ss.find(0, "output");
   const auto a0 = ss.find(1, "analogout0");

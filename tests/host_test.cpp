@@ -12,6 +12,7 @@
 #include "lbpkit/parameters.hpp"
 #include "lbpkit/sim_transport.hpp"
 #include "lbpkit/sserial.hpp"
+#include "running_card.hpp"
 
 namespace {
 
@@ -103,15 +104,11 @@ TEST(HostDiscovery, AChannelThatFailsToStartNamesItsFault) {
 // analog value reaches the terminals, every input comes back, injected
 // faults are decoded.
 TEST(HostCycle, SixtySecondsAt1kHz) {
-  lbpkit::SimTransport t;
+  testing_host::RunningCard rc;
+  auto& t = rc.t;
+  auto& ss = rc.ss;
   auto& board = t.card().daughtercard(0);
-  const auto info = lbpkit::readCardInfo(t);
-  lbpkit::SmartSerial::Options o;
-  o.channelMask = 0x03;
-  lbpkit::SmartSerial ss(t, info, o);
-  ss.discover(0x03);
-  ss.startNormal();
-  lbpkit::MuxedEncoders enc(t, info);
+  lbpkit::MuxedEncoders enc(t, rc.info);
   enc.initialize();
   const auto input = ss.find(0, "input");
   const auto output = ss.find(0, "output");
@@ -180,14 +177,10 @@ TEST(HostCycle, SixtySecondsAt1kHz) {
 // the first poll must follow the DOIT's real duration, not grow cycle after
 // cycle (it once did, until a cycle took 200 ms).
 TEST(HostCycle, DoitWaitStaysBoundedOverASlowLink) {
-  lbpkit::SimTransport t;
+  testing_host::RunningCard rc;
+  auto& t = rc.t;
+  auto& ss = rc.ss;
   t.setExchangeLatency(std::chrono::microseconds(120));
-  const auto info = lbpkit::readCardInfo(t);
-  lbpkit::SmartSerial::Options o;
-  o.channelMask = 0x03;
-  lbpkit::SmartSerial ss(t, info, o);
-  ss.discover(0x03);
-  ss.startNormal();
   const auto exchanges0 = t.exchanges();
   lbpkit::Nanoseconds longest{0};
   for (int cycle = 0; cycle < 2000; ++cycle) {
