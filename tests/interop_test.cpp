@@ -136,6 +136,48 @@ TEST(Mesaflash, ReadsTheVirtualCard) {
   EXPECT_EQ(sim.stop(), 0);
 }
 
+// A Xilinx .bit file (header fields a..e, then the data) with made-up data.
+std::string fakeBitfile() {
+  const auto path = (std::filesystem::temp_directory_path() / ("lbpkit-" + std::to_string(::getpid()) + ".bit")).string();
+  std::ofstream f(path, std::ios::binary);
+  const unsigned char magic[] = {0x00, 0x09, 0x0f, 0xf0, 0x0f, 0xf0, 0x0f, 0xf0, 0x0f, 0xf0, 0x00, 0x00, 0x01};
+  f.write(reinterpret_cast<const char*>(magic), sizeof magic);
+  auto field = [&](char tag, const std::string& text) {
+    f.put(tag);
+    f.put(static_cast<char>((text.size() + 1) >> 8));
+    f.put(static_cast<char>(text.size() + 1));
+    f.write(text.c_str(), static_cast<std::streamsize>(text.size() + 1));
+  };
+  field('a', "lbpkit_test.ncd");
+  field('b', "6slx9tqg144");
+  field('c', "2026/11/21");
+  field('d', "12:00:00");
+  const std::uint32_t n = 40000;
+  f.put('e');
+  for (int shift = 24; shift >= 0; shift -= 8) f.put(static_cast<char>(n >> shift));
+  std::uint32_t x = 1;
+  for (std::uint32_t i = 0; i < n; ++i) f.put(static_cast<char>((x = x * 1664525U + 1013904223U) >> 24));
+  return path;
+}
+
+TEST(Mesaflash, WritesAndVerifiesTheVirtualFlash) {
+  if (!have("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
+  Sim sim(loopback());
+  ASSERT_TRUE(sim.up());
+  const auto bit = fakeBitfile();
+  const std::string card = "timeout 120 mesaflash --device 7i92 --addr " + loopback();
+  auto r = sh(card + " --verify " + bit);  // a blank part has no boot block
+  EXPECT_NE(r.out.find("BootSector is invalid"), std::string::npos) << r.out;
+  r = sh(card + " --write " + bit + " --fix-boot-block");
+  EXPECT_EQ(r.exit, 0) << r.out;
+  EXPECT_NE(r.out.find("verified successfully"), std::string::npos) << r.out;
+  r = sh(card + " --verify " + bit);
+  EXPECT_EQ(r.exit, 0) << r.out;
+  EXPECT_NE(r.out.find("Boot sector OK"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("verified successfully"), std::string::npos) << r.out;
+  std::filesystem::remove(bit);
+}
+
 TEST(Lbp16, GarbageFromAnotherPortDoesNotStopService) {
   Sim sim(loopback());
   ASSERT_TRUE(sim.up());

@@ -157,6 +157,63 @@ TEST_F(Lbp16Test, BadDatagramsAreCountedAndAnsweredAsFarAsTheyParse) {
   EXPECT_EQ(u32(send(c), 0), 0x55AACAFEU);
 }
 
+TEST_F(Lbp16Test, FlashProgramsOnlyWithItsWriteEnable) {
+  auto setAddress = [&](Bytes& d, std::uint32_t a) {
+    cmd(d, {true, true, false, 3, 4, false, 1}, 0x0);
+    d.insert(d.end(), {static_cast<std::uint8_t>(a), static_cast<std::uint8_t>(a >> 8), static_cast<std::uint8_t>(a >> 16),
+                       static_cast<std::uint8_t>(a >> 24)});
+  };
+  auto enable = [&](Bytes& d, std::uint16_t key) {
+    cmd(d, {true, true, false, 6, 2, true, 1}, 0x1A);
+    d.insert(d.end(), {static_cast<std::uint8_t>(key), static_cast<std::uint8_t>(key >> 8)});
+  };
+  auto program = [&](Bytes& d, std::uint32_t word) {
+    cmd(d, {true, true, false, 3, 4, false, 1}, 0x4);
+    for (int i = 0; i < 4; ++i) d.push_back(static_cast<std::uint8_t>(word >> (8 * i)));
+  };
+  auto readWord = [&](std::uint32_t a) {
+    Bytes d;
+    setAddress(d, a);
+    cmd(d, {false, true, false, 3, 4, false, 1}, 0x4);
+    return u32(send(d), 0);
+  };
+  EXPECT_EQ(readWord(0x10000), 0xFFFFFFFFU);  // blank
+  Bytes noKey;
+  setAddress(noKey, 0x10000);
+  program(noKey, 0x12345678);
+  send(noKey);
+  EXPECT_EQ(readWord(0x10000), 0xFFFFFFFFU);
+  EXPECT_EQ(lbp16.counters().writeErrors, 1U);
+  Bytes eepromKey;  // the EEPROM's key does not open the flash
+  setAddress(eepromKey, 0x10000);
+  enable(eepromKey, 0x5A02);
+  program(eepromKey, 0x12345678);
+  send(eepromKey);
+  EXPECT_EQ(readWord(0x10000), 0xFFFFFFFFU);
+  Bytes ok;
+  setAddress(ok, 0x10000);
+  enable(ok, 0x5A03);
+  program(ok, 0x12345678);
+  program(ok, 0xF0F0F0F0);  // the next word: the address advances
+  send(ok);
+  EXPECT_EQ(readWord(0x10000), 0x12345678U);
+  EXPECT_EQ(readWord(0x10004), 0xF0F0F0F0U);
+  Bytes again;  // programming only clears bits
+  setAddress(again, 0x10004);
+  enable(again, 0x5A03);
+  program(again, 0x0F0F0FFF);
+  send(again);
+  EXPECT_EQ(readWord(0x10004), 0x000000F0U);
+  Bytes erase;  // sector erase: 64 KB back to 0xFF
+  setAddress(erase, 0x1FFFC);
+  enable(erase, 0x5A03);
+  cmd(erase, {true, true, false, 3, 4, false, 1}, 0xC);
+  erase.insert(erase.end(), {0, 0, 0, 0});
+  send(erase);
+  EXPECT_EQ(readWord(0x10000), 0xFFFFFFFFU);
+  EXPECT_EQ(readWord(0x10004), 0xFFFFFFFFU);
+}
+
 TEST_F(Lbp16Test, RepliesNeverExceedOneFrame) {
   Bytes d;
   for (int i = 0; i < 12; ++i) cmd(d, {false, true, false, 0, 4, true, 127}, 0x0400);  // 6096 bytes asked

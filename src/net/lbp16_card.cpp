@@ -10,6 +10,9 @@ constexpr std::uint8_t k8 = 1, k16 = 2, k32 = 4, k64 = 8;
 // Flash: a 16 Mbit SPI part, as on a real 7I92 (ID low byte 0x14).
 constexpr std::uint32_t kFlashId = 0x00164014;
 constexpr std::uint16_t kEepromWriteEnableKey = 0x5A02;
+constexpr std::uint16_t kFlashWriteEnableKey = 0x5A03;
+constexpr std::uint32_t kFlashBytes = 2 * 1024 * 1024;  // 16 Mbit
+constexpr std::uint32_t kFlashSector = 64 * 1024;
 
 std::uint16_t le16(const std::uint8_t* p) { return static_cast<std::uint16_t>(p[0] | (p[1] << 8)); }
 }  // namespace
@@ -29,7 +32,8 @@ const Lbp16Card::Area* Lbp16Card::area(std::uint8_t space) {
   return space < 8 && kAreas[space].name ? &kAreas[space] : nullptr;
 }
 
-Lbp16Card::Lbp16Card(hm2::HostMot2Card& card, Identity identity) : card_(card), identity_(std::move(identity)) {
+Lbp16Card::Lbp16Card(hm2::HostMot2Card& card, Identity identity)
+    : card_(card), identity_(std::move(identity)), flash_(kFlashBytes, 0xFF) {
   // EEPROM layout as hm2_eth and mesaflash read it: MAC at 0x02..0x07 (each
   // word with the first byte of its pair high; word 0x06 holds MAC[0..1]),
   // the card name at 0x10, IP at 0x20 (low word c.d) and 0x22 (high word a.b).
@@ -109,16 +113,18 @@ std::uint64_t Lbp16Card::read(std::uint8_t space, std::uint32_t address, unsigne
       if (size == 4) return lo;
       return lo | (static_cast<std::uint64_t>(card_.read32(static_cast<std::uint16_t>(address + 4), now)) << 32);
     }
-    case 3: {
-      std::uint64_t v = 0;
-      if ((address & 0xC) == 8) v = kFlashId;
-      if ((address & 0xC) == 4) {
-        v = 0xFFFFFFFFU;  // an erased part: what the configuration area reads
-        flashAddress_ += 4;
+    case 3:
+      switch (address & 0xC) {
+        case 0: return flashAddress_;
+        case 4: {
+          std::uint32_t v = 0;
+          for (unsigned i = 0; i < 4; ++i) v |= std::uint32_t{flash_[(flashAddress_ + i) % kFlashBytes]} << (8 * i);
+          flashAddress_ = (flashAddress_ + 4) % kFlashBytes;
+          return v;
+        }
+        case 8: return kFlashId;
+        default: return 0;
       }
-      if ((address & 0xC) == 0) v = flashAddress_;
-      return v;
-    }
     default: {
       std::uint64_t v = 0;
       for (unsigned i = 0; i < size; i += 2) v |= static_cast<std::uint64_t>(readWord16(space, address + i, now)) << (8 * i);
@@ -134,15 +140,33 @@ void Lbp16Card::write(std::uint8_t space, std::uint32_t address, unsigned size, 
       if (size == 8) card_.write32(static_cast<std::uint16_t>(address + 4), static_cast<std::uint32_t>(value >> 32), now);
       return;
     case 2:
-      if (!eepromWriteEnabled_) {
+      if (writeEnable_ != kEepromWriteEnableKey) {
         ++counters_.writeErrors;
         return;
       }
       for (unsigned i = 0; i < size; ++i) eeprom_[(address + i) & 0x7F] = static_cast<std::uint8_t>(value >> (8 * i));
       return;
     case 3:
-      if ((address & 0xC) == 0) flashAddress_ = static_cast<std::uint32_t>(value);
-      else ++counters_.writeErrors;  // programming the flash is not modelled
+      if ((address & 0xC) == 0) {
+        flashAddress_ = static_cast<std::uint32_t>(value) % kFlashBytes;
+        return;
+      }
+      if (writeEnable_ != kFlashWriteEnableKey || (address & 0xC) == 8) {
+        ++counters_.writeErrors;  // programming needs the write enable; the ID is read only
+        return;
+      }
+      if ((address & 0xC) == 0xC) {
+        // Sector erase: the 64 KB sector holding the flash address reads 0xFF.
+        const auto start = flashAddress_ / kFlashSector * kFlashSector;
+        std::fill_n(flash_.begin() + start, kFlashSector, std::uint8_t{0xFF});
+        return;
+      }
+      // Page program: NOR flash only clears bits; the address advances.
+      for (unsigned i = 0; i < 4; ++i) {
+        auto& b = flash_[(flashAddress_ + i) % kFlashBytes];
+        b = static_cast<std::uint8_t>(b & (value >> (8 * i)));
+      }
+      flashAddress_ = (flashAddress_ + 4) % kFlashBytes;
       return;
     case 4:
       if (address >= 0x10 && address < 0x18) {
@@ -153,7 +177,7 @@ void Lbp16Card::write(std::uint8_t space, std::uint32_t address, unsigned size, 
     case 6:
       if (address == 0x14) ledMode_ = static_cast<std::uint16_t>(value);
       else if (address == 0x18) commScratch_ = static_cast<std::uint16_t>(value);
-      else if (address == 0x1A) eepromWriteEnabled_ = static_cast<std::uint16_t>(value) == kEepromWriteEnableKey;
+      else if (address == 0x1A) writeEnable_ = static_cast<std::uint16_t>(value);
       // 0x1C reset and 0x1E ICAP reload: nothing to do for a virtual FPGA
       return;
     default:
@@ -164,7 +188,7 @@ void Lbp16Card::write(std::uint8_t space, std::uint32_t address, unsigned size, 
 
 std::size_t Lbp16Card::handle(std::span<const std::uint8_t> request, std::span<std::uint8_t> reply, hm2::SimTime now) {
   ++counters_.packets;
-  eepromWriteEnabled_ = false;
+  writeEnable_ = 0;
   if (request.size() > kMaxDatagram) {
     ++counters_.parseErrors;  // bigger than one frame: a real card never sees it
     return 0;

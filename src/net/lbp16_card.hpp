@@ -3,7 +3,8 @@
 // LinuxCNC's hm2_eth and mesaflash speak it).
 //
 //   0 HostMot2 registers (32-bit)      1 Ethernet chip (16-bit, read only)
-//   2 Ethernet EEPROM: MAC, name, IP   3 FPGA flash: address/data/ID
+//   2 Ethernet EEPROM: MAC, name, IP   3 FPGA flash: address (0), data (4:
+//     reads and page programs advance the address), ID (8), sector erase (C)
 //   4 timer, with the scratch words hm2_eth echoes its packet counters in
 //   6 communication control/status counters   7 board info ("7I92")
 // Each space also has a 16-byte area-info block (info-area access).
@@ -17,6 +18,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "hm2/card.hpp"
 #include "net/lbp16.hpp"
@@ -78,7 +80,12 @@ class Lbp16Card {
   std::array<std::uint8_t, 128> eeprom_{};
   std::uint16_t ledMode_ = 0;
   std::uint16_t commScratch_ = 0;
-  bool eepromWriteEnabled_ = false;  // for the rest of this datagram
+  // The write-enable key written to comm-control 0x1A in this datagram:
+  // 0x5A02 lets the EEPROM be written, 0x5A03 the flash.
+  std::uint16_t writeEnable_ = 0;
+  // The configuration flash: a blank 16 Mbit part (mesaflash --write
+  // installs its boot block and a bitfile; --verify reads them back).
+  std::vector<std::uint8_t> flash_;
   std::uint32_t flashAddress_ = 0;
 };
 
