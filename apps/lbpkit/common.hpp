@@ -44,7 +44,6 @@ std::filesystem::path defaultStateDir();
 
 }  // namespace app
 
-int runRemote(CLI::App& app);
 void addRemoteCommand(CLI::App& app);
 void addInfoCommand(CLI::App& app);
 void addDiscoverCommand(CLI::App& app);

@@ -309,7 +309,6 @@ void SmartSerial::advance(SimTime now) {
       step(static_cast<unsigned>(which), at);
     }
   }
-  now_ = std::max(now_, now);
 }
 
 SimTime SmartSerial::startTimeout(const Channel& c) const {

@@ -176,7 +176,6 @@ class SmartSerial final : public Module {
   std::uint8_t immediateData_ = 0;
   SimTime immediateDone_{};
   bool lost_ = false;
-  SimTime now_{};
   Counters counters_;
 };
 

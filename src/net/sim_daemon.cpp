@@ -373,7 +373,6 @@ std::string SimDaemon::latencySummary() const {
 }
 
 void SimDaemon::run(const std::atomic<bool>& stop) {
-  running_ = true;
   if (options_.realtime) {
     sched_param p{};
     p.sched_priority = 40;
@@ -415,7 +414,6 @@ void SimDaemon::run(const std::atomic<bool>& stop) {
       }
     }
   }
-  running_ = false;
   drainJobs();
 }
 

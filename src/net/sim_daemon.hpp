@@ -96,7 +96,6 @@ class SimDaemon {
   int apiPort_ = -1;
   std::mutex jobsMutex_;
   std::deque<std::packaged_task<std::string()>> jobs_;
-  std::atomic<bool> running_{false};
   // Server-side time per datagram (receive to reply sent), 1 us buckets.
   struct Latency {
     std::array<std::uint64_t, 1001> buckets{};  // the last one: 1 ms and more

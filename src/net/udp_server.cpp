@@ -41,13 +41,11 @@ long UdpServer::receive(std::chrono::milliseconds timeout) {
   pollfd p{fd_, POLLIN, 0};
   if (::poll(&p, 1, static_cast<int>(timeout.count())) <= 0) return -1;
   socklen_t len = sizeof peer_;
-  // Read one byte more than a frame: a datagram that fills it is oversized.
+  // MSG_TRUNC gives the datagram's real length; one bigger than the buffer
+  // is passed on as a full buffer, which the handler refuses as oversized.
   const ssize_t n = ::recvfrom(fd_, in_.data(), in_.size(), MSG_TRUNC, reinterpret_cast<sockaddr*>(&peer_), &len);
   if (n < 0) return -1;
-  if (static_cast<std::size_t>(n) > in_.size()) {
-    ++oversized_;
-    return static_cast<long>(in_.size());  // handled (and refused) as an oversized datagram
-  }
+  if (static_cast<std::size_t>(n) > in_.size()) return static_cast<long>(in_.size());
   return static_cast<long>(n);
 }
 

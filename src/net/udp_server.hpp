@@ -36,7 +36,6 @@ class UdpServer {
     if (len > 0) send(len);
     return true;
   }
-  [[nodiscard]] std::uint64_t oversized() const { return oversized_; }
 
  private:
   long receive(std::chrono::milliseconds timeout);
@@ -48,7 +47,6 @@ class UdpServer {
   std::array<std::uint8_t, kBuffer> in_{};
   std::array<std::uint8_t, kBuffer> out_{};
   sockaddr_in peer_{};
-  std::uint64_t oversized_ = 0;
 };
 
 // The MAC address of the interface that has `ipv4` (none for loopback).

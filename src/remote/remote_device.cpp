@@ -181,7 +181,6 @@ void RemoteDevice::powerUp(SimTime now) {
   setRaw(standard(Standard::SwRevision), identity_.swRevision);
   swMode_ = 0;
   nvAccess_ = 0;
-  leds_ = 0;
   // Startup condition: the watchdog fault is set until the host clears it
   // (manual: WATCHDOG AND FAULTS; CR16 is on at power-up).
   faults_ = fault::kWatchdog;
@@ -376,8 +375,7 @@ bool RemoteDevice::writeLocal(std::uint8_t command, std::uint8_t value) {
       nvAccess_ = value;
       return true;
     case w::kLeds:
-      leds_ = value;
-      return true;
+      return true;  // CR15/CR16 are the firmware's: a host LED write changes nothing visible
     default:
       return false;
   }
@@ -390,11 +388,6 @@ const SoftwareMode& RemoteDevice::currentMode() const {
 }
 const RemoteDevice::ModeTables& RemoteDevice::currentTables() const {
   return swMode_ < modes_.size() ? modeTables_[swMode_] : modeTables_[0];
-}
-
-bool RemoteDevice::processDataMode(ElementId id) const {
-  const auto& pd = currentMode().processData;
-  return std::find(pd.begin(), pd.end(), id) != pd.end();
 }
 
 RemoteDevice::Discovery RemoteDevice::discovery() const {

@@ -184,8 +184,6 @@ class RemoteDevice : public lbp::Target {
   // Outputs may reach the terminals only while no watchdog (or illegal mode)
   // fault is set: the host must clear it first (manual: WATCHDOG AND FAULTS).
   [[nodiscard]] bool outputsBlocked() const { return (faults_ & (fault::kWatchdog | fault::kIllegalMode)) != 0; }
-  [[nodiscard]] bool processDataMode(ElementId id) const;  // is it in the current mode's PTOC?
-  [[nodiscard]] SimTime now() const { return now_; }
 
   // The world behind the processor.
   virtual void sampleInputs() = 0;  // terminals -> input elements
@@ -237,7 +235,6 @@ class RemoteDevice : public lbp::Target {
   std::uint8_t faults_ = 0;
   std::uint8_t swMode_ = 0;
   std::uint8_t nvAccess_ = 0;
-  std::uint8_t leds_ = 0;
   SimTime now_{};
   SimTime lastHostCommand_{};
   std::uint32_t processDataCount_ = 0;
