@@ -2,7 +2,7 @@
 // through the in-process card, and how many DOITs a full discovery takes.
 #include <benchmark/benchmark.h>
 
-#include "lbpkit/sim_transport.hpp"
+#include "sim_card/sim_transport.hpp"
 #include "lbpkit/sserial.hpp"
 
 namespace {

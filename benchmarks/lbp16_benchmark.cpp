@@ -4,8 +4,8 @@
 
 #include <vector>
 
-#include "hm2/card.hpp"
-#include "net/lbp16_card.hpp"
+#include "hostmot2/card.hpp"
+#include "lbp16/lbp16_card.hpp"
 
 namespace {
 

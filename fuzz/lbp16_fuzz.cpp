@@ -5,8 +5,8 @@
 #include <cstdlib>
 #include <span>
 
-#include "hm2/card.hpp"
-#include "net/lbp16_card.hpp"
+#include "hostmot2/card.hpp"
+#include "lbp16/lbp16_card.hpp"
 
 namespace {
 struct World {

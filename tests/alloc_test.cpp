@@ -6,11 +6,11 @@
 #include <cstdlib>
 #include <new>
 
-#include "hm2/card.hpp"
+#include "hostmot2/card.hpp"
 #include "lbpkit/encoders.hpp"
-#include "lbpkit/sim_transport.hpp"
+#include "sim_card/sim_transport.hpp"
 #include "lbpkit/sserial.hpp"
-#include "net/lbp16_card.hpp"
+#include "lbp16/lbp16_card.hpp"
 #include "running_card.hpp"
 
 namespace {

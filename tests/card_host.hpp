@@ -3,7 +3,7 @@
 
 #include <gtest/gtest.h>
 
-#include "hm2/card.hpp"
+#include "hostmot2/card.hpp"
 
 namespace testing_hm2 {
 

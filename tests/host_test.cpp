@@ -10,7 +10,7 @@
 #include "lbpkit/error.hpp"
 #include "lbpkit/faults.hpp"
 #include "lbpkit/parameters.hpp"
-#include "lbpkit/sim_transport.hpp"
+#include "sim_card/sim_transport.hpp"
 #include "lbpkit/sserial.hpp"
 #include "running_card.hpp"
 

@@ -3,9 +3,10 @@
 #include <array>
 #include <string_view>
 
-#include "lbp/crc8.hpp"
+#include "lbpkit/wire/crc8.hpp"
 
 namespace {
+namespace lbp = lbpkit::wire::lbp;
 
 std::uint8_t crcOf(std::string_view s) {
   return lbp::crc8({reinterpret_cast<const std::uint8_t*>(s.data()), s.size()});

@@ -7,8 +7,7 @@
 #include <optional>
 #include <vector>
 
-#include "lbp/command.hpp"
-#include "lbp/crc8.hpp"
+#include "lbp/protocol.hpp"
 #include "remote/remote_device.hpp"
 
 namespace testing_lbp {

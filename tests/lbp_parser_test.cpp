@@ -5,8 +5,7 @@
 #include <array>
 #include <vector>
 
-#include "lbp/command.hpp"
-#include "lbp/crc8.hpp"
+#include "lbp/protocol.hpp"
 #include "lbp/parser.hpp"
 
 namespace {

@@ -14,8 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "lbp/command.hpp"
-#include "lbp/crc8.hpp"
+#include "lbp/protocol.hpp"
 #include "process.hpp"
 
 namespace {

@@ -6,7 +6,7 @@
 #include <cstring>
 #include <string>
 
-#include "lbp/discovery.hpp"
+#include "lbp/protocol.hpp"
 #include "lbp_host.hpp"
 #include "remote/analog.hpp"
 #include "remote/field_io.hpp"

@@ -2,7 +2,7 @@
 // started in normal mode, ready for cycles.
 #pragma once
 
-#include "lbpkit/sim_transport.hpp"
+#include "sim_card/sim_transport.hpp"
 #include "lbpkit/sserial.hpp"
 
 namespace testing_host {

@@ -7,8 +7,7 @@
 #include <string>
 
 #include "card_host.hpp"
-#include "lbp/command.hpp"
-#include "lbp/discovery.hpp"
+#include "lbp/protocol.hpp"
 
 namespace {
 

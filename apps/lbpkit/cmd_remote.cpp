@@ -6,7 +6,7 @@
 #include <memory>
 
 #include "common.hpp"
-#include "net/pty_remote.hpp"
+#include "pty/pty_remote.hpp"
 #include "remote/analog.hpp"
 #include "remote/field_io.hpp"
 

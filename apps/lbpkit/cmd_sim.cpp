@@ -8,7 +8,7 @@
 
 #include "common.hpp"
 #include "lbpkit/error.hpp"
-#include "net/sim_daemon.hpp"
+#include "daemon/sim_daemon.hpp"
 
 namespace app {
 extern std::function<int()> gRun;

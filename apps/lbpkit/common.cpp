@@ -8,7 +8,7 @@
 
 #include "lbpkit/error.hpp"
 #include "lbpkit/lbp16_transport.hpp"
-#include "lbpkit/sim_transport.hpp"
+#include "sim_card/sim_transport.hpp"
 
 namespace app {
 

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "lbpkit/hostmot2.hpp"
-#include "lbpkit/sim_transport.hpp"
+#include "sim_card/sim_transport.hpp"
 #include "lbpkit/sserial.hpp"
 #include "lbpkit/transport.hpp"
 

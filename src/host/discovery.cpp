@@ -53,7 +53,6 @@ class ChunkReader {
   std::map<std::uint16_t, std::uint64_t> chunks_;
 };
 
-bool knownType(std::uint8_t t) { return t <= 0x08 || t == 0x10 || t == 0x11; }
 
 std::vector<std::uint16_t> readToc(ChunkReader& r, RemoteAccess& remote, std::uint16_t toc, const char* table,
                                    const DiscoveryLimits& limits) {
@@ -112,7 +111,7 @@ bool ProcessDataElement::numeric() const {
 double ProcessDataElement::scale(std::uint64_t raw) const {
   const unsigned n = std::min(bits, 64U);
   if (type == DataType::Signed || type == DataType::NonVolSigned) {
-    const std::int64_t v = lbp::signExtend(raw, n);
+    const std::int64_t v = wire::lbp::signExtend(raw, n);
     if (min == max || n < 2) return static_cast<double>(v);
     return static_cast<double>(v) * static_cast<double>(max) / static_cast<double>((1ULL << (n - 1)) - 1);
   }
@@ -151,8 +150,8 @@ unsigned RemoteDescription::bytewiseReads() const {
   n += 2 * (records + 1);                      // PTOC
   n += 2 * (records + parameters.size() + 1);  // GTOC
   for (const auto* list : {&processData, &parameters})
-    for (const auto& e : *list) n += 14 + e.unit.size() + 1 + e.name.size() + 1;
-  for (const auto& m : modes) n += 4 + m.name.size() + 1;
+    for (const auto& e : *list) n += wire::lbp::pdd::kStrings + e.unit.size() + 1 + e.name.size() + 1;
+  for (const auto& m : modes) n += wire::lbp::mode_record::kName + m.name.size() + 1;
   return static_cast<unsigned>(n);
 }
 
@@ -173,30 +172,33 @@ RemoteDescription discover(RemoteAccess& remote, std::uint16_t ptoc, std::uint16
 
   auto record = [&](std::uint16_t at, const char* table, unsigned index, ProcessDataElement& e, ModeDescriptor& m) {
     const auto type = r.byte(at);
-    if (type == 0xB0) {
-      m.index = r.byte(at + 1U);
-      m.type = r.byte(at + 2U);
-      std::uint32_t p = at + 4U;
+    namespace pdd = wire::lbp::pdd;
+    namespace mode = wire::lbp::mode_record;
+    if (type == wire::lbp::kModeRecord) {
+      m.index = r.byte(at + mode::kIndex);
+      m.type = r.byte(at + mode::kType);
+      std::uint32_t p = at + mode::kName;
       m.name = r.string(p, limits.maxString, fmt::format("{} entry {} mode name", table, index));
       return false;
     }
-    if (type != 0xA0)
+    if (type != wire::lbp::kProcessDataRecord)
       throw Error(fmt::format("{}: {} entry {} points to 0x{:04X}, a record of unknown type 0x{:02X} "
-                              "(expected 0xA0 process data or 0xB0 mode)",
-                              remote.where(), table, index, at, type));
+                              "(expected 0x{:02X} process data or 0x{:02X} mode)",
+                              remote.where(), table, index, at, type, wire::lbp::kProcessDataRecord,
+                              wire::lbp::kModeRecord));
     e.record = at;
-    e.bits = r.byte(at + 1U);
-    const auto dataType = r.byte(at + 2U);
-    const auto dir = r.byte(at + 3U);
-    e.min = std::bit_cast<float>(static_cast<std::uint32_t>(r.value(at + 4U, 4)));
-    e.max = std::bit_cast<float>(static_cast<std::uint32_t>(r.value(at + 8U, 4)));
-    e.address = static_cast<std::uint16_t>(r.value(at + 12U, 2));
-    std::uint32_t p = at + 14U;
+    e.bits = r.byte(at + pdd::kDataSize);
+    const auto dataType = r.byte(at + pdd::kDataType);
+    const auto dir = r.byte(at + pdd::kDirection);
+    e.min = std::bit_cast<float>(static_cast<std::uint32_t>(r.value(at + pdd::kMin, 4)));
+    e.max = std::bit_cast<float>(static_cast<std::uint32_t>(r.value(at + pdd::kMax, 4)));
+    e.address = static_cast<std::uint16_t>(r.value(at + pdd::kAddress, 2));
+    std::uint32_t p = at + pdd::kStrings;
     e.unit = r.string(p, limits.maxString, fmt::format("{} entry {} unit string", table, index));
     e.name = r.string(p, limits.maxString, fmt::format("{} entry {} name string", table, index));
     const auto where = fmt::format("{}: {} entry {} (record 0x{:04X}, \"{}\")", remote.where(), table, index, at, e.name);
-    if (!knownType(dataType)) throw Error(fmt::format("{}: unknown data type 0x{:02X}", where, dataType));
-    if (dir != 0x00 && dir != 0x40 && dir != 0x80)
+    if (!wire::lbp::isKnownDataType(dataType)) throw Error(fmt::format("{}: unknown data type 0x{:02X}", where, dataType));
+    if (!wire::lbp::isDirection(dir))
       throw Error(fmt::format("{}: invalid data direction 0x{:02X}", where, dir));
     if (e.bits == 0) throw Error(fmt::format("{}: data size of 0 bits", where));
     if (e.bits > limits.maxBitsPerDirection)

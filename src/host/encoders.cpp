@@ -5,33 +5,40 @@
 #include <cmath>
 
 #include "lbpkit/error.hpp"
+#include "lbpkit/wire/hostmot2.hpp"
+#include "lbpkit/wire/muxed_encoder.hpp"
 
 namespace lbpkit {
 
 namespace {
-constexpr std::uint32_t kFilter = 1U << 11;
-constexpr std::uint32_t kJustOnce = 1U << 6;
-constexpr std::uint32_t kLatchOnIndex = 1U << 4;
+using wire::qcount::ccr::kFilter;
+using wire::qcount::ccr::kJustOnce;
+using wire::qcount::ccr::kLatchOnIndex;
 }  // namespace
 
 MuxedEncoders::MuxedEncoders(Transport& t, const CardInfo& card) : t_(t) {
-  const ModuleInfo* md = card.module(0x0C);
+  const ModuleInfo* md = card.module(wire::hm2::tag::kMuxedQCount);
   if (md == nullptr) throw Error(fmt::format("the card ({}) has no muxed encoder module", card.boardName));
   base_ = md->baseAddress;
   regStride_ = md->registerStride;
+  instanceStride_ = md->instanceStride;
   clock_ = md->clockHz;
   count_ = std::min<unsigned>(md->instances, kMax);
   tsDivisor_ = clock_ / 2'000'000 - 2;  // 2 MHz timestamps
 }
 
+std::uint16_t MuxedEncoders::reg(unsigned block, unsigned counter) const {
+  return static_cast<std::uint16_t>(base_ + block * regStride_ + instanceStride_ * counter);
+}
+
 void MuxedEncoders::initialize() {
   for (unsigned n = 0; n < count_; ++n) {
     state_[n].controlOut = kFilter;
-    t_.queueWrite(static_cast<std::uint16_t>(base_ + regStride_ + 4 * n), &state_[n].controlOut);
+    t_.queueWrite(reg(wire::qcount::reg::kControl, n), &state_[n].controlOut);
   }
   const std::uint32_t rate = clock_ / 8'000'000 - 2;  // 8 MHz mux ticks: 2 MHz count rate
-  t_.queueWrite(static_cast<std::uint16_t>(base_ + 2 * regStride_), &tsDivisor_);
-  t_.queueWrite(static_cast<std::uint16_t>(base_ + 4 * regStride_), &rate);
+  t_.queueWrite(reg(wire::qcount::reg::kTimestampDiv, 0), &tsDivisor_);
+  t_.queueWrite(reg(wire::qcount::reg::kRate, 0), &rate);
   t_.flush();
 }
 
@@ -46,14 +53,14 @@ void MuxedEncoders::queue() {
   for (unsigned n = 0; n < count_; ++n) {
     auto& s = state_[n];
     if (s.writeControl) {
-      t_.queueWrite(static_cast<std::uint16_t>(base_ + regStride_ + 4 * n), &s.controlOut);
+      t_.queueWrite(reg(wire::qcount::reg::kControl, n), &s.controlOut);
       s.writeControl = false;
     }
   }
-  t_.queueRead(static_cast<std::uint16_t>(base_ + 3 * regStride_), &timestamp_);
+  t_.queueRead(reg(wire::qcount::reg::kTimestamp, 0), &timestamp_);
   for (unsigned n = 0; n < count_; ++n) {
-    t_.queueRead(static_cast<std::uint16_t>(base_ + 4 * n), &state_[n].countReg);
-    t_.queueRead(static_cast<std::uint16_t>(base_ + regStride_ + 4 * n), &state_[n].ccr);
+    t_.queueRead(reg(wire::qcount::reg::kCount, n), &state_[n].countReg);
+    t_.queueRead(reg(wire::qcount::reg::kControl, n), &state_[n].ccr);
   }
 }
 
@@ -94,7 +101,7 @@ void MuxedEncoders::update() {
     s.lastRaw = raw;
     // Index: latch-on-index reads back 0 once the index came.
     if (s.indexArmed && !(s.ccr & kLatchOnIndex)) {
-      const auto latched = static_cast<std::uint16_t>(s.ccr >> 16);
+      const auto latched = static_cast<std::uint16_t>(s.ccr >> wire::qcount::ccr::kLatchedShift);
       s.offset = s.counts - static_cast<std::int16_t>(static_cast<std::uint16_t>(raw - latched));
       s.indexArmed = false;
       s.controlOut = kFilter;

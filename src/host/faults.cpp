@@ -3,7 +3,9 @@
 #include <array>
 #include <string_view>
 
-#include "remote/remote_device.hpp"
+#include "lbpkit/wire/lbp.hpp"
+#include "lbpkit/wire/seven_i77.hpp"
+#include "lbpkit/wire/sslbp.hpp"
 
 namespace lbpkit {
 
@@ -20,16 +22,14 @@ std::string bits(std::uint8_t v, const std::array<std::string_view, 8>& names) {
 }  // namespace
 
 std::string describeLocalFaults(std::uint8_t v) {
-  return bits(v, {"CRCError", "InvalidCookieError", "OverrunError", "TimeoutError", "ExtraCharacterError",
-                  "SerialBreakError", "RemoteFault", "TooManyErrors"});
+  return bits(v, wire::sslbp::cs::kLocalFaultNames);
 }
 std::string describeStatus(std::uint8_t v) {
-  return bits(v, {"RemoteFault", "", "", "", "", "CommunicationError", "NoRemoteID", "CommunicationNotReady"});
+  return bits(v, wire::sslbp::cs::kStatusNames);
 }
-std::string describeRemoteFaults(std::uint8_t v) { return bits(v, remote::fault::kNames); }
+std::string describeRemoteFaults(std::uint8_t v) { return bits(v, wire::i7i77::fault::kNames); }
 std::string describeLbpStatus(std::uint8_t v) {
-  return bits(v, {"CRCError", "", "", "WatchdogTimeoutError", "BufferOverflowError", "InvalidWriteError",
-                  "CommandTimeoutError", ""});
+  return bits(v, wire::lbp::status::kNames);
 }
 
 std::string describeCs(std::uint32_t cs) {
@@ -41,7 +41,7 @@ std::string describeCs(std::uint32_t cs) {
   };
   add(describeLocalFaults(static_cast<std::uint8_t>(cs)));
   add(describeStatus(static_cast<std::uint8_t>(cs >> 8)));
-  add(describeRemoteFaults(static_cast<std::uint8_t>(cs >> 24)));
+  add(describeRemoteFaults(static_cast<std::uint8_t>(cs >> wire::sslbp::cs::kRemoteByteShift)));
   return s.empty() ? "ok" : s;
 }
 

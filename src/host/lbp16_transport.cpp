@@ -13,7 +13,7 @@
 #include <thread>
 
 #include "lbpkit/error.hpp"
-#include "net/lbp16.hpp"
+#include "lbpkit/wire/lbp16.hpp"
 
 namespace lbpkit {
 
@@ -54,7 +54,7 @@ void Lbp16Transport::queueRead(std::uint16_t address, std::uint32_t* into, std::
   while (count > 0) {
     const std::size_t n = std::min<std::size_t>(count, 127);
     if (outLen_ + 4 > out_.size() || replyLen_ + 4 * n > out_.size() || readCount_ == reads_.size()) flush();
-    const std::uint16_t cmd = net::lbp16::hm2Read(static_cast<unsigned>(n));
+    const std::uint16_t cmd = wire::lbp16::hm2Read(static_cast<unsigned>(n));
     const std::uint8_t hdr[4] = {static_cast<std::uint8_t>(cmd), static_cast<std::uint8_t>(cmd >> 8),
                                  static_cast<std::uint8_t>(address), static_cast<std::uint8_t>(address >> 8)};
     std::memcpy(&out_[outLen_], hdr, 4);
@@ -72,7 +72,7 @@ void Lbp16Transport::queueWrite(std::uint16_t address, const std::uint32_t* from
     std::size_t n = std::min<std::size_t>(count, 127);
     if (outLen_ + 4 + 4 * n > out_.size()) flush();
     n = std::min(n, (out_.size() - 4) / 4);
-    const std::uint16_t cmd = net::lbp16::hm2Write(static_cast<unsigned>(n));
+    const std::uint16_t cmd = wire::lbp16::hm2Write(static_cast<unsigned>(n));
     const std::uint8_t hdr[4] = {static_cast<std::uint8_t>(cmd), static_cast<std::uint8_t>(cmd >> 8),
                                  static_cast<std::uint8_t>(address), static_cast<std::uint8_t>(address >> 8)};
     std::memcpy(&out_[outLen_], hdr, 4);
@@ -138,7 +138,7 @@ std::vector<std::uint8_t> Lbp16Transport::request(std::span<const std::uint8_t> 
 }
 
 std::string Lbp16Transport::boardName() {
-  const std::uint16_t cmd = net::lbp16::Command{false, true, false, 7, 2, true, 8}.encode();
+  const std::uint16_t cmd = wire::lbp16::Command{false, true, false, 7, 2, true, 8}.encode();
   const std::uint8_t req[4] = {static_cast<std::uint8_t>(cmd), static_cast<std::uint8_t>(cmd >> 8), 0, 0};
   const auto r = request(req, 16);
   std::string s;

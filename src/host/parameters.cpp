@@ -6,12 +6,13 @@
 #include <cstdlib>
 
 #include "lbpkit/error.hpp"
+#include "lbpkit/wire/lbp.hpp"
 
 namespace lbpkit {
 
 namespace {
-constexpr std::uint8_t kNonVolatileWrite = 0xEC;  // LBP local: NV access (LBP.INC)
-constexpr std::uint8_t kEeprom = 0x01;
+constexpr std::uint8_t kNonVolatileWrite = wire::lbp::local_write::kNonVolatile;
+constexpr std::uint8_t kEeprom = wire::lbp::nonvolatile::kEeprom;
 
 // The element's bytes with the widest LBP commands that fit (8, 4, 2, 1).
 template <typename Op>
@@ -64,7 +65,7 @@ void writeElement(RemoteAccess& remote, const ProcessDataElement& e, std::uint64
 std::string formatElement(const ProcessDataElement& e, std::uint64_t raw, bool hex) {
   if (hex) return fmt::format("{:0{}X}", raw, (e.bits + 3) / 4);
   if (e.type == DataType::Signed || e.type == DataType::NonVolSigned)
-    return fmt::format("{}", lbp::signExtend(raw, std::min(e.bits, 64U)));
+    return fmt::format("{}", wire::lbp::signExtend(raw, std::min(e.bits, 64U)));
   return fmt::format("{}", raw);
 }
 

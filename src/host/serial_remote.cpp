@@ -10,8 +10,8 @@
 #include <cerrno>
 #include <cstring>
 
-#include "lbp/command.hpp"
-#include "lbp/crc8.hpp"
+#include "lbpkit/wire/lbp.hpp"
+#include "lbpkit/wire/crc8.hpp"
 #include "lbpkit/error.hpp"
 
 namespace lbpkit {
@@ -53,7 +53,7 @@ SerialRemote::~SerialRemote() {
 std::vector<std::uint8_t> SerialRemote::transact(std::span<const std::uint8_t> command, std::size_t replyBytes,
                                                  const std::string& what) {
   std::vector<std::uint8_t> frame(command.begin(), command.end());
-  frame.push_back(lbp::crc8(frame));
+  frame.push_back(wire::lbp::crc8(frame));
   // Stale characters from an earlier, timed-out exchange would shift this reply.
   ::tcflush(fd_, TCIFLUSH);
   if (::write(fd_, frame.data(), frame.size()) != static_cast<ssize_t>(frame.size()))
@@ -74,13 +74,13 @@ std::vector<std::uint8_t> SerialRemote::transact(std::span<const std::uint8_t> c
     throw Error(fmt::format("{}: no answer to {} ({} of {} bytes): is the remote powered, in setup mode "
                             "(W4/W12), and at 115200 baud?",
                             path_, what, reply.size(), replyBytes + 1));
-  if (lbp::crc8(reply) != 0) throw Error(fmt::format("{}: the answer to {} has a bad CRC", path_, what));
+  if (wire::lbp::crc8(reply) != 0) throw Error(fmt::format("{}: the answer to {} has a bad CRC", path_, what));
   reply.pop_back();
   return reply;
 }
 
 std::uint64_t SerialRemote::read(std::uint16_t address, unsigned size) {
-  const std::uint8_t cmd[3] = {lbp::readHeader(static_cast<std::uint8_t>(size), true),
+  const std::uint8_t cmd[3] = {wire::lbp::readHeader(static_cast<std::uint8_t>(size), true),
                                static_cast<std::uint8_t>(address), static_cast<std::uint8_t>(address >> 8)};
   const auto r = transact(cmd, size, fmt::format("a read of {} bytes at 0x{:04X}", size, address));
   std::uint64_t v = 0;
@@ -89,15 +89,15 @@ std::uint64_t SerialRemote::read(std::uint16_t address, unsigned size) {
 }
 
 void SerialRemote::write(std::uint16_t address, unsigned size, std::uint64_t value) {
-  localWrite(lbp::local_write::kStatus, 0);  // so the status after the write speaks of it alone
-  std::vector<std::uint8_t> cmd = {lbp::writeHeader(static_cast<std::uint8_t>(size), true),
+  localWrite(wire::lbp::local_write::kStatus, 0);  // so the status after the write speaks of it alone
+  std::vector<std::uint8_t> cmd = {wire::lbp::writeHeader(static_cast<std::uint8_t>(size), true),
                                    static_cast<std::uint8_t>(address), static_cast<std::uint8_t>(address >> 8)};
   for (unsigned i = 0; i < size; ++i) cmd.push_back(static_cast<std::uint8_t>(value >> (8 * i)));
   transact(cmd, 0, fmt::format("a write of {} bytes at 0x{:04X}", size, address));
   // A refused write still gets its CRC; the status tells.
-  const auto status = localRead(lbp::local_read::kStatus);
-  if (status & lbp::status::kInvalidWrite) {
-    const std::uint8_t clear[2] = {lbp::local_write::kStatus, 0};
+  const auto status = localRead(wire::lbp::local_read::kStatus);
+  if (status & wire::lbp::status::kInvalidWrite) {
+    const std::uint8_t clear[2] = {wire::lbp::local_write::kStatus, 0};
     transact(clear, 0, "clearing the LBP status");
     throw Error(fmt::format("{}: the remote refused the write at 0x{:04X} (read only, or NV access off)", path_,
                             address));
@@ -115,20 +115,20 @@ void SerialRemote::localWrite(std::uint8_t command, std::uint8_t value) {
 }
 
 SerialRemote::Discovery SerialRemote::discoveryRpc() {
-  const std::uint8_t cmd[1] = {lbp::special_rpc::kDiscovery};
+  const std::uint8_t cmd[1] = {wire::lbp::special_rpc::kDiscovery};
   const auto r = transact(cmd, 6, "the discovery RPC");
   return {r[0], r[1], static_cast<std::uint16_t>(r[2] | (r[3] << 8)), static_cast<std::uint16_t>(r[4] | (r[5] << 8))};
 }
 
 std::uint32_t SerialRemote::unitNumber() {
-  const std::uint8_t cmd[1] = {lbp::special_rpc::kUnitNumber};
+  const std::uint8_t cmd[1] = {wire::lbp::special_rpc::kUnitNumber};
   const auto r = transact(cmd, 4, "the unit number RPC");
   return std::uint32_t{r[0]} | (std::uint32_t{r[1]} << 8) | (std::uint32_t{r[2]} << 16) | (std::uint32_t{r[3]} << 24);
 }
 
 std::string SerialRemote::cardName() {
   std::string s;
-  for (std::uint8_t c = 0; c < 4; ++c) s.push_back(static_cast<char>(localRead(static_cast<std::uint8_t>(lbp::local_read::kCardName0 + c))));
+  for (std::uint8_t c = 0; c < 4; ++c) s.push_back(static_cast<char>(localRead(static_cast<std::uint8_t>(wire::lbp::local_read::kCardName0 + c))));
   return s;
 }
 

@@ -5,25 +5,19 @@
 #include <algorithm>
 #include <cctype>
 
-#include "lbp/command.hpp"
-#include "lbp/discovery.hpp"
+#include "lbpkit/wire/hostmot2.hpp"
+#include "lbpkit/wire/lbp.hpp"
+#include "lbpkit/wire/process_data.hpp"
+#include "lbpkit/wire/seven_i77.hpp"
+#include "lbpkit/wire/sslbp.hpp"
 #include "lbpkit/error.hpp"
 #include "lbpkit/faults.hpp"
 
 namespace lbpkit {
 
 namespace {
-constexpr std::uint16_t kDoit = 0x1000;
-constexpr std::uint16_t kStop = 0x0800;
-constexpr std::uint16_t kStart = 0x0900;
-constexpr std::uint16_t kSetupStart = 0x0F00;
-constexpr std::uint16_t kRequest = 0x2000;
-constexpr std::uint16_t kWrite = 0x8000;
-// Local RAM: per-channel blocks hold the sizes the discovery RPC reported.
-constexpr std::uint16_t kChannelStartLocal = 4;
-constexpr std::uint16_t kChannelStrideLocal = 5;
-constexpr std::uint16_t kRxSizeOffset = 0x2E;
-constexpr std::uint16_t kTxSizeOffset = 0x2F;
+using namespace wire::sslbp::command;
+namespace local = wire::sslbp::local;
 
 std::string lower(std::string s) {
   for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -41,11 +35,11 @@ class SetupChannelAccess final : public RemoteAccess {
       : t_(t), regs_(regs), channel_(channel), timeout_(timeout), poll_(poll) {}
 
   std::uint64_t read(std::uint16_t address, unsigned size) override {
-    const std::uint8_t header = lbp::readHeader(static_cast<std::uint8_t>(size), true);
+    const std::uint8_t header = wire::lbp::readHeader(static_cast<std::uint8_t>(size), true);
     return run(header, address, 0, true, fmt::format("read of {} bytes at 0x{:04X}", size, address));
   }
   void write(std::uint16_t address, unsigned size, std::uint64_t value) override {
-    const std::uint8_t header = lbp::writeHeader(static_cast<std::uint8_t>(size), true);
+    const std::uint8_t header = wire::lbp::writeHeader(static_cast<std::uint8_t>(size), true);
     run(header, address, value, false, fmt::format("write of {} bytes at 0x{:04X}", size, address));
   }
   std::uint8_t localRead(std::uint8_t command) override {
@@ -61,7 +55,7 @@ class SetupChannelAccess final : public RemoteAccess {
   std::uint64_t run(std::uint8_t header, std::uint16_t address, std::uint64_t data, bool read,
                     const std::string& what) {
     const std::uint32_t words[2] = {static_cast<std::uint32_t>(data), static_cast<std::uint32_t>(data >> 32)};
-    const std::uint32_t cs = (static_cast<std::uint32_t>(header) << 24) | address;
+    const std::uint32_t cs = (static_cast<std::uint32_t>(header) << wire::sslbp::cs::kRemoteByteShift) | address;
     const std::uint32_t doit = kDoit | (1U << channel_);
     if (!read) {
       t_.queueWrite(regs_.interface(0, channel_), &words[0]);
@@ -107,21 +101,23 @@ class SetupChannelAccess final : public RemoteAccess {
 
 SmartSerialRegisters::SmartSerialRegisters(const ModuleInfo& md, unsigned instance)
     : command_(static_cast<std::uint16_t>(md.baseAddress + instance * md.instanceStride)),
-      data_(static_cast<std::uint16_t>(command_ + md.registerStride)),
-      cs_(static_cast<std::uint16_t>(md.baseAddress + 2 * md.registerStride + instance * md.instanceStride)),
+      data_(static_cast<std::uint16_t>(command_ + wire::sslbp::reg::kData * md.registerStride)),
+      cs_(static_cast<std::uint16_t>(md.baseAddress + wire::sslbp::reg::kCs * md.registerStride +
+                                     instance * md.instanceStride)),
       stride_(md.registerStride) {}
 
 std::string ChannelIdentity::function() const {
-  if (name != "7I77") return {};
-  switch (unitNumber >> 24) {
-    case 0x12: return "field I/O";
-    case 0x11: return "analog";
+  namespace type = wire::i7i77::unit_type;
+  if (name != wire::i7i77::kCardName) return {};
+  switch (unitNumber >> type::kShift) {
+    case type::kFieldIo: return "field I/O";
+    case type::kAnalog: return "analog";
     default: return {};
   }
 }
 
 static const ModuleInfo& sserialModule(const CardInfo& card) {
-  const ModuleInfo* md = card.module(0xC1);
+  const ModuleInfo* md = card.module(wire::hm2::tag::kSSerial);
   if (md == nullptr)
     throw Error(fmt::format("the card ({}) has no SSerial module: its firmware has no smart-serial interface",
                             card.boardName));
@@ -151,7 +147,7 @@ std::uint8_t SmartSerial::waitCommand() {
 
 std::uint8_t SmartSerial::command(std::uint16_t cmd) {
   // Never write COMMAND while it is busy (manual: COMMAND REGISTER), except a stop.
-  if ((cmd & 0xFF00U) != kStop) waitCommand();
+  if ((cmd & kTypeMask) != kStop) waitCommand();
   const std::uint32_t v = cmd;
   t_.queueWrite(regs_.command(), &v);
   t_.flush();
@@ -175,7 +171,7 @@ std::uint8_t SmartSerial::start(std::uint8_t mask, bool setup) {
   mask = static_cast<std::uint8_t>(mask & options_.channelMask & ((1U << channels_) - 1));
   for (unsigned ch = 0; ch < channels_; ++ch) {
     if (!(mask & (1U << ch))) continue;
-    const std::uint32_t cs = static_cast<std::uint32_t>(options_.modes[ch]) << 24;  // REMOTE MODES
+    const std::uint32_t cs = static_cast<std::uint32_t>(options_.modes[ch]) << wire::sslbp::cs::kRemoteByteShift;  // REMOTE MODES
     t_.queueWrite(regs_.cs(ch), &cs);
   }
   t_.flush();
@@ -215,8 +211,8 @@ std::vector<ChannelIdentity> SmartSerial::discover(std::uint8_t mask) {
   stopAll();
   const std::uint8_t failed = start(mask, true);
   std::vector<ChannelIdentity> found;
-  const unsigned chStart = localRead(kChannelStartLocal);
-  const unsigned chStride = localRead(kChannelStrideLocal);
+  const unsigned chStart = localRead(local::kChannelStart);
+  const unsigned chStride = localRead(local::kChannelStride);
   for (unsigned ch = 0; ch < channels_; ++ch) {
     if (!(mask & options_.channelMask & (1U << ch))) continue;
     ChannelIdentity id = identity(ch);
@@ -225,8 +221,8 @@ std::vector<ChannelIdentity> SmartSerial::discover(std::uint8_t mask) {
     if (!id.present) continue;
     // The discovery RPC's sizes, as SSLBP stored them in its channel block.
     const auto block = static_cast<std::uint16_t>(chStart + ch * chStride);
-    const unsigned rx = localRead(static_cast<std::uint16_t>(block + kRxSizeOffset));
-    const unsigned tx = localRead(static_cast<std::uint16_t>(block + kTxSizeOffset));
+    const unsigned rx = localRead(static_cast<std::uint16_t>(block + local::kRxSizeOffset));
+    const unsigned tx = localRead(static_cast<std::uint16_t>(block + local::kTxSizeOffset));
     auto access = remote(ch);
     Slot s;
     s.identity = id;
@@ -317,7 +313,7 @@ void SmartSerial::queueOutputs() {
     std::array<std::uint8_t, 12> bytes{};
     const auto& pd = s.description.processData;
     for (std::size_t i = 0; i < pd.size(); ++i)
-      if (pd[i].toRemote()) lbp::packBits(bytes, s.outOffset[i], pd[i].bits, s.raw[i]);
+      if (pd[i].toRemote()) wire::lbp::packBits(bytes, s.outOffset[i], pd[i].bits, s.raw[i]);
     for (unsigned r = 0; r < 3; ++r)
       s.ifOut[r] = std::uint32_t{bytes[4 * r]} | (std::uint32_t{bytes[4 * r + 1]} << 8) |
                    (std::uint32_t{bytes[4 * r + 2]} << 16) | (std::uint32_t{bytes[4 * r + 3]} << 24);
@@ -365,7 +361,7 @@ CycleStatus SmartSerial::collectInputs() {
       for (unsigned b = 0; b < 4; ++b) bytes[4 * r + b] = static_cast<std::uint8_t>(s.ifIn[r] >> (8 * b));
     const auto& pd = s.description.processData;
     for (std::size_t i = 0; i < pd.size(); ++i)
-      if (pd[i].direction != Direction::Output) s.raw[i] = lbp::unpackBits(bytes, s.inOffset[i], pd[i].bits);
+      if (pd[i].direction != Direction::Output) s.raw[i] = wire::lbp::unpackBits(bytes, s.inOffset[i], pd[i].bits);
   }
   ++cycles_;
   return st;

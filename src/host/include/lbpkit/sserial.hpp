@@ -1,0 +1,168 @@
+// The smart-serial (SSLBP) driver: start channels, discover their remotes,
+// and run the real-time cycle (manual: SSLBP, NORMAL MODE OPERATION, SETUP
+// MODE OPERATION, DISCOVERY SEQUENCE).
+//
+// Set-up (may allocate): SmartSerial(...), discover(), start(), find().
+// The cycle (no allocation, no name lookups): set()/setBit(), cycle(),
+// value()/bit(), status().
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "lbpkit/discovery.hpp"
+#include "lbpkit/hostmot2.hpp"
+#include "lbpkit/transport.hpp"
+#include "lbpkit/wire/sslbp.hpp"
+
+namespace lbpkit {
+
+// The SSerial module's registers (HostMot2 regmap).
+class SmartSerialRegisters {
+ public:
+  SmartSerialRegisters(const ModuleInfo& md, unsigned instance);
+  [[nodiscard]] std::uint16_t command() const { return command_; }
+  [[nodiscard]] std::uint16_t data() const { return data_; }
+  [[nodiscard]] std::uint16_t cs(unsigned ch) const {
+    return static_cast<std::uint16_t>(cs_ + wire::sslbp::reg::kChannelStride * ch);
+  }
+  [[nodiscard]] std::uint16_t interface(unsigned n, unsigned ch) const {
+    return static_cast<std::uint16_t>(cs_ + (n + 1) * stride_ + wire::sslbp::reg::kChannelStride * ch);
+  }
+
+ private:
+  std::uint16_t command_, data_, cs_;
+  std::uint32_t stride_;
+};
+
+struct ChannelIdentity {
+  unsigned channel = 0;
+  bool present = false;
+  std::uint32_t unitNumber = 0;
+  std::string name;  // "7I77"
+  std::uint16_t ptoc = 0;
+  std::uint16_t gtoc = 0;
+  std::uint32_t cs = 0;  // CS after START
+  // 7I77 (unit number's top byte, as mesaflash does): "field I/O", "analog".
+  [[nodiscard]] std::string function() const;
+};
+
+// A handle to one process data element, found at set-up time.
+struct ElementRef {
+  std::uint8_t slot = 0xFF;   // index into the driver's channels
+  std::uint8_t element = 0xFF;
+  [[nodiscard]] bool valid() const { return slot != 0xFF; }
+};
+
+struct CycleStatus {
+  bool ok = true;              // every channel answered
+  std::uint8_t failedMask = 0;  // DATA after DOIT
+  bool commandBusy = false;     // COMMAND not clear at the start of the cycle (cycle too short)
+  Nanoseconds doitTime{};       // from DOIT to COMMAND clear, as far as polling tells
+};
+
+class SmartSerial {
+ public:
+  struct Options {
+    unsigned instance = 0;
+    std::uint8_t channelMask = 0xFF;          // channels to use
+    std::array<std::uint8_t, 8> modes{};      // software mode per channel (CS top byte)
+    Nanoseconds commandTimeout = std::chrono::seconds(2);
+    Nanoseconds pollInterval = std::chrono::microseconds(10);
+    Nanoseconds recoveryInterval = std::chrono::seconds(1);
+  };
+
+  SmartSerial(Transport& t, const CardInfo& card, Options options);
+  SmartSerial(Transport& t, const CardInfo& card) : SmartSerial(t, card, Options{}) {}
+  ~SmartSerial();
+
+  [[nodiscard]] unsigned channels() const { return channels_; }
+  [[nodiscard]] const SmartSerialRegisters& registers() const { return regs_; }
+
+  // --- Commands (each waits for COMMAND to clear; returns DATA) -------------
+  std::uint8_t command(std::uint16_t cmd);
+  std::uint8_t localRead(std::uint16_t address);
+  void localWrite(std::uint16_t address, std::uint8_t value);
+  std::uint8_t stopAll();
+  // START (setup or normal) of the channels in `mask` with their modes.
+  // Returns the mask of channels that failed.
+  std::uint8_t start(std::uint8_t mask, bool setup);
+  [[nodiscard]] ChannelIdentity identity(unsigned channel);
+
+  // --- Setup mode ---------------------------------------------------------------
+  // LBP access to a remote on a channel started in setup mode.
+  std::unique_ptr<RemoteAccess> remote(unsigned channel);
+  // STOP ALL, setup START, and discovery of every present remote in `mask`.
+  // The remotes found are kept for start().
+  std::vector<ChannelIdentity> discover(std::uint8_t mask = 0xFF);
+  [[nodiscard]] const RemoteDescription& description(unsigned slot) const { return slots_.at(slot).description; }
+  [[nodiscard]] const ChannelIdentity& slotIdentity(unsigned slot) const { return slots_.at(slot).identity; }
+  [[nodiscard]] unsigned slots() const { return static_cast<unsigned>(slots_.size()); }
+  struct DiscoveryStats {
+    std::uint64_t doits = 0;
+    Nanoseconds time{};
+  };
+  [[nodiscard]] const DiscoveryStats& discoveryStats() const { return discoveryStats_; }
+
+  // --- Normal mode -------------------------------------------------------------------
+  // STOP ALL and normal START of the discovered remotes. Throws if one fails.
+  void startNormal();
+  [[nodiscard]] ElementRef find(unsigned channel, const std::string& name) const;
+  void set(ElementRef e, double value);
+  void setRaw(ElementRef e, std::uint64_t raw);
+  void setBit(ElementRef e, unsigned bit, bool on);
+  [[nodiscard]] double value(ElementRef e) const;
+  [[nodiscard]] std::uint64_t raw(ElementRef e) const;
+  [[nodiscard]] bool bit(ElementRef e, unsigned n) const { return (raw(e) >> n) & 1U; }
+  [[nodiscard]] std::uint32_t cs(unsigned slot) const { return slots_.at(slot).cs; }
+  [[nodiscard]] std::uint8_t remoteFaults(unsigned slot) const {
+    return static_cast<std::uint8_t>(slots_.at(slot).cs >> wire::sslbp::cs::kRemoteByteShift);
+  }
+
+  // Queue this cycle's output writes and the DOIT (the caller flushes, so
+  // other modules' accesses share the exchange).
+  void queueOutputs();
+  // Wait for the DOIT, read CS and inputs, unpack. Needs the outputs flushed.
+  CycleStatus collectInputs();
+  // Both, for a caller with nothing else to do.
+  CycleStatus cycle();
+  // A channel that keeps failing is stopped and started again, at most once
+  // per recoveryInterval. Returns true when it tried.
+  bool recover(unsigned slot);
+  [[nodiscard]] std::uint64_t cycles() const { return cycles_; }
+
+ private:
+  struct Slot {
+    ChannelIdentity identity;
+    RemoteDescription description;
+    // Packing plan, PTOC order: bit offsets in the interface registers.
+    std::vector<unsigned> inOffset, outOffset;
+    std::vector<std::uint64_t> raw;  // per element
+    std::array<std::uint32_t, 3> ifOut{};
+    std::array<std::uint32_t, 3> ifIn{};
+    unsigned inRegs = 0, outRegs = 0;
+    std::uint32_t cs = 0;
+    Nanoseconds lastRecovery{-1};
+  };
+  std::uint8_t waitCommand();
+  std::uint8_t runningMask() const;
+
+  Transport& t_;
+  Options options_;
+  SmartSerialRegisters regs_;
+  unsigned channels_;
+  std::vector<Slot> slots_;
+  DiscoveryStats discoveryStats_;
+  std::uint64_t doits_ = 0;
+  std::uint64_t cycles_ = 0;
+  std::uint32_t pollCommand_ = 0, pollData_ = 0;
+  std::uint32_t doitWord_ = 0;
+  Nanoseconds busyEstimate_{0};
+  static constexpr Nanoseconds kMaxBusyEstimate = std::chrono::microseconds(500);
+};
+
+}  // namespace lbpkit

@@ -1,0 +1,75 @@
+#include "hostmot2/idrom.hpp"
+
+#include <algorithm>
+
+namespace hm2 {
+
+namespace {
+std::uint32_t fourChars(std::string_view s, std::size_t at) {
+  std::uint32_t v = 0;
+  for (std::size_t i = 0; i < 4; ++i) {
+    const auto c = at + i < s.size() ? static_cast<std::uint8_t>(s[at + i]) : std::uint8_t{' '};
+    v |= static_cast<std::uint32_t>(c) << (8 * i);
+  }
+  return v;
+}
+// SSerial and muxed counter pin codes (IDROMConst.vhd).
+constexpr std::uint8_t kSsRx = 0x00;    // + port + 1
+constexpr std::uint8_t kSsTx = 0x80;    // + port + 1
+constexpr std::uint8_t kSsTxEn = 0x90;  // + port + 1
+constexpr std::uint8_t kQcA = 0x01;
+constexpr std::uint8_t kQcB = 0x02;
+constexpr std::uint8_t kQcIdx = 0x03;
+constexpr std::uint8_t kSel0 = 0x81;
+}  // namespace
+
+std::array<std::uint32_t, idrom::kWords> buildIdrom(const BoardIdentity& board,
+                                                    std::span<const ModuleDescriptor> modules,
+                                                    std::span<const PinDescriptor> pins) {
+  std::array<std::uint32_t, idrom::kWords> w{};
+  auto at = [&](unsigned byteOffset) -> std::uint32_t& { return w[byteOffset / 4]; };
+  at(0) = idrom::kIdromType;
+  at(4) = idrom::kOffsetToModules;
+  at(8) = idrom::kOffsetToPins;
+  at(idrom::kBoardNameLow) = fourChars(board.boardName, 0);
+  at(idrom::kBoardNameHigh) = fourChars(board.boardName, 4);
+  at(idrom::kFpgaSize) = board.fpgaSize;
+  at(idrom::kFpgaPins) = board.fpgaPins;
+  at(idrom::kIoPorts) = board.ioPorts;
+  at(idrom::kIoWidth) = board.ioPorts * board.portWidth;
+  at(idrom::kPortWidth) = board.portWidth;
+  at(idrom::kClockLow) = board.clockLow;
+  at(idrom::kClockHigh) = board.clockHigh;
+  at(idrom::kInstanceStride0) = kInstanceStride0;
+  at(idrom::kInstanceStride1) = kInstanceStride1;
+  at(idrom::kRegisterStride0) = kRegisterStride;
+  at(idrom::kRegisterStride1) = kRegisterStride;
+  const std::size_t nm = std::min<std::size_t>(modules.size(), idrom::kMaxModules - 1);  // a zero record ends the list
+  for (std::size_t i = 0; i < nm; ++i) {
+    const auto& m = modules[i];
+    const unsigned base = idrom::kOffsetToModules + static_cast<unsigned>(i) * 12;
+    at(base) = static_cast<std::uint32_t>(m.gtag) | (static_cast<std::uint32_t>(m.version) << 8) |
+               (static_cast<std::uint32_t>(m.clockTag) << 16) | (static_cast<std::uint32_t>(m.instances) << 24);
+    at(base + 4) = static_cast<std::uint32_t>(m.baseAddress) | (static_cast<std::uint32_t>(m.registers) << 16) |
+                   (static_cast<std::uint32_t>(m.strides) << 24);
+    at(base + 8) = m.multipleRegisters;
+  }
+  const std::size_t np = std::min<std::size_t>(pins.size(), idrom::kMaxPins);
+  for (std::size_t i = 0; i < np; ++i) at(idrom::kOffsetToPins + static_cast<unsigned>(i) * 4) = pins[i].word();
+  return w;
+}
+
+std::array<PinDescriptor, 17> sevenI77Pins(unsigned firstChannel, unsigned firstUnit, unsigned selectUnit) {
+  auto ss = [&](std::uint8_t kind, unsigned channel) {
+    return PinDescriptor{static_cast<std::uint8_t>(kind + firstChannel + channel + 1), tag::kSSerial, 0};
+  };
+  auto qc = [&](std::uint8_t pin, unsigned pair) {
+    return PinDescriptor{pin, tag::kMuxedQCount, static_cast<std::uint8_t>(firstUnit + pair)};
+  };
+  return {ss(kSsTxEn, 2), ss(kSsTx, 2),  ss(kSsRx, 2),  ss(kSsTx, 1), ss(kSsRx, 1),
+          ss(kSsTx, 0),   ss(kSsRx, 0),  PinDescriptor{kSel0, tag::kMuxedQCountSel, static_cast<std::uint8_t>(selectUnit)},
+          qc(kQcA, 0),    qc(kQcB, 0),   qc(kQcIdx, 0), qc(kQcA, 1),  qc(kQcB, 1),
+          qc(kQcIdx, 1),  qc(kQcA, 2),   qc(kQcB, 2),   qc(kQcIdx, 2)};
+}
+
+}  // namespace hm2

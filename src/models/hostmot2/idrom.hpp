@@ -1,0 +1,59 @@
+// The HostMot2 identification area and IDROM (HostMot2 regmap; idrom.vhd and
+// IDROMConst.vhd as REFERENCES.md cites): what drivers read to learn the
+// card, its clocks, its modules and the function of every I/O pin.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string_view>
+#include <vector>
+
+#include "hostmot2/module.hpp"
+
+namespace hm2 {
+
+namespace idrom {
+// Offsets, cookie and layout: the wire facts the driver reads by.
+using namespace lbpkit::wire::hm2::idrom;
+// Where this card puts its IDROM, and how much room it has there.
+inline constexpr std::uint16_t kIdromAddress = 0x0400;
+inline constexpr unsigned kMaxModules = 32;
+inline constexpr unsigned kMaxPins = 144;
+inline constexpr std::size_t kWords = 0x400 / 4;  // 0x0400..0x07FF
+}  // namespace idrom
+
+// One pin descriptor: primary IOPort, and the module that can drive it.
+struct PinDescriptor {
+  std::uint8_t secondaryPin = 0;   // module pin code; bit 7 = output
+  std::uint8_t secondaryTag = 0;   // module tag (0: GPIO only)
+  std::uint8_t secondaryUnit = 0;  // module instance / unit
+  [[nodiscard]] std::uint32_t word() const {
+    return static_cast<std::uint32_t>(secondaryPin) | (static_cast<std::uint32_t>(secondaryTag) << 8) |
+           (static_cast<std::uint32_t>(secondaryUnit) << 16) | (static_cast<std::uint32_t>(tag::kIoPort) << 24);
+  }
+};
+
+struct BoardIdentity {
+  std::string_view boardName = "MESA7I92";  // 8 characters: low word, high word
+  std::uint32_t fpgaSize = 9;
+  std::uint32_t fpgaPins = 144;
+  std::uint32_t ioPorts = 2;
+  std::uint32_t portWidth = 17;
+  std::uint32_t clockLow = 100'000'000;
+  std::uint32_t clockHigh = 200'000'000;
+};
+
+// The IDROM words (0x0400..0x07FF) for these modules and pins.
+std::array<std::uint32_t, idrom::kWords> buildIdrom(const BoardIdentity& board,
+                                                    std::span<const ModuleDescriptor> modules,
+                                                    std::span<const PinDescriptor> pins);
+
+// The pins of one 7I77 on a 17-pin connector (manual: P1 HOST INTERFACE):
+// IO0 SS2TXEN, IO1 SS2TX, IO2 SS2RX, IO3 SS1TX, IO4 SS1RX, IO5 SS0TX,
+// IO6 SS0RX, IO7 ENCMUX, IO8..IO16 QCMUX A/B/I for pairs 01, 23, 45.
+// `firstChannel` and `firstUnit` place it (0 on the first connector, 3 on
+// the second).
+std::array<PinDescriptor, 17> sevenI77Pins(unsigned firstChannel, unsigned firstUnit, unsigned selectUnit);
+
+}  // namespace hm2

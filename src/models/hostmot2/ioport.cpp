@@ -1,0 +1,46 @@
+#include "hostmot2/ioport.hpp"
+
+namespace hm2 {
+
+std::uint32_t IoPort::read(std::uint16_t address, SimTime) {
+  const unsigned port = (address & 0xFFU) / 4;
+  const unsigned reg = static_cast<unsigned>((address & 0xFF00U) - kData) / kRegisterStride;
+  if (port >= ports_ || reg >= 5) return 0;
+  if (reg != 0) return regs_[port][reg] & mask();
+  std::uint32_t v = 0;
+  for (unsigned b = 0; b < width_; ++b) v |= static_cast<std::uint32_t>(pin(port, b)) << b;
+  return v;
+}
+
+void IoPort::write(std::uint16_t address, std::uint32_t value, SimTime) {
+  const unsigned port = (address & 0xFFU) / 4;
+  const unsigned reg = static_cast<unsigned>((address & 0xFF00U) - kData) / kRegisterStride;
+  if (port >= ports_ || reg >= 5) return;
+  regs_[port][reg] = value & mask();
+}
+
+void IoPort::setInput(unsigned port, unsigned bit, bool level) {
+  if (level)
+    inputs_.at(port) |= 1U << bit;
+  else
+    inputs_.at(port) &= ~(1U << bit);
+}
+
+bool IoPort::pin(unsigned port, unsigned bit) const {
+  const auto& r = regs_.at(port);
+  const bool gpioOutput = ((r[1] >> bit) & 1U) && !((r[2] >> bit) & 1U);
+  if (!gpioOutput) return (inputs_[port] >> bit) & 1U;
+  const bool level = ((r[0] ^ r[4]) >> bit) & 1U;
+  // Open drain drives low only; high is whatever pulls the line up.
+  if (((r[3] >> bit) & 1U) && level) return (inputs_[port] >> bit) & 1U;
+  return level;
+}
+
+void IoPort::reset() {
+  for (auto& r : regs_) {
+    r[0] = 0;
+    r[1] = 0;
+  }
+}
+
+}  // namespace hm2

@@ -1,0 +1,168 @@
+#include "hostmot2/muxed_encoder.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace hm2 {
+
+namespace {
+// Positions inside a quadrature state: the state index is floor(position).
+std::int64_t stateOf(double position) { return static_cast<std::int64_t>(std::floor(position)); }
+// More samples than this in one step are not simulated one by one: at such
+// rates the filter passes nothing and every count is lost.
+constexpr std::int64_t kMaxSimulatedSamples = 2'000'000;
+}  // namespace
+
+MuxedEncoder::MuxedEncoder(unsigned counters, std::uint32_t clockLow)
+    : counters_(std::min(counters, kMaxCounters)), clockLow_(clockLow) {
+  // Power-up mux rate: about 8 MHz ticks (10 at 100 MHz, the value LinuxCNC
+  // also writes for its default 8 MHz muxed-sample-frequency).
+  rateDivisor_ = clockLow_ / 8'000'000U - 2;
+}
+
+SimTime MuxedEncoder::samplePeriod() const {
+  // Each counter sees its inputs every second mux tick.
+  return SimTime{static_cast<std::int64_t>(2.0 * (rateDivisor_ + 2) * 1e9 / clockLow_)};
+}
+
+std::uint16_t MuxedEncoder::timestampAt(SimTime t) const {
+  const auto ticks = clockTicks(t, clockLow_) / (tsDivisor_ + 2);
+  return static_cast<std::uint16_t>(ticks);
+}
+
+void MuxedEncoder::setVelocity(unsigned n, double countsPerSecond, SimTime now) {
+  advance(now);
+  signals_.at(n).velocity = countsPerSecond;
+}
+
+void MuxedEncoder::setIndexPeriod(unsigned n, std::uint32_t countsPerRev) { signals_.at(n).countsPerRev = countsPerRev; }
+
+void MuxedEncoder::advance(SimTime now) {
+  if (now <= now_) return;
+  for (unsigned n = 0; n < counters_; ++n) run(n, now_, now);
+  now_ = now;
+}
+
+void MuxedEncoder::index(Counter& c, std::int64_t countAtIndex) {
+  if (c.ccr & kLatchOnIndex) c.latched = static_cast<std::uint16_t>(countAtIndex);
+  if (c.ccr & kClearOnIndex) c.count = 0;
+  // "Just once": index enable resets itself after the first index (LinuxCNC
+  // watches latch-on-index read back 0 to see that the index came).
+  if (c.ccr & kJustOnce) c.ccr &= ~(kClearOnIndex | kLatchOnIndex | kJustOnce);
+}
+
+void MuxedEncoder::run(unsigned n, SimTime from, SimTime to) {
+  EncoderSignal& s = signals_[n];
+  Counter& c = state_[n];
+  const double dt = std::chrono::duration<double>(to - from).count();
+  const double p0 = s.position;
+  const double p1 = p0 + s.velocity * dt;
+  s.position = p1;
+  if (s.velocity == 0.0) return;
+  const SimTime sample = samplePeriod();
+  const double stateSeconds = 1.0 / std::abs(s.velocity);
+  const double stableSeconds = std::chrono::duration<double>(sample).count() * filterSamples(c);
+  const bool hasIndex = s.countsPerRev > 0;
+
+  if (stateSeconds >= stableSeconds) {
+    // Slow enough for the filter: every state change is seen and counted.
+    const std::int64_t a = stateOf(p0);
+    const std::int64_t b = stateOf(p1);
+    if (a == b) return;
+    const std::int64_t step = b > a ? 1 : -1;
+    std::int64_t at = a;
+    if (hasIndex) {
+      // Index pulses are one count wide, at multiples of countsPerRev; walk
+      // the ones crossed while clear or latch on index is armed.
+      const auto cpr = static_cast<std::int64_t>(s.countsPerRev);
+      auto floorDiv = [](std::int64_t x, std::int64_t m) { return x >= 0 ? x / m : -((-x + m - 1) / m); };
+      while (c.ccr & (kClearOnIndex | kLatchOnIndex)) {
+        const std::int64_t next = step > 0 ? (floorDiv(at, cpr) + 1) * cpr : floorDiv(at - 1, cpr) * cpr;
+        if ((step > 0 && next > b) || (step < 0 && next < b)) break;
+        c.count += static_cast<std::int32_t>(next - at);
+        at = next;
+        index(c, c.count);
+      }
+    }
+    c.count += static_cast<std::int32_t>(b - at);
+    c.filtered = c.candidate = b;
+    c.stable = filterSamples(c);
+    // The timestamp of the last count: when the position entered state b.
+    const double edge = step > 0 ? static_cast<double>(b) : static_cast<double>(b + 1);
+    const double tEdge = std::chrono::duration<double>(from).count() + (edge - p0) / s.velocity;
+    c.countTimestamp = timestampAt(SimTime{static_cast<std::int64_t>(tEdge * 1e9)});
+    return;
+  }
+
+  // Too fast for the filter: sample by sample, as the hardware does.
+  const std::int64_t samples = (to - from) / sample;
+  if (samples > kMaxSimulatedSamples) {
+    c.filtered = c.candidate = stateOf(p1);  // nothing counted
+    return;
+  }
+  for (std::int64_t k = 1; k <= samples; ++k) {
+    const double pos = p0 + s.velocity * std::chrono::duration<double>(sample * k).count();
+    const std::int64_t raw = stateOf(pos);
+    if ((raw & 3) == (c.candidate & 3)) {
+      ++c.stable;
+    } else {
+      c.candidate = raw;
+      c.stable = 1;
+    }
+    if (c.stable < filterSamples(c) || (c.candidate & 3) == (c.filtered & 3)) continue;
+    const auto diff = (c.candidate - c.filtered) & 3;
+    if (diff == 1) {
+      ++c.count;
+      c.countTimestamp = timestampAt(from + sample * k);
+    } else if (diff == 3) {
+      --c.count;
+      c.countTimestamp = timestampAt(from + sample * k);
+    } else {
+      c.ccr |= kQuadError;  // A and B changed together: the count is lost
+    }
+    c.filtered = (c.filtered & ~std::int64_t{3}) | (c.candidate & 3);
+  }
+}
+
+std::uint32_t MuxedEncoder::read(std::uint16_t address, SimTime now) {
+  advance(now);
+  const unsigned n = (address & 0xFFU) / 4;
+  switch (address & 0xFF00U) {
+    case kCount:
+      if (n >= counters_) return 0;
+      return static_cast<std::uint16_t>(state_[n].count) | (static_cast<std::uint32_t>(state_[n].countTimestamp) << 16);
+    case kControl: {
+      if (n >= counters_) return 0;
+      const auto& c = state_[n];
+      const auto st = c.filtered & 3;  // Gray code: 0 = 00, 1 = A, 2 = AB, 3 = B
+      const bool a = st == 1 || st == 2;
+      const bool b = st == 2 || st == 3;
+      const auto& s = signals_[n];
+      const bool z = s.countsPerRev > 0 && (stateOf(s.position) % static_cast<std::int64_t>(s.countsPerRev)) == 0;
+      return (static_cast<std::uint32_t>(c.latched) << 16) | (c.ccr & 0xFFF8U) | (z ? 4U : 0U) | (b ? 2U : 0U) |
+             (a ? 1U : 0U);
+    }
+    case kTimestampDiv: return tsDivisor_;
+    case kTimestamp: return timestampAt(now);
+    case kRate: return rateDivisor_;
+    default: return 0;
+  }
+}
+
+void MuxedEncoder::write(std::uint16_t address, std::uint32_t value, SimTime now) {
+  advance(now);
+  const unsigned n = (address & 0xFFU) / 4;
+  switch (address & 0xFF00U) {
+    case kCount:
+      if (n < counters_) state_[n].count = 0;  // any write clears the count
+      break;
+    case kControl:
+      if (n < counters_) state_[n].ccr = value & 0xFFF8U;
+      break;
+    case kTimestampDiv: tsDivisor_ = value & 0xFFFFU; break;
+    case kRate: rateDivisor_ = value & 0xFFFU; break;
+    default: break;
+  }
+}
+
+}  // namespace hm2

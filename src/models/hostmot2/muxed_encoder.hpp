@@ -1,0 +1,116 @@
+// HostMot2 muxed quadrature counters: the 7I77's six encoder inputs reach the
+// FPGA over three pin groups, multiplexed by the ENCMUX select line (manual:
+// P1 HOST INTERFACE, ENCODER INTERFACE, MAXIMUM ENCODER COUNT RATE).
+//
+// Registers (counter i at +4i):
+//   0x3500 count     read: 15..0 count, 31..16 timestamp of the last count;
+//                    any write clears the count
+//   0x3600 CCR       31..16 count latched on index (ro), 15 quadrature error,
+//                    14 A/B mask polarity, 11 filter (1 = 15 ticks, 0 = 3),
+//                    10 counter mode (up/down), 9 use index mask, 8 index mask
+//                    polarity, 7 gate index, 6 index just once, 5 clear on
+//                    index, 4 latch on index, 3 index polarity, 2..0 filtered
+//                    Z, B, A (ro)
+//   0x3700 TSDiv     timestamp counter divisor (counts every TSDiv+2 ClockLow)
+//   0x3800 TS        the 16-bit timestamp counter
+//   0x3900 rate      11..0 mux divisor: a mux tick every divisor+2 ClockLow
+//
+// The select line toggles every tick, so each counter samples its inputs
+// every second tick, and the digital filter needs a new input state for 3
+// (or 15) ticks. At the power-up rate (about 8 MHz ticks with a 100 MHz
+// ClockLow) a quadrature state must last 2 samples: count rates up to about
+// 2 MHz are exact, faster ones lose counts, as on real hardware.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "hostmot2/module.hpp"
+#include "lbpkit/wire/muxed_encoder.hpp"
+
+namespace hm2 {
+
+// The A/B/Z signals of one encoder: a position in quadrature counts moving
+// at a set velocity, with an index pulse one count wide every countsPerRev.
+struct EncoderSignal {
+  double position = 0.0;    // counts (4 per quadrature cycle)
+  double velocity = 0.0;    // counts per second
+  std::uint32_t countsPerRev = 0;  // 0: no index
+};
+
+class MuxedEncoder final : public Module {
+ public:
+  static constexpr std::uint16_t kCount = 0x3500;
+  static constexpr std::uint16_t kControl = 0x3600;
+  static constexpr std::uint16_t kTimestampDiv = 0x3700;
+  static constexpr std::uint16_t kTimestamp = 0x3800;
+  static constexpr std::uint16_t kRate = 0x3900;
+  static constexpr unsigned kMaxCounters = 12;
+
+  // CCR bits.
+  static constexpr std::uint32_t kQuadError = lbpkit::wire::qcount::ccr::kQuadError;
+  static constexpr std::uint32_t kFilter = lbpkit::wire::qcount::ccr::kFilter;
+  static constexpr std::uint32_t kCounterMode = lbpkit::wire::qcount::ccr::kCounterMode;
+  static constexpr std::uint32_t kJustOnce = lbpkit::wire::qcount::ccr::kJustOnce;
+  static constexpr std::uint32_t kClearOnIndex = lbpkit::wire::qcount::ccr::kClearOnIndex;
+  static constexpr std::uint32_t kLatchOnIndex = lbpkit::wire::qcount::ccr::kLatchOnIndex;
+  static constexpr std::uint32_t kIndexPolarity = lbpkit::wire::qcount::ccr::kIndexPolarity;
+
+  MuxedEncoder(unsigned counters, std::uint32_t clockLow);
+
+  [[nodiscard]] std::string_view name() const override { return "MuxedQCount"; }
+  [[nodiscard]] ModuleDescriptor descriptor() const override {
+    return ModuleDescriptor{tag::kMuxedQCount, 3, kClockLow, static_cast<std::uint8_t>(counters_), kCount, 5, 0, 0x03};
+  }
+  [[nodiscard]] bool decodes(std::uint16_t a) const override { return a >= kCount && a < kRate + 4; }
+  std::uint32_t read(std::uint16_t address, SimTime now) override;
+  void write(std::uint16_t address, std::uint32_t value, SimTime now) override;
+  void advance(SimTime now) override;
+
+  // The world: what the encoder on input `n` does from `now` on.
+  void setVelocity(unsigned n, double countsPerSecond, SimTime now);
+  void setIndexPeriod(unsigned n, std::uint32_t countsPerRev);
+  [[nodiscard]] const EncoderSignal& signal(unsigned n) const { return signals_.at(n); }
+
+  [[nodiscard]] std::uint16_t count(unsigned n) const { return static_cast<std::uint16_t>(state_.at(n).count); }
+  [[nodiscard]] std::uint32_t control(unsigned n) const { return state_.at(n).ccr; }
+  [[nodiscard]] SimTime samplePeriod() const;
+  [[nodiscard]] unsigned counters() const { return counters_; }
+
+ private:
+  struct Counter {
+    std::int32_t count = 0;
+    std::uint32_t ccr = 0;
+    std::uint16_t latched = 0;
+    std::uint16_t countTimestamp = 0;
+    std::int64_t filtered = 0;  // quadrature state (position) the filter has accepted
+    std::int64_t candidate = 0;
+    unsigned stable = 0;
+  };
+  void run(unsigned n, SimTime from, SimTime to);
+  void index(Counter& c, std::int64_t countAtIndex);
+  [[nodiscard]] std::uint16_t timestampAt(SimTime t) const;
+  [[nodiscard]] unsigned filterSamples(const Counter& c) const { return (c.ccr & kFilter) ? 8 : 2; }
+
+  unsigned counters_;
+  std::uint32_t clockLow_;
+  std::uint32_t rateDivisor_;
+  std::uint32_t tsDivisor_ = 0;
+  std::array<EncoderSignal, kMaxCounters> signals_{};
+  std::array<Counter, kMaxCounters> state_{};
+  SimTime now_{};
+};
+
+// The mux select outputs: a module with pins but no registers.
+class MuxedEncoderSelect final : public Module {
+ public:
+  [[nodiscard]] std::string_view name() const override { return "MuxedQCountSel"; }
+  [[nodiscard]] ModuleDescriptor descriptor() const override {
+    return ModuleDescriptor{tag::kMuxedQCountSel, 0, kClockLow, 1, 0, 0, 0, 0};
+  }
+  [[nodiscard]] bool decodes(std::uint16_t) const override { return false; }
+  std::uint32_t read(std::uint16_t, SimTime) override { return 0; }
+  void write(std::uint16_t, std::uint32_t, SimTime) override {}
+};
+
+}  // namespace hm2

@@ -1,0 +1,148 @@
+// The SSerial module running SSLBP, HostMot2's smart-serial firmware for
+// LBP remotes (manual: REFERENCE INFORMATION, SSLBP; firmware behaviour from
+// Mesa's SSLBP source as summarised in REFERENCES.md).
+//
+// Registers (per instance, base + i*0x40; channel c at +4c):
+//   0x5A00 COMMAND  W M R D S T T T | N..N (16 bits; writes with bit 31 set are ignored)
+//   0x5B00 DATA     8 bits; what the host writes is not what it reads back
+//   0x5C00 CS       per channel control (host writes: mode / setup LBP command)
+//                   and status (reads: local faults, status, COM_STATE, remote faults)
+//   0x5D00..0x5F00  interface 0..2, per channel, independent in and out data
+//
+// The firmware is modelled as SSLBP's per-channel state machine: every LBP
+// transaction takes the characters it takes on the wire at the channel's baud
+// rate plus the remote's turnaround, so command completion times (and the
+// COMMAND register reading non-zero until then) come out of the model.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "hostmot2/module.hpp"
+#include "hostmot2/serial_link.hpp"
+#include "lbpkit/wire/sslbp.hpp"
+
+namespace hm2 {
+
+// CS bits and COMMAND values are wire facts the driver shares.
+namespace cs = lbpkit::wire::sslbp::cs;
+namespace command = lbpkit::wire::sslbp::command;
+
+// Local parameters: the map is a wire fact; where the channel blocks sit and
+// how big the RAM is are this firmware's (SSLBP 1.43) values.
+namespace local {
+using namespace lbpkit::wire::sslbp::local;
+inline constexpr std::uint16_t kChannelBlock = 0x70;
+inline constexpr std::uint16_t kChannelBlockStride = 0x32;
+inline constexpr std::uint16_t kRamSize = 0x200;
+}  // namespace local
+
+class SmartSerial final : public Module {
+ public:
+  static constexpr unsigned kMaxChannels = 8;
+  static constexpr std::uint16_t kCommand = 0x5A00;
+  static constexpr std::uint16_t kData = 0x5B00;
+  static constexpr std::uint16_t kCs = 0x5C00;
+  static constexpr std::uint16_t kInterface0 = 0x5D00;
+  static constexpr std::uint8_t kMajorRevision = 0x01;
+  static constexpr std::uint8_t kMinorRevision = 0x2B;  // 43, the ROM Mesa ships
+  static constexpr std::uint32_t kDefaultBaud = 2500000;
+
+  explicit SmartSerial(unsigned channels, unsigned instance = 0);
+
+  [[nodiscard]] std::string_view name() const override { return "SSerial"; }
+  [[nodiscard]] ModuleDescriptor descriptor() const override;
+  [[nodiscard]] bool decodes(std::uint16_t address) const override;
+  std::uint32_t read(std::uint16_t address, SimTime now) override;
+  void write(std::uint16_t address, std::uint32_t value, SimTime now) override;
+  void advance(SimTime now) override;
+
+  [[nodiscard]] unsigned channels() const { return channelCount_; }
+  SerialLink& link(unsigned channel) { return channels_.at(channel).link; }
+
+  // Observation (what the registers would read, without side effects).
+  [[nodiscard]] std::uint16_t commandRegister() const { return command_; }
+  [[nodiscard]] std::uint8_t dataRegister() const { return dataOut_; }
+  [[nodiscard]] std::uint32_t csRegister(unsigned channel) const;
+  [[nodiscard]] std::uint32_t interfaceRegister(unsigned channel, unsigned n) const {
+    return channels_.at(channel).ifIn[n];
+  }
+  [[nodiscard]] bool channelRunning(unsigned channel) const { return channels_.at(channel).ready; }
+  [[nodiscard]] std::uint32_t channelBaud(unsigned channel) const { return channels_.at(channel).baud; }
+  struct Counters {
+    std::uint64_t commands = 0;
+    std::uint64_t doits = 0;
+    std::uint64_t lostCommands = 0;  // written while busy
+    std::uint64_t transactions = 0;
+  };
+  [[nodiscard]] const Counters& counters() const { return counters_; }
+
+ private:
+  enum class Mode : std::uint8_t { Stopped, Normal, Setup };
+  enum class Outcome : std::uint8_t { Ok, Timeout, CrcError, Break };
+
+  struct Channel {
+    SerialLink link;
+    std::uint32_t baud = kDefaultBaud;
+    Mode mode = Mode::Stopped;
+    std::uint8_t state = 0;  // COM_STATE: the firmware's chanstate
+    std::uint8_t status = 0xC1;
+    std::uint8_t errorLog = 0;
+    std::uint8_t remoteFault = 0;
+    std::array<std::uint8_t, 7> errorCounts{};
+    bool ready = false;       // started: blathering, or serving setup requests
+    bool startPending = false;  // in the current START
+    bool requested = false;   // DOIT request
+    bool invalid = false;     // no good reply to the current DOIT
+    bool doitSeen = false;    // first DOIT done: no more chatter
+    bool leftover = false;    // characters left in the receive FIFO
+    std::uint8_t rxSize = 0;
+    std::uint8_t txSize = 0;
+    std::uint8_t nameIndex = 0;
+    std::uint8_t setupExpect = 0;  // reply bytes of the setup-mode command in flight
+    SimTime measuredRpc{};
+    bool scheduled = false;
+    SimTime due{};
+    // Host-written and firmware-written halves of the per-channel registers.
+    std::uint32_t csOut = 0;
+    std::array<std::uint32_t, 3> ifOut{};
+    std::array<std::uint32_t, 3> ifIn{};
+    // The transaction in flight.
+    Outcome outcome = Outcome::Ok;
+    std::array<std::uint8_t, 16> reply{};
+    SimTime sentAt{};
+  };
+
+  void execute(std::uint16_t cmd, SimTime now);
+  void complete(std::uint8_t data, SimTime now);
+  void globalInit();
+  void initChannel(Channel& c);
+  void startChannels(std::uint8_t mask, Mode mode, SimTime now);
+  void doit(std::uint8_t mask, SimTime now);
+  void checkCommandDone(SimTime now);
+  void step(unsigned index, SimTime now);
+  void transact(Channel& c, std::span<const std::uint8_t> frame, unsigned expect, SimTime timeout,
+                std::uint8_t waitState, SimTime now);
+  void setError(Channel& c, std::uint8_t bit, unsigned counter);
+  void restart(Channel& c, SimTime now);
+  void schedule(Channel& c, SimTime at);
+  [[nodiscard]] SimTime startTimeout(const Channel& c) const;
+
+  unsigned instance_;
+  unsigned channelCount_;
+  std::array<Channel, kMaxChannels> channels_{};
+  std::array<std::uint8_t, local::kRamSize> ram_{};
+
+  std::uint16_t command_ = 0;
+  std::uint8_t dataIn_ = 0;   // host-written
+  std::uint8_t dataOut_ = 0;  // firmware-written
+  bool inReset_ = false;
+  enum class Busy : std::uint8_t { Idle, Start, Doit, Immediate } busy_ = Busy::Idle;
+  std::uint8_t commandMask_ = 0;
+  std::uint8_t immediateData_ = 0;
+  SimTime immediateDone_{};
+  bool lost_ = false;
+  Counters counters_;
+};
+
+}  // namespace hm2

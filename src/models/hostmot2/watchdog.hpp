@@ -1,0 +1,47 @@
+// HostMot2 watchdog (HostMot2 regmap; watchdog.vhd as REFERENCES.md cites).
+//   0x0C00 timer   32 bits, counts down at ClockLow while bit 31 is 0; a write
+//                  loads the timer and its reload value (0x80000000: disarmed)
+//   0x0D00 status  bit 0: bitten (read/write)
+//   0x0E00 reset   a write whose top byte is 0x5A reloads the timer ("pet")
+// When the timer passes zero the watchdog bites: the status bit is set and
+// the card's GPIO is reset (the owner is told through onBite).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+
+#include "hostmot2/module.hpp"
+
+namespace hm2 {
+
+class Watchdog final : public Module {
+ public:
+  static constexpr std::uint16_t kTimer = 0x0C00;
+  static constexpr std::uint16_t kStatus = 0x0D00;
+  static constexpr std::uint16_t kReset = 0x0E00;
+  static constexpr std::uint32_t kDisarmed = 0x80000000U;
+
+  Watchdog(std::uint32_t clockLow, std::function<void()> onBite);
+
+  [[nodiscard]] std::string_view name() const override { return "WatchDog"; }
+  [[nodiscard]] ModuleDescriptor descriptor() const override {
+    return ModuleDescriptor{tag::kWatchdog, 0, kClockLow, 1, kTimer, 3, 0, 0};
+  }
+  [[nodiscard]] bool decodes(std::uint16_t a) const override { return a >= kTimer && a < kReset + 4; }
+  std::uint32_t read(std::uint16_t address, SimTime now) override;
+  void write(std::uint16_t address, std::uint32_t value, SimTime now) override;
+  void advance(SimTime now) override;
+
+  [[nodiscard]] bool bitten() const { return bitten_; }
+  [[nodiscard]] std::uint32_t timer(SimTime now) const;
+
+ private:
+  std::uint32_t clockLow_;
+  std::function<void()> onBite_;
+  std::uint32_t reload_ = kDisarmed;
+  SimTime loadedAt_{};
+  bool running_ = false;  // counting down (bit 31 clear)
+  bool bitten_ = false;
+};
+
+}  // namespace hm2

@@ -1,0 +1,229 @@
+// An LBP remote device: what every SSLBP remote processor has in common.
+//
+// A byte-addressed memory (manual: LBP, RPC COMMANDS; layout below), the
+// local LBP registers, process data elements and parameters with their
+// descriptors, a PTOC and GTOC per software mode (PROCESS DATA DISCOVERY),
+// the three special RPCs, a fault byte (CS REGISTER AFTER DOIT), a watchdog
+// (FIELD I/O WATCHDOG AND FAULTS) and non-volatile parameters in an EEPROM
+// that are copied to the working values only at power-up
+// (NON-VOLATILE FIELD I/O PARAMETERS). Concrete processors (field_io.hpp,
+// analog.hpp) declare their process data in one table and model the
+// electrical world behind it.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "lbp/parser.hpp"
+#include "lbp/sim_time.hpp"
+#include "lbp/target.hpp"
+#include "lbp/protocol.hpp"
+#include "lbpkit/wire/seven_i77.hpp"
+#include "remote/nv_store.hpp"
+
+namespace remote {
+
+using lbp::SimTime;
+using lbp::DataType;
+using lbp::Direction;
+using lbp::ProcessDataDescriptor;
+
+// The memory map of our remote processors. The manual fixes only the RPC
+// table (0..RPCSize-1); the rest is this implementation's choice, and hosts
+// find everything through the discovery tables.
+namespace memory {
+inline constexpr std::uint16_t kRpcTable = 0x0000;  // 64 RPCs x pitch 8
+inline constexpr std::uint16_t kRpcSize = 0x0200;
+inline constexpr std::uint16_t kRam = 0x0200;  // working parameters and process data
+inline constexpr std::uint16_t kRamSize = 0x0100;
+inline constexpr std::uint16_t kEeprom = 0x0300;  // NV parameters (write with NV access = EEPROM)
+inline constexpr std::uint16_t kEepromSize = 0x0040;
+inline constexpr std::uint16_t kRom = 0x0400;  // discovery tables (read only)
+inline constexpr std::uint16_t kRomSize = 0x0C00;
+}  // namespace memory
+
+// The remote fault byte, baud rate table and defaults are wire facts
+// (manual: CS REGISTER AFTER DOIT, OPERATE MODE BAUD RATE).
+namespace fault = lbpkit::wire::i7i77::fault;
+using lbpkit::wire::i7i77::kBaudRates;
+using lbpkit::wire::i7i77::kDefaultBaudIndex;
+using lbpkit::wire::i7i77::kDefaultWatchdogMs;
+using lbpkit::wire::i7i77::kSetupBaud;
+// Command timeout at power-up in tenths of a character (manual: FRAMING).
+inline constexpr std::uint8_t kSetupCommandTimeout = 255;
+inline constexpr std::uint8_t kOperateCommandTimeout = 40;
+
+using ElementId = std::uint8_t;
+
+// A software process data mode: its name and its process data in PTOC order.
+struct SoftwareMode {
+  std::string_view name;
+  std::span<const ElementId> processData;
+};
+
+// Parameters every remote here carries after its own elements (REFERENCES.md:
+// the names sibling Mesa remotes report, which mesaflash and LinuxCNC match).
+enum class Standard : std::uint8_t {
+  SwRevision,
+  NvBaudRate,
+  NvUnitNumber,
+  NvWatchdogTimeout,
+  UnitNumber,
+  WatchdogTime,
+  Fault,
+};
+
+class RemoteDevice : public lbp::Target {
+ public:
+  struct Identity {
+    std::string_view cardName;       // 4 characters at 0xD0..0xD3
+    std::uint32_t factoryUnitNumber;  // NVUNITNUMBER when the EEPROM is blank
+    std::uint8_t swRevision;
+    std::uint8_t hwMode;
+    std::string_view hwModeName;
+  };
+
+  // `elements`: the device's own process data and parameters, declared once.
+  // `modes`: its software modes (PTOC contents). `parameters`: its own
+  // elements that the GTOC lists as parameters when the mode's PTOC does not
+  // carry them; the standard parameters are added after them.
+  RemoteDevice(Identity identity, std::span<const ProcessDataDescriptor> elements,
+               std::span<const SoftwareMode> modes, std::span<const ElementId> parameters,
+               std::filesystem::path nvFile = {});
+  ~RemoteDevice() override = default;
+  RemoteDevice(const RemoteDevice&) = delete;
+  RemoteDevice& operator=(const RemoteDevice&) = delete;
+
+  // --- The serial face -----------------------------------------------------
+  // A character from the host; returns the reply it completes (may be empty).
+  std::span<const std::uint8_t> receive(std::uint8_t byte, SimTime now);
+  // Let simulated time pass (watchdog, framing gaps).
+  void advance(SimTime now);
+  [[nodiscard]] std::uint32_t baud() const { return parser_.baud(); }
+
+  // --- Power and jumpers ---------------------------------------------------
+  void powerUp(SimTime now);
+  void powerDown();
+  [[nodiscard]] bool powered() const { return powered_; }
+  // W4 / W12: setup mode (115.2 kBaud fixed). Read at power-up.
+  void setSetupJumper(bool setup) { setupJumper_ = setup; }
+  [[nodiscard]] bool setupJumper() const { return setupJumper_; }
+
+  // --- Observation ---------------------------------------------------------
+  [[nodiscard]] std::uint8_t faults() const { return faults_; }
+  [[nodiscard]] std::uint8_t lbpStatus() const { return parser_.status(); }
+  [[nodiscard]] std::uint8_t crcErrorCount() const { return parser_.crcErrorCount(); }
+  [[nodiscard]] std::uint8_t softwareMode() const { return swMode_; }
+  [[nodiscard]] std::uint32_t unitNumber() const;
+  [[nodiscard]] std::uint16_t watchdogTimeMs() const;
+  [[nodiscard]] std::string_view cardName() const { return identity_.cardName; }
+  // CR15 (activity: toggles every 512 process data transfers, about 1 Hz at
+  // a 1 kHz update) and CR16 (fault) (manual: STATUS LEDs).
+  [[nodiscard]] bool activityLed() const { return (processDataCount_ >> 9) & 1U; }
+  [[nodiscard]] bool faultLed() const { return powered_ && faults_ != 0; }
+  [[nodiscard]] std::uint32_t processDataCount() const { return processDataCount_; }
+  [[nodiscard]] const NvStore& nvStore() const { return nv_; }
+  NvStore& nvStore() { return nv_; }
+  [[nodiscard]] const lbp::Parser& parser() const { return parser_; }
+
+  // Discovery facts for the current mode (what the 0xBB RPC answers).
+  struct Discovery {
+    std::uint8_t rxSize;  // bytes to the host, fault byte included
+    std::uint8_t txSize;  // bytes from the host
+    std::uint16_t ptoc;
+    std::uint16_t gtoc;
+  };
+  [[nodiscard]] Discovery discovery() const;
+
+  // Element access by id: the device's own elements are 0..n-1, the standard
+  // parameters follow (see standard()).
+  [[nodiscard]] std::uint64_t raw(ElementId id) const;
+  [[nodiscard]] std::int64_t rawSigned(ElementId id) const;
+  [[nodiscard]] ElementId standard(Standard s) const {
+    return static_cast<ElementId>(ownElements_ + static_cast<unsigned>(s));
+  }
+  [[nodiscard]] const ProcessDataDescriptor& descriptor(ElementId id) const { return elements_[id].d; }
+  [[nodiscard]] std::uint16_t address(ElementId id) const { return elements_[id].address; }
+  [[nodiscard]] std::size_t elementCount() const { return elements_.size(); }
+
+  // --- lbp::Target ---------------------------------------------------------
+  std::uint8_t readMemory(std::uint16_t address) override;
+  bool writeMemory(std::uint16_t address, std::uint8_t value) override;
+  std::optional<std::uint8_t> readLocal(std::uint8_t command) override;
+  bool writeLocal(std::uint8_t command, std::uint8_t value) override;
+  std::optional<RpcSizes> specialRpc(std::uint8_t command) override;
+  void runSpecialRpc(std::uint8_t command, std::span<const std::uint8_t> fromHost,
+                     std::span<std::uint8_t> toHost) override;
+  void beginCommand(SimTime now) override;
+  void endCommand(SimTime now) override;
+  void resetProcessor() override;
+
+ protected:
+  // Working (RAM) value of an element; NV elements live in the EEPROM.
+  void setRaw(ElementId id, std::uint64_t value);
+  void raiseFault(std::uint8_t bits) { faults_ = static_cast<std::uint8_t>(faults_ | bits); }
+  // Outputs may reach the terminals only while no watchdog (or illegal mode)
+  // fault is set: the host must clear it first (manual: WATCHDOG AND FAULTS).
+  [[nodiscard]] bool outputsBlocked() const { return (faults_ & (fault::kWatchdog | fault::kIllegalMode)) != 0; }
+
+  // The world behind the processor.
+  virtual void sampleInputs() = 0;  // terminals -> input elements
+  virtual void driveOutputs() = 0;  // output elements -> terminals (respecting faults)
+  // Conditions that are still present after a fault clear raise their bit again.
+  virtual void reassertFaults() {}
+  virtual void onPowerUp() {}
+
+ private:
+  struct Element {
+    ProcessDataDescriptor d;
+    std::uint16_t address;
+  };
+  struct ModeTables {
+    std::uint16_t ptoc;
+    std::uint16_t gtoc;
+    std::uint8_t rxSize;
+    std::uint8_t txSize;
+  };
+
+  void buildTables(std::span<const ProcessDataDescriptor> own, std::span<const ElementId> parameters);
+  void clearFaults();
+  void checkWatchdog(SimTime now);
+  [[nodiscard]] const SoftwareMode& currentMode() const;
+  [[nodiscard]] const ModeTables& currentTables() const;
+  [[nodiscard]] std::uint8_t* storage(std::uint16_t address);
+  [[nodiscard]] const std::uint8_t* storage(std::uint16_t address) const;
+  [[nodiscard]] const Element* elementAt(std::uint16_t address) const;
+  std::vector<std::uint8_t> factoryEeprom() const;
+
+  Identity identity_;
+  std::span<const SoftwareMode> modes_;
+  std::size_t ownElements_ = 0;
+  std::vector<Element> elements_;
+  std::vector<ModeTables> modeTables_;
+
+  std::array<std::uint8_t, memory::kRpcSize> rpcTable_{};
+  std::array<std::uint8_t, memory::kRamSize> ram_{};
+  std::array<std::uint8_t, memory::kEepromSize> eeprom_{};  // pending image of this command
+  std::array<std::uint8_t, memory::kEepromSize> eepromBefore_{};  // as it was before this command
+  bool eepromDirty_ = false;
+  std::vector<std::uint8_t> rom_;
+
+  lbp::Parser parser_;
+  NvStore nv_;
+
+  bool powered_ = false;
+  bool setupJumper_ = false;
+  std::uint8_t faults_ = 0;
+  std::uint8_t swMode_ = 0;
+  std::uint8_t nvAccess_ = 0;
+  SimTime now_{};
+  SimTime lastHostCommand_{};
+  std::uint32_t processDataCount_ = 0;
+};
+
+}  // namespace remote

@@ -1,0 +1,73 @@
+#include "pty/pty_remote.hpp"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <stdexcept>
+
+namespace net {
+
+namespace {
+std::runtime_error sysError(const std::string& what) {
+  return std::runtime_error(what + ": " + std::strerror(errno));
+}
+}  // namespace
+
+PtyRemote::PtyRemote(remote::RemoteDevice& device) : device_(device) {
+  master_ = ::posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
+  if (master_ < 0) throw sysError("cannot open a pseudo-terminal");
+  if (::grantpt(master_) != 0 || ::unlockpt(master_) != 0) throw sysError("cannot unlock the pseudo-terminal");
+  const char* name = ::ptsname(master_);
+  if (name == nullptr) throw sysError("cannot name the pseudo-terminal");
+  path_ = name;
+  slave_ = ::open(path_.c_str(), O_RDWR | O_NOCTTY | O_CLOEXEC);
+  if (slave_ < 0) throw sysError("cannot open " + path_);
+  // Raw 8N1 binary line, as a USB-RS422 adapter is used for LBP.
+  termios tio{};
+  if (::tcgetattr(slave_, &tio) == 0) {
+    ::cfmakeraw(&tio);
+    ::cfsetspeed(&tio, B115200);
+    ::tcsetattr(slave_, TCSANOW, &tio);
+  }
+}
+
+PtyRemote::~PtyRemote() {
+  if (slave_ >= 0) ::close(slave_);
+  if (master_ >= 0) ::close(master_);
+}
+
+void PtyRemote::run(const std::atomic<bool>& stop) {
+  using Clock = std::chrono::steady_clock;
+  const auto start = Clock::now();
+  auto now = [&]() { return std::chrono::duration_cast<lbp::SimTime>(Clock::now() - start); };
+  std::uint8_t buffer[512];
+  while (!stop.load()) {
+    pollfd pfd{master_, POLLIN, 0};
+    const int ready = ::poll(&pfd, 1, 5);
+    if (ready < 0 && errno != EINTR) throw sysError("poll on " + path_);
+    const auto t = now();
+    device_.advance(t);
+    if (ready <= 0 || !(pfd.revents & POLLIN)) continue;
+    const ssize_t n = ::read(master_, buffer, sizeof buffer);
+    if (n <= 0) continue;
+    bytesIn_ += static_cast<std::uint64_t>(n);
+    for (ssize_t i = 0; i < n; ++i) {
+      const auto reply = device_.receive(buffer[i], t);
+      std::size_t done = 0;
+      while (done < reply.size()) {
+        const ssize_t w = ::write(master_, reply.data() + done, reply.size() - done);
+        if (w < 0 && errno == EINTR) continue;
+        if (w <= 0) break;
+        done += static_cast<std::size_t>(w);
+      }
+      bytesOut_ += done;
+    }
+  }
+}
+
+}  // namespace net
