@@ -108,6 +108,20 @@ class Daemon {
     if (at == std::string::npos) return {};
     return t.substr(at + marker.size(), t.find('\n', at) - at - marker.size());
   }
+  // Like stop(), but gives up after `limit`: returns -2 (and SIGKILLs it)
+  // when the daemon ignored the signal, so a wedged daemon fails the test
+  // instead of hanging it.
+  int stopWithin(std::chrono::milliseconds limit, int sig = SIGTERM) {
+    ::kill(pid_, sig);
+    const auto deadline = std::chrono::steady_clock::now() + limit;
+    int status = 0;
+    while (::waitpid(pid_, &status, WNOHANG) == 0) {
+      if (std::chrono::steady_clock::now() > deadline) return -2;  // the destructor kills it
+      ::usleep(10000);
+    }
+    pid_ = -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
   int stop(int sig = SIGTERM) {
     ::kill(pid_, sig);
     int status = 0;

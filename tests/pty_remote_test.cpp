@@ -73,4 +73,56 @@ TEST(PtyRemote, AnExternalProgramTalksLbpThroughThePty) {
   std::filesystem::remove(state);
 }
 
+// A client that writes and never reads must not wedge the remote: a real
+// USB-RS422 adapter whose host stops reading loses characters, it does not
+// stop the board. SIGTERM still stops it, and the next client's first answer
+// is its own, not a stale one.
+TEST(PtyRemote, AClientThatNeverReadsCannotWedgeIt) {
+  const auto state = std::filesystem::temp_directory_path() / ("lbpkit-pty-wedge-" + std::to_string(::getpid()));
+  std::filesystem::remove(state);
+  testing_process::Daemon d({"remote", "--pty", "--setup", "--state", state.string()});
+  const std::string path = d.value("serial device: ");
+  ASSERT_FALSE(path.empty());
+  {
+    const int fd = ::open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK);
+    ASSERT_GE(fd, 0) << path;
+    termios tio{};
+    ASSERT_EQ(::tcgetattr(fd, &tio), 0);
+    ::cfmakeraw(&tio);
+    ASSERT_EQ(::tcsetattr(fd, TCSANOW, &tio), 0);
+    // 64 KiB of cookie reads: 128 KiB of answers nobody reads, far more
+    // than a pty buffers.
+    const Bytes cmd{lbp::local_read::kCookie, lbp::crc8(Bytes{lbp::local_read::kCookie})};
+    Bytes flood;
+    for (int i = 0; i < 32768; ++i) flood.insert(flood.end(), cmd.begin(), cmd.end());
+    std::size_t sent = 0;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    while (sent < flood.size() && std::chrono::steady_clock::now() < deadline) {
+      const ssize_t n = ::write(fd, flood.data() + sent, flood.size() - sent);
+      if (n > 0) sent += static_cast<std::size_t>(n);
+      else ::usleep(1000);
+    }
+    EXPECT_EQ(sent, flood.size()) << "the remote stopped reading its commands";
+    ::usleep(300000);
+    ::close(fd);
+  }
+  ::usleep(300000);  // a pause, as between two programs
+  // The next client gets exactly the answer to its own command.
+  const int fd = ::open(path.c_str(), O_RDWR | O_NOCTTY);
+  ASSERT_GE(fd, 0) << path;
+  termios tio{};
+  ASSERT_EQ(::tcgetattr(fd, &tio), 0);
+  ::cfmakeraw(&tio);
+  ASSERT_EQ(::tcsetattr(fd, TCSANOW, &tio), 0);
+  const Bytes unit = exchange(fd, {lbp::special_rpc::kUnitNumber}, 5);
+  ASSERT_EQ(unit.size(), 5U);
+  EXPECT_EQ(unit[3], 0x12);
+  EXPECT_EQ(lbp::crc8(unit), 0);
+  ::close(fd);
+
+  // SIGTERM stops it promptly.
+  EXPECT_EQ(d.stopWithin(std::chrono::seconds(3)), 0);
+  std::filesystem::remove(state);
+}
+
 }  // namespace

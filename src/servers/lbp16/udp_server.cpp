@@ -5,6 +5,7 @@
 #include <net/if.h>
 #include <poll.h>
 #include <sys/socket.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -28,6 +29,10 @@ UdpServer::UdpServer(const std::string& address, std::uint16_t port) : address_(
     throw std::runtime_error("cannot listen on " + address + ":" + std::to_string(port) + ": " + why +
                              " (is another card there, or is the address not on this machine?)");
   }
+  // Kernel receive timestamps (CLOCK_REALTIME, ns) for honest server-time
+  // figures; without them only our own handling would be measured.
+  const int on = 1;
+  ::setsockopt(fd_, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on);
   socklen_t len = sizeof sa;
   ::getsockname(fd_, reinterpret_cast<sockaddr*>(&sa), &len);
   port_ = ntohs(sa.sin_port);
@@ -40,13 +45,39 @@ UdpServer::~UdpServer() {
 long UdpServer::receive(std::chrono::milliseconds timeout) {
   pollfd p{fd_, POLLIN, 0};
   if (::poll(&p, 1, static_cast<int>(timeout.count())) <= 0) return -1;
-  socklen_t len = sizeof peer_;
   // MSG_TRUNC gives the datagram's real length; one bigger than the buffer
   // is passed on as a full buffer, which the handler refuses as oversized.
-  const ssize_t n = ::recvfrom(fd_, in_.data(), in_.size(), MSG_TRUNC, reinterpret_cast<sockaddr*>(&peer_), &len);
+  iovec iov{in_.data(), in_.size()};
+  alignas(cmsghdr) std::uint8_t control[CMSG_SPACE(sizeof(timespec))];
+  msghdr msg{};
+  msg.msg_name = &peer_;
+  msg.msg_namelen = sizeof peer_;
+  msg.msg_iov = &iov;
+  msg.msg_iovlen = 1;
+  msg.msg_control = control;
+  msg.msg_controllen = sizeof control;
+  const ssize_t n = ::recvmsg(fd_, &msg, MSG_TRUNC);
   if (n < 0) return -1;
+  timespec now{};
+  ::clock_gettime(CLOCK_REALTIME, &now);
+  const std::int64_t readNs = now.tv_sec * 1'000'000'000LL + now.tv_nsec;
+  receivedNs_ = readNs;
+  for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr; c = CMSG_NXTHDR(&msg, c)) {
+    if (c->cmsg_level != SOL_SOCKET || c->cmsg_type != SCM_TIMESTAMPNS) continue;
+    timespec stamp{};
+    std::memcpy(&stamp, CMSG_DATA(c), sizeof stamp);
+    receivedNs_ = stamp.tv_sec * 1'000'000'000LL + stamp.tv_nsec;
+  }
+  queued_ = std::chrono::nanoseconds(readNs > receivedNs_ ? readNs - receivedNs_ : 0);
   if (static_cast<std::size_t>(n) > in_.size()) return static_cast<long>(in_.size());
   return static_cast<long>(n);
+}
+
+std::chrono::nanoseconds UdpServer::sinceReceived() const {
+  timespec now{};
+  ::clock_gettime(CLOCK_REALTIME, &now);
+  const std::int64_t ns = now.tv_sec * 1'000'000'000LL + now.tv_nsec - receivedNs_;
+  return std::chrono::nanoseconds(ns > 0 ? ns : 0);
 }
 
 void UdpServer::send(std::size_t len) {

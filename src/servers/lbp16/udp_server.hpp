@@ -24,6 +24,14 @@ class UdpServer {
   [[nodiscard]] std::uint16_t port() const { return port_; }
   [[nodiscard]] const std::string& address() const { return address_; }
 
+  // How long ago the kernel received the last datagram served (its
+  // SO_TIMESTAMPNS receive timestamp), so server-time figures include the
+  // time a datagram queued in the socket, not only our handling of it. Falls
+  // back to the moment we read it where the kernel gave no timestamp.
+  [[nodiscard]] std::chrono::nanoseconds sinceReceived() const;
+  // Of that, how long it waited in the socket before we read it.
+  [[nodiscard]] std::chrono::nanoseconds lastQueueing() const { return queued_; }
+
   // Waits up to `timeout` for one datagram and answers it with what
   // `handler(request, reply)` returns (nothing when it returns 0). The one
   // blocking call of the per-packet path; no allocation.
@@ -47,6 +55,8 @@ class UdpServer {
   std::array<std::uint8_t, kBuffer> in_{};
   std::array<std::uint8_t, kBuffer> out_{};
   sockaddr_in peer_{};
+  std::int64_t receivedNs_ = 0;  // CLOCK_REALTIME, as the kernel stamps
+  std::chrono::nanoseconds queued_{0};
 };
 
 // The MAC address of the interface that has `ipv4` (none for loopback).

@@ -1,6 +1,7 @@
 #include "pty/pty_remote.hpp"
 
 #include <fcntl.h>
+#include <sys/ioctl.h>
 #include <poll.h>
 #include <termios.h>
 #include <unistd.h>
@@ -25,6 +26,10 @@ PtyRemote::PtyRemote(remote::RemoteDevice& device) : device_(device) {
   const char* name = ::ptsname(master_);
   if (name == nullptr) throw sysError("cannot name the pseudo-terminal");
   path_ = name;
+  // Non-blocking: a client that never reads must not stop the server (or
+  // its SIGTERM handling) in write().
+  if (::fcntl(master_, F_SETFL, ::fcntl(master_, F_GETFL) | O_NONBLOCK) != 0)
+    throw sysError("cannot make the pseudo-terminal non-blocking");
   slave_ = ::open(path_.c_str(), O_RDWR | O_NOCTTY | O_CLOEXEC);
   if (slave_ < 0) throw sysError("cannot open " + path_);
   // Raw 8N1 binary line, as a USB-RS422 adapter is used for LBP.
@@ -41,32 +46,65 @@ PtyRemote::~PtyRemote() {
   if (master_ >= 0) ::close(master_);
 }
 
+int PtyRemote::unread() const {
+  int n = 0;
+  if (::ioctl(slave_, FIONREAD, &n) != 0) return 0;
+  return n;
+}
+
+void PtyRemote::discardUnread() {
+  const int n = unread();
+  if (n <= 0) return;
+  ::tcflush(slave_, TCIFLUSH);
+  bytesDropped_ += static_cast<std::uint64_t>(n);
+}
+
+void PtyRemote::send(std::span<const std::uint8_t> reply) {
+  if (unread() + static_cast<int>(reply.size()) > kMaxUnread) {
+    bytesDropped_ += reply.size();  // overrun: the client is not reading
+    return;
+  }
+  std::size_t done = 0;
+  while (done < reply.size()) {
+    const ssize_t w = ::write(master_, reply.data() + done, reply.size() - done);
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) break;  // EAGAIN: the line's buffer is full
+    done += static_cast<std::size_t>(w);
+  }
+  bytesOut_ += done;
+  bytesDropped_ += reply.size() - done;
+}
+
 void PtyRemote::run(const std::atomic<bool>& stop) {
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   auto now = [&]() { return std::chrono::duration_cast<lbp::SimTime>(Clock::now() - start); };
   std::uint8_t buffer[512];
+  auto lastInput = Clock::now();
+  auto lastProgress = Clock::now();
+  int lastUnread = 0;
   while (!stop.load()) {
     pollfd pfd{master_, POLLIN, 0};
     const int ready = ::poll(&pfd, 1, 5);
     if (ready < 0 && errno != EINTR) throw sysError("poll on " + path_);
     const auto t = now();
     device_.advance(t);
+    // Answers waiting with no reader taking any for kAbandonedAfter belong
+    // to a client that is gone (or stuck): drop them.
+    const int waiting = unread();
+    if (waiting == 0 || waiting < lastUnread) lastProgress = Clock::now();
+    lastUnread = waiting;
+    if (waiting > 0 && Clock::now() - lastProgress > kAbandonedAfter) {
+      discardUnread();
+      lastUnread = 0;
+    }
     if (ready <= 0 || !(pfd.revents & POLLIN)) continue;
     const ssize_t n = ::read(master_, buffer, sizeof buffer);
     if (n <= 0) continue;
+    if (Clock::now() - lastInput > kAbandonedAfter) discardUnread();
+    lastInput = Clock::now();
     bytesIn_ += static_cast<std::uint64_t>(n);
-    for (ssize_t i = 0; i < n; ++i) {
-      const auto reply = device_.receive(buffer[i], t);
-      std::size_t done = 0;
-      while (done < reply.size()) {
-        const ssize_t w = ::write(master_, reply.data() + done, reply.size() - done);
-        if (w < 0 && errno == EINTR) continue;
-        if (w <= 0) break;
-        done += static_cast<std::size_t>(w);
-      }
-      bytesOut_ += done;
-    }
+    for (ssize_t i = 0; i < n && !stop.load(); ++i) send(device_.receive(buffer[i], t));
   }
 }
 

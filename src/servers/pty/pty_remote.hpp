@@ -5,9 +5,20 @@
 // The only place where the remote's simulated time follows the wall clock.
 // Characters that arrive in one read() came back to back; a pause between
 // reads is an inter-character gap, and the parser's framing timeout applies.
+//
+// The server never blocks on its client. Answers a client does not read are
+// dropped once more than kMaxUnread bytes wait for it (a USB-RS422 adapter
+// whose host stops reading overruns and loses characters; it does not stop
+// the board), and answers nobody has taken any of for kAbandonedAfter, or
+// left unread when a client went quiet that long, are discarded (a real
+// serial device's input buffer goes with its last close; ours stays open
+// between clients, so the next program would read them as its own).
 #pragma once
 
 #include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <span>
 #include <string>
 
 #include "remote/remote_device.hpp"
@@ -29,6 +40,11 @@ class PtyRemote {
 
   [[nodiscard]] std::uint64_t bytesIn() const { return bytesIn_; }
   [[nodiscard]] std::uint64_t bytesOut() const { return bytesOut_; }
+  // Answer bytes the client never read: dropped at the source or discarded.
+  [[nodiscard]] std::uint64_t bytesDropped() const { return bytesDropped_; }
+
+  static constexpr int kMaxUnread = 2048;
+  static constexpr std::chrono::milliseconds kAbandonedAfter{200};
 
  private:
   remote::RemoteDevice& device_;
@@ -37,6 +53,11 @@ class PtyRemote {
   std::string path_;
   std::uint64_t bytesIn_ = 0;
   std::uint64_t bytesOut_ = 0;
+  std::uint64_t bytesDropped_ = 0;
+
+  [[nodiscard]] int unread() const;  // answer bytes waiting for the client
+  void discardUnread();
+  void send(std::span<const std::uint8_t> reply);
 };
 
 }  // namespace net
