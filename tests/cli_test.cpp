@@ -1,11 +1,21 @@
 // The lbpkit tools as a user runs them.
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+#include <sys/stat.h>
+
+#include <csignal>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <memory>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "process.hpp"
+#include "remote/nv_store.hpp"
+#include "remote/remote_device.hpp"
 
 namespace {
 
@@ -158,6 +168,217 @@ TEST(Cli, InfoAndMonitor) {
   EXPECT_NE(r.out.find("channel 0: 7I77 field I/O"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("CS: ok"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("AnalogOut0"), std::string::npos);
+}
+
+// --- Issue 9: data loss and security ----------------------------------------------
+
+std::string fileText(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
+
+// Starts lbpkit with regular files limited to `bytes` (SIGXFSZ ignored, so a
+// write past it fails with EFBIG): a state file that stops taking writes,
+// like a full disk, even for root.
+std::unique_ptr<Daemon> daemonWithFileLimit(const std::vector<std::string>& args, rlim_t bytes) {
+  rlimit old{};
+  ::getrlimit(RLIMIT_FSIZE, &old);
+  rlimit small = old;
+  small.rlim_cur = bytes;
+  auto* oldHandler = ::signal(SIGXFSZ, SIG_IGN);
+  ::setrlimit(RLIMIT_FSIZE, &small);
+  auto d = std::make_unique<Daemon>(args);
+  ::setrlimit(RLIMIT_FSIZE, &old);
+  ::signal(SIGXFSZ, oldHandler);
+  return d;
+}
+
+// Item 1: --state never writes over what is not an lbpkit EEPROM image.
+TEST(Cli, SimRefusesAStateFileThatIsNotAnEepromImage) {
+  const auto toml = tempPath("state.toml");
+  const std::string text = "[[daughtercard]]\ntype = \"7I77\"\n";
+  { std::ofstream(toml) << text; }
+  auto r = run({"sim", "--bind", "127.0.0.1:0", "--api", "0", "--state", toml}, std::chrono::seconds(10));
+  EXPECT_EQ(r.exit, 1);
+  EXPECT_NE(r.err.find(toml + ": is not an lbpkit EEPROM image (" + std::to_string(text.size()) +
+                       " bytes of something else); refusing to overwrite it"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(fileText(toml), text);
+
+  const auto link = tempPath("state.link");
+  std::filesystem::create_symlink(toml, link);
+  r = run({"sim", "--bind", "127.0.0.1:0", "--api", "0", "--state", link}, std::chrono::seconds(10));
+  EXPECT_EQ(r.exit, 1);
+  EXPECT_NE(r.err.find(link + ": is a symbolic link; lbpkit will not follow it"), std::string::npos) << r.err;
+  EXPECT_EQ(fileText(toml), text);
+
+  const auto fifo = tempPath("state.fifo");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  r = run({"sim", "--bind", "127.0.0.1:0", "--api", "0", "--state", fifo}, std::chrono::seconds(10));
+  EXPECT_EQ(r.exit, 1) << "a FIFO as --state hung the start";
+  EXPECT_NE(r.err.find(fifo + ": is a FIFO"), std::string::npos) << r.err;
+
+  const auto dir = tempPath("state.dir");
+  r = run({"sim", "--bind", "127.0.0.1:0", "--api", "0", "--state", dir + "/sub/eeprom"}, std::chrono::seconds(10));
+  EXPECT_EQ(r.exit, 1);
+  EXPECT_NE(r.err.find("directory " + dir + "/sub does not exist"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir));
+  for (const auto& p : {toml, link, fifo}) std::filesystem::remove(p);
+}
+
+// Item 2: a write the EEPROM did not keep is an error, not "written to the EEPROM".
+TEST(Cli, WpdFailsWhenTheEepromCannotSaveTheValue) {
+  auto w = run({"wpd", "NVWATCHDOGTIME", "100", "--state", "/dev/full"});
+  EXPECT_EQ(w.exit, 1) << w.out;
+  EXPECT_EQ(w.out.find("written to the EEPROM"), std::string::npos) << w.out;
+  EXPECT_NE(w.err.find("EEPROM"), std::string::npos) << w.err;
+}
+
+TEST(Cli, WpdToASimThatCannotSaveTheValueFails) {
+  const auto state = tempPath("full");
+  // Room for the factory image in the first slot, none for a second write.
+  const auto limit = remote::NvStore(remote::memory::kEepromSize).slotBytes();
+  auto d = daemonWithFileLimit({"sim", "--bind", "127.0.0.1:0", "--api", "0", "--state", state}, limit);
+  const auto where = d->value("on UDP ");
+  ASSERT_FALSE(where.empty());
+  auto w = run({"wpd", "NVWATCHDOGTIME", "100", "--addr", where});
+  EXPECT_EQ(w.exit, 1) << w.out;
+  EXPECT_EQ(w.out.find("written to the EEPROM"), std::string::npos) << w.out;
+  EXPECT_NE(w.err.find("EEPROM"), std::string::npos) << w.err;
+  EXPECT_EQ(trim(run({"rpd", "NVWATCHDOGTIME", "--addr", where}).out), "50");
+  EXPECT_EQ(d->stop(), 0);
+  for (const auto& p : {state, state + ".analog"}) std::filesystem::remove(p);
+}
+
+TEST(Cli, WpdOverSerialFailsWhenTheRemoteCannotSaveTheValue) {
+  const auto state = tempPath("fullpty");
+  const auto limit = remote::NvStore(remote::memory::kEepromSize).slotBytes();
+  auto d = daemonWithFileLimit({"remote", "--pty", "--setup", "--state", state}, limit);
+  const auto pty = d->value("serial device: ");
+  ASSERT_FALSE(pty.empty());
+  auto w = run({"wpd", "NVWATCHDOGTIME", "100", "--serial", pty});
+  EXPECT_EQ(w.exit, 1) << w.out;
+  EXPECT_NE(w.err.find("EEPROM"), std::string::npos) << w.err;
+  EXPECT_EQ(trim(run({"rpd", "NVWATCHDOGTIME", "--serial", pty}).out), "50");
+  EXPECT_EQ(d->stop(), 0);
+  std::filesystem::remove(state);
+}
+
+// Item 3: two sims on one EEPROM file would lose each other's writes.
+TEST(Cli, ASecondSimOnTheSameStateFileIsRefused) {
+  const auto state = tempPath("shared");
+  Daemon first({"sim", "--bind", "127.0.0.1:0", "--api", "0", "--state", state});
+  ASSERT_FALSE(first.value("on UDP ").empty());
+  auto r = run({"sim", "--bind", "127.0.0.1:0", "--api", "0", "--state", state}, std::chrono::seconds(10));
+  EXPECT_EQ(r.exit, 1);
+  EXPECT_NE(r.err.find(state + ": in use by another lbpkit"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("lbpkit sim on 127.0.0.1:0"), std::string::npos) << r.err;  // who holds it
+  EXPECT_EQ(first.stop(), 0);
+  for (const auto& p : {state, state + ".analog"}) std::filesystem::remove(p);
+}
+
+TEST(Cli, SimsSideBySideEachHaveTheirOwnDefaultStateFile) {
+  const auto home = tempPath("xdg");
+  std::filesystem::create_directory(home);
+  const char* old = std::getenv("XDG_STATE_HOME");
+  const std::string saved = old ? old : "";
+  ::setenv("XDG_STATE_HOME", home.c_str(), 1);
+  Daemon a({"sim", "--bind", "127.0.0.1:0", "--api", "0"});
+  Daemon b({"sim", "--bind", "127.0.0.2:0", "--api", "0"});
+  if (old) ::setenv("XDG_STATE_HOME", saved.c_str(), 1);
+  else ::unsetenv("XDG_STATE_HOME");
+  const auto fileA = a.value("EEPROM ");
+  const auto fileB = b.value("EEPROM ");
+  EXPECT_EQ(fileA, home + "/lbpkit/7i77-127.0.0.1-0.eeprom");
+  EXPECT_EQ(fileB, home + "/lbpkit/7i77-127.0.0.2-0.eeprom");
+  EXPECT_EQ(a.stop(), 0);
+  EXPECT_EQ(b.stop(), 0);
+  std::filesystem::remove_all(home);
+}
+
+// Item 5: --serial talks only to a terminal, never into a file.
+TEST(Cli, SerialRefusesWhatIsNotATerminal) {
+  const auto file = tempPath("notatty");
+  { std::ofstream{file}; }
+  auto r = run({"wpd", "WATCHDOGTIME", "0", "--serial", file});
+  EXPECT_EQ(r.exit, 1);
+  EXPECT_NE(r.err.find(file + ": is a regular file, not a serial device"), std::string::npos) << r.err;
+  EXPECT_EQ(std::filesystem::file_size(file), 0U);  // no LBP bytes written into it
+  r = run({"rpd", "FAULT", "--serial", "/dev/null"});
+  EXPECT_EQ(r.exit, 1);
+  EXPECT_NE(r.err.find("/dev/null: is not a serial device"), std::string::npos) << r.err;
+  std::filesystem::remove(file);
+}
+
+TEST(Cli, MonitorRefusesRatesItCannotRun) {
+  auto r = run({"monitor", "--rate", "1e9"}, std::chrono::seconds(10));
+  EXPECT_NE(r.exit, 0);
+  EXPECT_NE(r.err.find("--rate"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("1 to 20000 Hz"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("10 kHz"), std::string::npos) << r.err;  // and why
+  EXPECT_EQ(r.out.find("lbpkit monitor:"), std::string::npos) << "it ran: " << r.out;
+  r = run({"monitor", "--rate", "fast"}, std::chrono::seconds(10));
+  EXPECT_NE(r.exit, 0);
+  EXPECT_NE(r.err.find("--rate"), std::string::npos) << r.err;
+  r = run({"monitor", "--display", "0"}, std::chrono::seconds(10));
+  EXPECT_NE(r.exit, 0);
+  EXPECT_NE(r.err.find("--display"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("0.1 to 100"), std::string::npos) << r.err;
+  r = run({"monitor", "--frames", "-1"}, std::chrono::seconds(10));
+  EXPECT_NE(r.exit, 0);
+  EXPECT_NE(r.err.find("--frames"), std::string::npos) << r.err;
+  r = run({"monitor", "--reply-timeout", "0"}, std::chrono::seconds(10));
+  EXPECT_NE(r.exit, 0);
+  EXPECT_NE(r.err.find("--reply-timeout"), std::string::npos) << r.err;
+}
+
+// A frame here is two seconds of wall clock (and 40 000 cycles): SIGTERM
+// must not wait for it to end.
+TEST(Cli, MonitorStopsPromptlyOnSigterm) {
+  int outFd = -1, errFd = -1;
+  const pid_t pid = testing_process::spawn({"monitor", "--sim", "--plain", "--rate", "20000", "--display", "0.5"},
+                                           outFd, errFd);
+  // Whatever happens below, no monitor is left behind.
+  struct Reaper {
+    pid_t pid;
+    int out, err;
+    ~Reaper() {
+      if (pid > 0) {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, nullptr, 0);
+      }
+      ::close(out);
+      ::close(err);
+    }
+  } reaper{pid, outFd, errFd};
+  std::string out;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (out.find("encoders:") == std::string::npos && std::chrono::steady_clock::now() < deadline) {
+    pollfd p{outFd, POLLIN, 0};
+    if (::poll(&p, 1, 100) <= 0) continue;
+    char buf[4096];
+    const ssize_t n = ::read(outFd, buf, sizeof buf);
+    if (n <= 0) break;
+    out.append(buf, static_cast<std::size_t>(n));
+  }
+  ASSERT_NE(out.find("encoders:"), std::string::npos) << "no first frame: " << out;
+  EXPECT_NE(out.find("0 lost replies"), std::string::npos) << out;
+  EXPECT_NE(out.find("link: 0 cycles lost a reply"), std::string::npos) << out;
+
+  const auto stopAt = std::chrono::steady_clock::now();
+  ASSERT_EQ(::kill(pid, SIGTERM), 0);
+  int status = 0;
+  pid_t done = 0;
+  while ((done = ::waitpid(pid, &status, WNOHANG)) == 0 &&
+         std::chrono::steady_clock::now() - stopAt < std::chrono::seconds(10))
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  const auto took = std::chrono::steady_clock::now() - stopAt;
+  ASSERT_EQ(done, pid) << "still running 10 s after SIGTERM";
+  reaper.pid = -1;
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "status " << status;
+  EXPECT_LT(took, std::chrono::milliseconds(500))
+      << std::chrono::duration_cast<std::chrono::milliseconds>(took).count() << " ms";
 }
 
 }  // namespace

@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <vector>
 
 #include "card_host.hpp"
+#include "lbp/protocol.hpp"
 
 namespace {
 
@@ -211,6 +213,173 @@ TEST(MuxedEncoder, IndexLatchesJustOnceAndTimestamps) {
   // Any write clears the count.
   h.write(hm2::MuxedEncoder::kCount + 8, 0);
   EXPECT_LE(h.read(hm2::MuxedEncoder::kCount + 8) & 0xFFFF, 1U);
+}
+
+// Registers in the whole 16-bit address space on which two cards differ, as
+// reads at `at` give them (the first few are reported when `report`).
+unsigned registerDifferences(hm2::HostMot2Card& card, hm2::HostMot2Card& fresh, SimTime at, bool report) {
+  unsigned differences = 0;
+  for (unsigned a = 0; a < 0x10000; a += 4) {
+    const auto address = static_cast<std::uint16_t>(a);
+    const auto got = card.read32(address, at);
+    const auto want = fresh.read32(address, at);
+    if (got != want && ++differences <= 10 && report)
+      ADD_FAILURE() << std::hex << "register 0x" << a << " reads 0x" << got << ", a fresh card 0x" << want;
+  }
+  return differences;
+}
+
+TEST(Card, PowerCycleLeavesEveryRegisterAsAFreshCardHasIt) {
+  namespace cmd = hm2::command;
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  auto& io = card.daughtercard(0).fieldIo;
+  auto& analog = card.daughtercard(0).analog;
+
+  // Muxed encoders: 1000 counts on encoder 0 (ending on quadrature state 0,
+  // where a fresh card's encoder is), CCR, timestamp divisor and mux rate.
+  card.encoders().setVelocity(0, 1000, h.now);
+  h.wait(1s);
+  card.encoders().setVelocity(0, 0, h.now);
+  h.write(hm2::MuxedEncoder::kControl + 4, 0x0C30);
+  h.write(hm2::MuxedEncoder::kTimestampDiv, 48);
+  h.write(hm2::MuxedEncoder::kRate, 20);
+  ASSERT_EQ(h.read(hm2::MuxedEncoder::kCount) & 0xFFFF, 1000U);
+  // The watchdog bites (it releases the GPIO), then every GPIO register is set.
+  h.write(hm2::Watchdog::kTimer, 1000);
+  h.wait(1ms);
+  ASSERT_EQ(h.read(hm2::Watchdog::kStatus), 1U);
+  for (std::uint16_t reg = hm2::IoPort::kData; reg <= hm2::IoPort::kOutputInvert; reg += 0x100)
+    for (std::uint16_t port = 0; port < 2; ++port)
+      h.write(static_cast<std::uint16_t>(reg + 4 * port), 0x1A5A5U >> port);
+  h.write(hm2::Led::kLeds, 0xF0000000U);
+  ASSERT_NE(card.led().leds(), 0U);
+
+  // The 7I77 in setup mode: working watchdog times changed, and the field
+  // I/O processor's NV one (the manual's NVWATCHDOGTIME) set to 100 ms.
+  h.command(cmd::kStop);
+  h.write(CardHost::cs(0), 0);
+  h.write(CardHost::cs(1), 0);
+  ASSERT_EQ(h.command(cmd::kSetupStart | 0x03), 0);
+  h.remote(0, 0x65, io.address(io.standard(remote::Standard::WatchdogTime)), 20);
+  h.remote(0, lbp::local_write::kNonVolatile, 0, lbp::nonvolatile::kEeprom);
+  h.remote(0, 0x65, io.address(io.standard(remote::Standard::NvWatchdogTimeout)), 100);
+  h.remote(0, lbp::local_write::kNonVolatile, 0, 0);
+  h.remote(1, 0x65, analog.address(analog.standard(remote::Standard::WatchdogTime)), 30);
+  ASSERT_EQ(io.watchdogTimeMs(), 20);
+  ASSERT_EQ(analog.watchdogTimeMs(), 30);
+  // SSLBP: a normal run, then STOP ALL, which leaves byte 2 of interface 0
+  // (inputs 16..23) alone; a changed baud rate in the local RAM; channel 1
+  // chattering and a START of the empty channel 2 still running.
+  io.setInputVoltage(16, 24.0);
+  h.command(cmd::kStop);
+  h.write(CardHost::cs(0), 0);  // software mode 0 (setup mode left LBP commands there)
+  h.write(CardHost::cs(1), 0);
+  ASSERT_EQ(h.command(cmd::kStart | 0x03), 0);
+  ASSERT_EQ(h.command(cmd::kDoit | 0x03), 0);
+  h.command(cmd::kStop);
+  ASSERT_NE(h.read(CardHost::iface(0, 0)) & 0x00FF0000U, 0U);
+  const std::uint16_t baud0 = hm2::local::kChannelBlock + hm2::local::kBaudOffset;
+  h.write(hm2::SmartSerial::kData, 0x42);
+  h.command(cmd::kWrite | cmd::kRequest | baud0);
+  ASSERT_EQ(h.command(cmd::kStart | 0x02), 0);
+  h.write(hm2::SmartSerial::kCommand, cmd::kStart | 0x04);
+  h.wait(1ms);
+  ASSERT_NE(h.read(CardHost::iface(0, 0)) & 0x00FF0000U, 0U);
+
+  hm2::HostMot2Card fresh;
+  ASSERT_GT(registerDifferences(card, fresh, h.now, false), 20U);  // the test has something to find
+  ASSERT_NE(h.read(hm2::SmartSerial::kCommand), 0U);
+  card.powerCycle(h.now);
+  EXPECT_EQ(registerDifferences(card, fresh, h.now, true), 0U);
+  EXPECT_EQ(card.led().leds(), 0U);  // write only: not seen by reads
+  // The 7I77 booted: working values from the EEPROM (manual: NON-VOLATILE
+  // FIELD I/O PARAMETERS), and the power-up watchdog fault.
+  EXPECT_EQ(io.watchdogTimeMs(), 100);
+  EXPECT_EQ(analog.watchdogTimeMs(), 50);
+  EXPECT_EQ(io.faults(), remote::fault::kWatchdog);
+  EXPECT_EQ(analog.faults(), remote::fault::kWatchdog);
+  // And the card works as a fresh one: RAM at power-up values, the remotes
+  // still on their channels.
+  EXPECT_EQ(h.command(cmd::kRequest | baud0), 2500000 & 0xFF);
+  h.write(CardHost::cs(0), 0);
+  h.write(CardHost::cs(1), 0);
+  EXPECT_EQ(h.command(cmd::kStart | 0x03), 0);
+  EXPECT_EQ(h.command(cmd::kDoit | 0x03), 0);
+  EXPECT_EQ(io.faults(), 0);
+}
+
+TEST(Card, PowerCycleLeavesAProcessorWithoutSupplyOff) {
+  hm2::HostMot2Card::Options o;
+  o.first.fieldIo.vinFromField = false;  // W1 right: VIN from TB2
+  o.first.fieldIo.vin = 0;
+  hm2::HostMot2Card card(o);
+  ASSERT_FALSE(card.daughtercard(0).fieldIo.powered());
+  card.powerCycle(SimTime{1ms});
+  EXPECT_FALSE(card.daughtercard(0).fieldIo.powered());
+  EXPECT_TRUE(card.daughtercard(0).analog.powered());
+}
+
+TEST(Card, CountsUnmappedAndReadOnlyAccessesAndKeepsTheLastFew) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  std::vector<hm2::AccessEvent> seen;
+  auto record = [](void* context, const hm2::AccessEvent& e) {
+    static_cast<std::vector<hm2::AccessEvent>*>(context)->push_back(e);
+  };
+  card.setAccessObserver(record, &seen);
+  // Accesses something takes are not counted.
+  h.read(0x0100);
+  h.read(hm2::IoPort::kData);
+  h.write(hm2::IoPort::kDdr, 1);
+  h.write(hm2::Led::kLeds, 0);
+  h.write(hm2::SmartSerial::kData, 0);
+  EXPECT_TRUE(seen.empty());
+
+  h.write(0x1234, 0x5A04);  // past IOPort's two ports: nothing decodes it
+  const SimTime first = h.now;
+  h.read(0x7000);
+  h.write(0x0100, 0);                           // the cookie
+  h.write(0x0404, 1);                           // the IDROM
+  h.write(hm2::MuxedEncoder::kTimestamp, 5);    // the free-running timestamp counter
+  h.read(0x0802);                               // just past the IDROM
+  for (std::uint32_t i = 0; i < 5; ++i) h.write(static_cast<std::uint16_t>(0xF000 + 4 * i), i);
+  const auto& c = card.accessCounters();
+  EXPECT_EQ(c.unmappedReads, 2U);
+  EXPECT_EQ(c.unmappedWrites, 6U);
+  EXPECT_EQ(c.readOnlyWrites, 3U);
+  EXPECT_EQ(c.ignoredCommands, 0U);
+  EXPECT_EQ(c.lostCommands, 0U);
+  EXPECT_EQ(card.unmappedWrites(), 9U);  // the sum, as before the kinds were told apart
+
+  // The observer saw all eleven, in order, as they happened.
+  ASSERT_EQ(seen.size(), 11U);
+  EXPECT_EQ(seen[0].address, 0x1234);
+  EXPECT_EQ(seen[0].value, 0x5A04U);
+  EXPECT_EQ(seen[0].kind, hm2::AccessKind::UnmappedWrite);
+  EXPECT_EQ(seen[0].at, first);
+  EXPECT_EQ(seen[1].kind, hm2::AccessKind::UnmappedRead);
+  EXPECT_EQ(seen[2].kind, hm2::AccessKind::ReadOnlyWrite);
+  EXPECT_EQ(seen[4].address, hm2::MuxedEncoder::kTimestamp);
+  EXPECT_EQ(hm2::accessKindName(seen[4].kind), "read_only_write");
+  // The last eight are kept, oldest first.
+  const auto recent = card.recentAccesses();
+  ASSERT_EQ(recent.size, hm2::RecentAccesses::kCapacity);
+  for (std::size_t i = 0; i < recent.size; ++i) {
+    EXPECT_EQ(recent.events[i].address, seen[3 + i].address) << i;
+    EXPECT_EQ(recent.events[i].kind, seen[3 + i].kind) << i;
+    EXPECT_EQ(recent.events[i].at, seen[3 + i].at) << i;
+  }
+  EXPECT_EQ(recent.events[7].address, 0xF010);
+  EXPECT_EQ(recent.events[7].value, 4U);
+  // An unaligned address is kept as the host gave it.
+  h.write(0x7002, 9);
+  EXPECT_EQ(card.recentAccesses().events[7].address, 0x7002);
+  // Removing the observer.
+  card.setAccessObserver(nullptr, nullptr);
+  h.read(0x7000);
+  EXPECT_EQ(seen.size(), 12U);
+  EXPECT_EQ(card.accessCounters().unmappedReads, 3U);
 }
 
 }  // namespace

@@ -390,4 +390,75 @@ TEST(Sslbp, LinkFaultsShowAsCsBits) {
   EXPECT_EQ(h.command(cmd::kDoit | 0x01), 0);
 }
 
+// The card counts what the SSLBP refuses, each kind on its own (manual:
+// COMMAND REGISTER WRITE IGNORE; COMMAND REGISTER, "should not be written
+// when non-zero"), and the CS and interface registers of channels the
+// instance does not have decode as nothing.
+TEST(Sslbp, TheCardCountsRefusedCommandsByKind) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  h.command(cmd::kStop);
+  h.write(SmartSerial::kCommand, cmd::kStart | 0x01);
+  h.write(SmartSerial::kCommand, 0x80000000U | cmd::kDoit | 0x01);  // ignored
+  h.write(SmartSerial::kCommand, cmd::kDoit | 0x01);                // busy: lost
+  ASSERT_GE(h.waitCommand().count(), 0);
+  EXPECT_EQ(h.read(SmartSerial::kData), 0xFFU);
+  EXPECT_EQ(card.accessCounters().ignoredCommands, 1U);
+  EXPECT_EQ(card.accessCounters().lostCommands, 1U);
+  EXPECT_EQ(card.smartSerial().counters().lostCommands, 1U);
+  auto recent = card.recentAccesses();
+  ASSERT_EQ(recent.size, 2U);
+  EXPECT_EQ(recent.events[0].kind, hm2::AccessKind::IgnoredCommand);
+  EXPECT_EQ(recent.events[0].value, 0x80000000U | cmd::kDoit | 0x01);
+  EXPECT_EQ(recent.events[1].kind, hm2::AccessKind::LostCommand);
+  EXPECT_EQ(recent.events[1].address, SmartSerial::kCommand);
+  EXPECT_EQ(recent.events[1].value, cmd::kDoit | 0x01U);
+  // STOP ALL is taken while busy, not lost.
+  h.write(SmartSerial::kCommand, cmd::kStart | 0x04);
+  h.write(SmartSerial::kCommand, cmd::kStop);
+  ASSERT_GE(h.waitCommand().count(), 0);
+  EXPECT_EQ(card.accessCounters().lostCommands, 1U);
+  // This instance has channels 0..2: channel 3's registers are not there.
+  h.write(CardHost::cs(2), 0);
+  EXPECT_EQ(card.accessCounters().unmappedWrites, 0U);
+  h.write(CardHost::cs(3), 0x12345678);
+  h.write(CardHost::iface(2, 3), 1);
+  EXPECT_EQ(h.read(CardHost::cs(3)), 0U);
+  EXPECT_EQ(card.accessCounters().unmappedWrites, 2U);
+  EXPECT_EQ(card.accessCounters().unmappedReads, 1U);
+  recent = card.recentAccesses();
+  EXPECT_EQ(recent.events[recent.size - 2].address, CardHost::iface(2, 3));
+}
+
+// Module::reset(): the SSLBP alone back to its power-up state, links kept.
+TEST(Sslbp, ResetIsThePowerUpState) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  card.daughtercard(0).fieldIo.setInputVoltage(16, 24.0);
+  h.command(cmd::kStop);
+  ASSERT_EQ(h.command(cmd::kStart | 0x03), 0);
+  ASSERT_EQ(h.command(cmd::kDoit | 0x03), 0);
+  ASSERT_EQ((h.read(CardHost::cs(kFieldIo)) >> 16) & 0xFF, 0x42U);  // COM_STATE: normal run
+  // Interface 0 byte 2 (inputs 16..23), which a STOP leaves alone: power-up clears it.
+  ASSERT_NE(h.read(CardHost::iface(0, kFieldIo)) & 0x00FF0000U, 0U);
+  const std::uint16_t baud1 =
+      hm2::local::kChannelBlock + hm2::local::kChannelBlockStride + hm2::local::kBaudOffset;
+  h.write(SmartSerial::kData, 0x42);
+  h.command(cmd::kWrite | cmd::kRequest | baud1);
+  ASSERT_EQ(localRead(h, baud1), 0x42);
+  card.smartSerial().reset();
+  EXPECT_EQ(h.read(SmartSerial::kCommand), 0U);
+  EXPECT_EQ(h.read(SmartSerial::kData), 0xAAU);
+  for (unsigned ch = 0; ch < 3; ++ch) {
+    EXPECT_EQ(h.read(CardHost::cs(ch)), 0x0000C100U) << ch;
+    for (unsigned n = 0; n < 3; ++n) EXPECT_EQ(h.read(CardHost::iface(n, ch)), 0U) << ch << " " << n;
+    EXPECT_FALSE(card.smartSerial().channelRunning(ch));
+  }
+  EXPECT_EQ(localRead(h, baud1), 2500000 & 0xFF);
+  EXPECT_EQ(card.smartSerial().channelBaud(1), SmartSerial::kDefaultBaud);
+  // The remotes are still on their channels.
+  ASSERT_EQ(h.command(cmd::kStart | 0x03), 0);
+  EXPECT_EQ(h.read(CardHost::iface(1, kFieldIo)), 0x37374937U);  // "7I77", LSB first
+}
+
 }  // namespace

@@ -4,13 +4,16 @@
 
 #include <chrono>
 #include <cmath>
+#include <exception>
 #include <functional>
+#include <string>
 #include <thread>
 
 #include "common.hpp"
 #include "lbpkit/encoders.hpp"
 #include "lbpkit/error.hpp"
 #include "lbpkit/faults.hpp"
+#include "lbpkit/lbp16_transport.hpp"
 
 namespace app {
 extern std::function<int()> gRun;
@@ -23,9 +26,44 @@ struct MonitorOptions {
   double servoHz = 1000;
   double displayHz = 10;
   unsigned frames = 0;  // 0: until Ctrl-C
+  double replyTimeoutMs =
+      std::chrono::duration<double, std::milli>(lbpkit::Lbp16Transport::kDefaultCycleTimeout).count();
   bool demo = false;
   bool plain = false;  // no screen clearing (logs, tests)
 };
+
+// The ranges the options must be in, and why, for CLI11 to check before
+// anything runs (a --rate of 1e9 once made a "frame" of 10^8 cycles that ran
+// for minutes, deaf to Ctrl-C).
+constexpr double kMinServoHz = 1, kMaxServoHz = 20000;
+constexpr double kMinDisplayHz = 0.1, kMaxDisplayHz = 100;
+constexpr unsigned kMaxFrames = 100'000'000;
+constexpr double kMinReplyTimeoutMs = 0.05, kMaxReplyTimeoutMs = 1000;
+
+CLI::Validator inRange(double lo, double hi, const std::string& unit, const std::string& why) {
+  return CLI::Validator(
+      [=](std::string& text) -> std::string {
+        double v = 0;
+        std::size_t used = 0;
+        try {
+          v = std::stod(text, &used);
+        } catch (const std::exception&) {
+          used = 0;
+        }
+        if (used != text.size() || !std::isfinite(v))
+          return fmt::format("\"{}\" is not a number; give {} to {}{}", text, lo, hi, unit);
+        if (v < lo || v > hi) return fmt::format("{} is out of range: give {} to {}{}{}", text, lo, hi, unit, why);
+        return {};
+      },
+      fmt::format("{} to {}{}", lo, hi, unit));
+}
+
+// Waits until `until` in short steps, so a stop request is seen at once.
+void sleepUnlessStopped(std::chrono::steady_clock::time_point until) {
+  while (!app::gStop.load() && std::chrono::steady_clock::now() < until)
+    std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(
+        until - std::chrono::steady_clock::now(), std::chrono::milliseconds(20)));
+}
 
 std::string bitsText(std::uint64_t v, unsigned n) {
   std::string s;
@@ -39,6 +77,9 @@ std::string bitsText(std::uint64_t v, unsigned n) {
 int runMonitor(const MonitorOptions& o) {
   auto card = app::openCard(o.card);
   auto& t = *card.transport;
+  if (auto* net = dynamic_cast<lbpkit::Lbp16Transport*>(&t))
+    net->setCycleTimeout(std::chrono::duration_cast<lbpkit::Nanoseconds>(
+        std::chrono::duration<double, std::milli>(o.replyTimeoutMs)));
   lbpkit::SmartSerial ss(t, card.info, o.card.serialOptions());
   ss.discover(o.card.serialOptions().channelMask);
   ss.startNormal();
@@ -51,10 +92,11 @@ int runMonitor(const MonitorOptions& o) {
   const auto output = ss.find(0, "Output");
   const auto analog0 = ss.find(1, "AnalogOut0");
   const auto ena = ss.find(1, "AnalogEna");
-  std::uint64_t failedCycles = 0;
+  std::uint64_t failedCycles = 0, failedRecoveries = 0;
   const auto wallStart = std::chrono::steady_clock::now();
   for (unsigned frame = 0; (o.frames == 0 || frame < o.frames) && !app::gStop.load(); ++frame) {
-    for (unsigned c = 0; c < perFrame; ++c) {
+    // The stop flag is checked every cycle: a frame can be many cycles.
+    for (unsigned c = 0; c < perFrame && !app::gStop.load(); ++c) {
       const auto start = t.now();
       const double seconds = std::chrono::duration<double>(start).count();
       if (o.demo) {
@@ -74,23 +116,35 @@ int runMonitor(const MonitorOptions& o) {
       }
       ss.queueOutputs();
       enc.queue();
-      t.flush();
+      (void)t.tryFlush();  // a lost reply shows in the cycle's status
       const auto st = ss.collectInputs();
       enc.update();
       if (!st.ok) {
         ++failedCycles;
-        for (unsigned s = 0; s < ss.slots(); ++s)
-          if (st.failedMask & (1U << ss.slotIdentity(s).channel)) ss.recover(s);
+        for (unsigned s = 0; s < ss.slots(); ++s) {
+          if (!(st.failedMask & (1U << ss.slotIdentity(s).channel))) continue;
+          try {
+            ss.recover(s);  // set-up commands: they throw when the card does not answer
+          } catch (const lbpkit::Error&) {
+            ++failedRecoveries;  // the link is lossy: the next failing cycle tries again
+          }
+        }
       }
       const auto spent = t.now() - start;
       if (spent < period) t.sleep(period - spent);
     }
     // Pace the virtual card to the wall clock.
-    if (card.sim) std::this_thread::sleep_until(wallStart + std::chrono::duration<double>((frame + 1) / o.displayHz));
+    if (card.sim)
+      sleepUnlessStopped(wallStart + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                         std::chrono::duration<double>((frame + 1) / o.displayHz)));
 
+    const auto link = t.linkCounters();
     std::string screen = o.plain ? "" : "\x1b[H\x1b[2J";
-    screen += fmt::format("lbpkit monitor: {} ({}), cycle {} at {:.0f} Hz, {} failed cycles\n", card.info.boardName,
-                          t.describe(), ss.cycles(), o.servoHz, failedCycles);
+    screen += fmt::format("lbpkit monitor: {} ({}), cycle {} at {:.0f} Hz, {} failed cycles, {} lost replies\n",
+                          card.info.boardName, t.describe(), ss.cycles(), o.servoHz, failedCycles, link.lostReplies);
+    screen += fmt::format("link: {} cycles lost a reply, {} late or stray datagrams discarded, {} send failures{}\n",
+                          ss.lostCycles(), link.discarded, link.sendFailures,
+                          failedRecoveries ? fmt::format(", {} channel restarts failed", failedRecoveries) : "");
     for (unsigned s = 0; s < ss.slots(); ++s) {
       const auto& id = ss.slotIdentity(s);
       const auto& d = ss.description(s);
@@ -132,9 +186,21 @@ void addMonitorCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("monitor", "Run the 7I77 and show its inputs, outputs, analog values, encoders and "
                                             "faults live");
   o->card.add(*cmd);
-  cmd->add_option("--rate", o->servoHz, "Servo cycle rate in Hz")->capture_default_str();
-  cmd->add_option("--display", o->displayHz, "Screen updates per second")->capture_default_str();
-  cmd->add_option("--frames", o->frames, "Stop after this many screens (0: until Ctrl-C)");
+  cmd->add_option("--rate", o->servoHz, "Servo cycle rate in Hz")
+      ->capture_default_str()
+      ->check(inRange(kMinServoHz, kMaxServoHz, " Hz",
+                      " (a 7I77 over SSLBP cannot cycle faster than about 10 kHz; LinuxCNC servo threads run at "
+                      "1 to 10 kHz)"));
+  cmd->add_option("--display", o->displayHz, "Screen updates per second")
+      ->capture_default_str()
+      ->check(inRange(kMinDisplayHz, kMaxDisplayHz, " per second", ""));
+  cmd->add_option("--frames", o->frames, "Stop after this many screens (0: until Ctrl-C)")
+      ->check(inRange(0, kMaxFrames, "", " (0: until Ctrl-C)"));
+  cmd->add_option("--reply-timeout", o->replyTimeoutMs,
+                  "With --addr: how long a cycle waits for each reply, in ms, before it counts the reply lost "
+                  "and carries on")
+      ->capture_default_str()
+      ->check(inRange(kMinReplyTimeoutMs, kMaxReplyTimeoutMs, " ms", ""));
   cmd->add_flag("--demo", o->demo, "Drive a walking output bit and a sine on analog 0 (with --sim also wire the "
                                    "outputs to the inputs and turn an encoder)");
   cmd->add_flag("--plain", o->plain, "Print screens one after another instead of redrawing");

@@ -4,8 +4,11 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "common.hpp"
+#include "lbpkit/error.hpp"
 #include "pty/pty_remote.hpp"
 #include "remote/analog.hpp"
 #include "remote/field_io.hpp"
@@ -30,23 +33,47 @@ int runRemote(const RemoteOptions& o) {
     return 2;
   }
   std::filesystem::path state = o.state;
-  if (state.empty()) state = app::defaultStateDir() / (o.analog ? "7i77-analog.eeprom" : "7i77-fieldio.eeprom");
-  std::error_code ec;
-  if (state.has_parent_path()) std::filesystem::create_directories(state.parent_path(), ec);
+  if (state.empty()) {
+    state = app::defaultStateDir() / (o.analog ? "7i77-analog.eeprom" : "7i77-fieldio.eeprom");
+    std::error_code ec;
+    std::filesystem::create_directories(state.parent_path(), ec);  // lbpkit's own directory (a --state FILE's is not created)
+  }
+  // What the EEPROM file says (models cannot log): a file it will not use
+  // stops it before it serves; afterwards every refused write is logged.
+  auto refused = std::make_shared<std::vector<std::string>>();
+  auto serving = std::make_shared<bool>(false);
+  const auto owner = fmt::format("lbpkit remote --pty{}", o.analog ? " --analog" : "");
+  auto report = [refused, serving](const remote::NvEvent& e) {
+    using Kind = remote::NvEvent::Kind;
+    if (e.kind == Kind::Refused && !*serving) {
+      refused->push_back(e.message);
+      return;
+    }
+    const bool error = e.kind == Kind::Refused || e.kind == Kind::WriteFailed;
+    // fputs, not fmt::print: a log that cannot be written must not throw out of the serving loop.
+    std::fputs(fmt::format("lbpkit remote: {}: EEPROM: {}\n", error ? "error" : "warning", e.message).c_str(), stderr);
+    std::fflush(stderr);
+  };
 
   std::unique_ptr<remote::RemoteDevice> device;
   if (o.analog) {
     remote::AnalogProcessor::Options a;
     a.nvFile = state;
+    a.nvOwner = owner;
+    a.nvReport = report;
     a.setupMode = o.setup;
     device = std::make_unique<remote::AnalogProcessor>(a);
   } else {
     remote::FieldIoProcessor::Options f;
     f.outputs = o.sinking ? remote::OutputType::Sinking : remote::OutputType::Sourcing;
     f.nvFile = state;
+    f.nvOwner = owner;
+    f.nvReport = report;
     f.setupMode = o.setup;
     device = std::make_unique<remote::FieldIoProcessor>(f);
   }
+  if (!refused->empty()) throw lbpkit::Error(refused->front());
+  *serving = true;
   net::PtyRemote pty(*device);
   app::installSignalHandlers();
   fmt::print("lbpkit remote: virtual 7I77{} {} processor (unit 0x{:08X}), {} mode at {} baud\n",
@@ -58,8 +85,8 @@ int runRemote(const RemoteOptions& o) {
              pty.path());
   std::fflush(stdout);
   pty.run(app::gStop);
-  fmt::print("lbpkit remote: stopped ({} bytes in, {} out); EEPROM state in {}\n", pty.bytesIn(), pty.bytesOut(),
-             state.string());
+  fmt::print("lbpkit remote: stopped ({} bytes in, {} out, {} answer bytes no client read); EEPROM state in {}\n",
+             pty.bytesIn(), pty.bytesOut(), pty.bytesDropped(), state.string());
   return 0;
 }
 

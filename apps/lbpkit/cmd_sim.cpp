@@ -2,13 +2,19 @@
 // with an HTTP control API to watch the board and change its world.
 #include <fmt/core.h>
 
+#include <cctype>
 #include <filesystem>
 #include <functional>
+#include <memory>
+#include <string>
+#include <vector>
 #include <toml++/toml.h>
 
 #include "common.hpp"
 #include "lbpkit/error.hpp"
 #include "daemon/sim_daemon.hpp"
+#include "remote/nv_store.hpp"
+#include "remote/remote_device.hpp"
 
 namespace app {
 extern std::function<int()> gRun;
@@ -99,6 +105,29 @@ void loadConfig(const std::string& path, hm2::HostMot2Card::Options& card) {
   }
 }
 
+// The default EEPROM file: one per bind address, so that sims side by side
+// never share one (two writers would lose each other's writes).
+std::filesystem::path defaultStatePath(const std::string& host, int port) {
+  std::string name = fmt::format("7i77-{}-{}.eeprom", host, port);
+  for (auto& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
+  const auto dir = app::defaultStateDir();
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);  // lbpkit's own directory: created on first use
+  const auto file = dir / name;
+  // Earlier versions kept every sim's EEPROM in sim-7i77.eeprom: the sim on
+  // the default address takes it over, so its saved parameters survive.
+  const auto legacy = dir / "sim-7i77.eeprom";
+  if (host == "127.0.0.1" && port == net::lbp16::kPort && !std::filesystem::exists(std::filesystem::symlink_status(file, ec)) &&
+      std::filesystem::is_regular_file(std::filesystem::symlink_status(legacy, ec))) {
+    std::filesystem::rename(legacy, file, ec);
+    const auto legacyAnalog = legacy.string() + ".analog";
+    if (!ec && std::filesystem::is_regular_file(std::filesystem::symlink_status(legacyAnalog, ec)))
+      std::filesystem::rename(legacyAnalog, file.string() + ".analog", ec);
+  }
+  return file;
+}
+
 int runSim(const SimCommandOptions& o) {
   net::SimOptions s;
   const auto [bindHost, bindPort] = hostPort(o.bind, net::lbp16::kPort, "--bind");
@@ -120,10 +149,9 @@ int runSim(const SimCommandOptions& o) {
       {"error", net::LogLevel::Error}, {"warn", net::LogLevel::Warn}, {"info", net::LogLevel::Info}, {"debug", net::LogLevel::Debug}};
   if (!kLevels.count(o.logLevel)) throw lbpkit::Error("--log-level: error, warn, info or debug");
   s.logLevel = kLevels.at(o.logLevel);
-  std::filesystem::path state = o.state;
-  if (state.empty()) state = app::defaultStateDir() / "sim-7i77.eeprom";
-  std::error_code ec;
-  if (state.has_parent_path()) std::filesystem::create_directories(state.parent_path(), ec);
+  // A --state FILE is taken as given: a missing directory is the user's
+  // typo to hear about, not something to create (the store says so).
+  const std::filesystem::path state = o.state.empty() ? defaultStatePath(bindHost, bindPort) : std::filesystem::path(o.state);
   s.card.first.fieldIo.nvFile = state;
   s.card.first.analog.nvFile = state.string() + ".analog";
   if (!o.config.empty()) {
@@ -131,6 +159,38 @@ int runSim(const SimCommandOptions& o) {
     s.configDescription = o.config;
   } else {
     s.configDescription = "built-in default: a 7I92 with one 7I77, 24 V field power";
+  }
+  // What the EEPROM files say (models cannot log): every refused write is
+  // logged, and so is a file that cannot be used.
+  const auto owner = fmt::format("lbpkit sim on {}:{}{}", bindHost, bindPort, bindPort == 0 ? " (any free port)" : "");
+  const bool warn = s.logLevel >= net::LogLevel::Warn;
+  std::vector<std::filesystem::path> files;
+  auto watch = [&](auto& processor, std::string what) {
+    files.push_back(processor.nvFile);
+    processor.nvOwner = owner;
+    processor.nvReport = [what, warn](const remote::NvEvent& e) {
+      using Kind = remote::NvEvent::Kind;
+      const bool error = e.kind == Kind::Refused || e.kind == Kind::WriteFailed;
+      if (!error && !warn) return;
+      // fputs, not fmt::print: a log that cannot be written must not throw
+      // out of the card thread.
+      std::fputs(fmt::format("lbpkit sim: {}: {}: {}\n", error ? "error" : "warning", what, e.message).c_str(), stderr);
+      std::fflush(stderr);
+    };
+  };
+  watch(s.card.first.fieldIo, "connector 0 field I/O EEPROM");
+  watch(s.card.first.analog, "connector 0 analog EEPROM");
+  if (s.card.second) {
+    watch(s.card.second->fieldIo, "connector 1 field I/O EEPROM");
+    watch(s.card.second->analog, "connector 1 analog EEPROM");
+  }
+  // A file the sim will not use (not an EEPROM image, a symlink, held by
+  // another sim, ...) stops it before it starts: the same checks the
+  // processors make, made first so nothing is half started.
+  for (const auto& file : files) {
+    remote::NvStore probe(remote::memory::kEepromSize, file);
+    probe.load();
+    if (!probe.refusal().empty()) throw lbpkit::Error(probe.refusal());
   }
   net::SimDaemon daemon(s);
   app::installSignalHandlers();

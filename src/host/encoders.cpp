@@ -55,6 +55,7 @@ void MuxedEncoders::queue() {
     if (s.writeControl) {
       t_.queueWrite(reg(wire::qcount::reg::kControl, n), &s.controlOut);
       s.writeControl = false;
+      s.controlQueued = true;
     }
   }
   t_.queueRead(reg(wire::qcount::reg::kTimestamp, 0), &timestamp_);
@@ -62,14 +63,26 @@ void MuxedEncoders::queue() {
     t_.queueRead(reg(wire::qcount::reg::kCount, n), &state_[n].countReg);
     t_.queueRead(reg(wire::qcount::reg::kControl, n), &state_[n].ccr);
   }
+  failuresAtQueue_ = t_.linkCounters().failedExchanges();
 }
 
-void MuxedEncoders::update() {
+bool MuxedEncoders::update() {
+  // A failure since queue() may have been these reads' exchange (or another
+  // one of the cycle: skipping a fresh update costs nothing but a cycle's
+  // delay, using a stale one would read as a stop and a jump).
+  if (t_.linkCounters().failedExchanges() != failuresAtQueue_) {
+    // A control write may not have reached the card: without it the next
+    // control read-back would look like an index that came. Write it again.
+    for (unsigned n = 0; n < count_; ++n)
+      if (state_[n].controlQueued) state_[n].writeControl = true;
+    return false;
+  }
   const double tick = static_cast<double>(tsDivisor_ + 2) / clock_;
   const double span = 65536.0 * tick;  // the 16-bit timestamps wrap after this
   const auto now = t_.now();
   for (unsigned n = 0; n < count_; ++n) {
     auto& s = state_[n];
+    s.controlQueued = false;
     const auto raw = static_cast<std::uint16_t>(s.countReg);
     const auto stamp = static_cast<std::uint16_t>(s.countReg >> 16);
     if (s.first) {
@@ -108,6 +121,7 @@ void MuxedEncoders::update() {
       s.writeControl = true;
     }
   }
+  return true;
 }
 
 }  // namespace lbpkit

@@ -13,6 +13,9 @@ namespace lbpkit {
 namespace {
 constexpr std::uint8_t kNonVolatileWrite = wire::lbp::local_write::kNonVolatile;
 constexpr std::uint8_t kEeprom = wire::lbp::nonvolatile::kEeprom;
+constexpr std::uint8_t kStatusRead = wire::lbp::local_read::kStatus;
+constexpr std::uint8_t kStatusWrite = wire::lbp::local_write::kStatus;
+constexpr std::uint8_t kInvalidWrite = wire::lbp::status::kInvalidWrite;
 
 // The element's bytes with the widest LBP commands that fit (8, 4, 2, 1).
 template <typename Op>
@@ -55,11 +58,36 @@ std::uint64_t readElement(RemoteAccess& remote, const ProcessDataElement& e) {
 
 void writeElement(RemoteAccess& remote, const ProcessDataElement& e, std::uint64_t raw) {
   if (e.bits > 64) throw Error(fmt::format("{} has {} bits: too wide to write as a number", e.name, e.bits));
-  NvAccess nv(remote, isNonVolatile(e.type));
+  const bool nonVolatile = isNonVolatile(e.type);
+  NvAccess nv(remote, nonVolatile);
+  // A refused write still gets its answer; only the status says it did not
+  // take (a read-only element, or an EEPROM that could not save the value).
+  // Start from a status without the bit, so what follows speaks of this write.
+  const std::uint8_t before = remote.localRead(kStatusRead);
+  if (before & kInvalidWrite) remote.localWrite(kStatusWrite, static_cast<std::uint8_t>(before & ~kInvalidWrite));
   chunks(e, [&](unsigned offset, unsigned size) {
     const std::uint64_t part = size >= 8 ? raw >> (8 * offset) : (raw >> (8 * offset)) & ((1ULL << (8 * size)) - 1);
     remote.write(static_cast<std::uint16_t>(e.address + offset), size, part);
   });
+  const std::uint8_t after = remote.localRead(kStatusRead);
+  if (after & kInvalidWrite) {
+    remote.localWrite(kStatusWrite, static_cast<std::uint8_t>(after & ~kInvalidWrite));
+    throw Error(nonVolatile ? fmt::format("{}: the remote refused to write {} to its EEPROM (LBP status 0x{:02X}: "
+                                          "invalid write): the value was not saved",
+                                          remote.where(), e.name, after)
+                            : fmt::format("{}: the remote refused the write to {} (LBP status 0x{:02X}: invalid write)",
+                                          remote.where(), e.name, after));
+  }
+  if (!nonVolatile) return;  // working values may change under the host's feet (outputs, faults)
+  // The EEPROM is read back, as it is what the next power-up will use.
+  std::uint64_t back = 0;
+  chunks(e, [&](unsigned offset, unsigned size) {
+    back |= remote.read(static_cast<std::uint16_t>(e.address + offset), size) << (8 * offset);
+  });
+  const std::uint64_t mask = e.bits >= 64 ? ~0ULL : (1ULL << e.bits) - 1;
+  if ((back & mask) != (raw & mask))
+    throw Error(fmt::format("{}: {} reads back as {} after writing {}: the EEPROM did not keep the value",
+                            remote.where(), e.name, back & mask, raw & mask));
 }
 
 std::string formatElement(const ProcessDataElement& e, std::uint64_t raw, bool hex) {

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <poll.h>
+#include <sys/stat.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -34,15 +35,33 @@ speed_t speedFor(unsigned baud) {
 
 SerialRemote::SerialRemote(const std::string& path, unsigned baud, std::chrono::milliseconds timeout)
     : path_(path), timeout_(timeout) {
-  fd_ = ::open(path.c_str(), O_RDWR | O_NOCTTY | O_CLOEXEC);
+  // LBP bytes go only to a terminal (a serial port or a pty): a mistyped
+  // path must not get them written into a file. Look before opening, since
+  // opening some devices acts, and O_NONBLOCK so a FIFO cannot hang us.
+  const speed_t speed = speedFor(baud);
+  struct stat st{};
+  if (::stat(path.c_str(), &st) == 0 && !S_ISCHR(st.st_mode))
+    throw Error(fmt::format("{}: is {}, not a serial device (a tty or pty); refusing to write LBP bytes into it", path,
+                            S_ISREG(st.st_mode)   ? "a regular file"
+                            : S_ISDIR(st.st_mode) ? "a directory"
+                            : S_ISFIFO(st.st_mode) ? "a FIFO"
+                                                   : "not a character device"));
+  fd_ = ::open(path.c_str(), O_RDWR | O_NOCTTY | O_CLOEXEC | O_NONBLOCK);
   if (fd_ < 0) throw Error(fmt::format("cannot open {}: {}", path, std::strerror(errno)));
   termios tio{};
-  if (::tcgetattr(fd_, &tio) == 0) {
-    ::cfmakeraw(&tio);
-    ::cfsetspeed(&tio, speedFor(baud));
-    tio.c_cflag |= CLOCAL | CREAD;
-    ::tcsetattr(fd_, TCSANOW, &tio);
+  if (::fstat(fd_, &st) != 0 || !S_ISCHR(st.st_mode) || ::tcgetattr(fd_, &tio) != 0) {
+    const int e = errno;
+    ::close(fd_);
+    fd_ = -1;
+    throw Error(fmt::format("{}: is not a serial device (a tty or pty): {}; refusing to write LBP bytes into it", path,
+                            S_ISCHR(st.st_mode) ? std::strerror(e) : "not a character device"));
   }
+  // Back to blocking I/O: transact() waits with poll() and reads what is there.
+  ::fcntl(fd_, F_SETFL, ::fcntl(fd_, F_GETFL) & ~O_NONBLOCK);
+  ::cfmakeraw(&tio);
+  ::cfsetspeed(&tio, speed);
+  tio.c_cflag |= CLOCAL | CREAD;
+  ::tcsetattr(fd_, TCSANOW, &tio);
   ::tcflush(fd_, TCIOFLUSH);
 }
 
@@ -99,8 +118,9 @@ void SerialRemote::write(std::uint16_t address, unsigned size, std::uint64_t val
   if (status & wire::lbp::status::kInvalidWrite) {
     const std::uint8_t clear[2] = {wire::lbp::local_write::kStatus, 0};
     transact(clear, 0, "clearing the LBP status");
-    throw Error(fmt::format("{}: the remote refused the write at 0x{:04X} (read only, or NV access off)", path_,
-                            address));
+    throw Error(fmt::format("{}: the remote refused the write at 0x{:04X} (read only, NV access off, or its EEPROM "
+                            "could not save the value)",
+                            path_, address));
   }
 }
 

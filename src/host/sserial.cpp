@@ -321,10 +321,15 @@ void SmartSerial::queueOutputs() {
   }
   t_.queueWrite(regs_.command(), &doitWord_);
   ++doits_;
+  // The caller flushes these; collectInputs() learns from the counters
+  // whether that exchange failed.
+  failuresAtQueue_ = t_.linkCounters().failedExchanges();
 }
 
 CycleStatus SmartSerial::collectInputs() {
   CycleStatus st;
+  // Did the exchange that carried the outputs and the DOIT fail?
+  st.replyLost = t_.linkCounters().failedExchanges() != failuresAtQueue_;
   const Nanoseconds start = t_.now();
   // Over a network every poll is a round trip: first wait about as long as
   // a DOIT was last seen to be still running. The estimate is a lower bound
@@ -339,13 +344,21 @@ CycleStatus SmartSerial::collectInputs() {
       t_.queueRead(regs_.cs(s.identity.channel), &s.cs);
       for (unsigned r = 0; r < s.inRegs; ++r) t_.queueRead(regs_.interface(r, s.identity.channel), &s.ifIn[r]);
     }
-    t_.flush();
+    if (!t_.tryFlush()) {
+      // No retry: the timeout took this cycle's time. The next cycle polls
+      // again (a late reply to this one is discarded by the transport).
+      st.ok = false;
+      st.replyLost = true;
+      ++lostCycles_;
+      return st;
+    }
     if (pollCommand_ == 0) break;
     sawBusy = true;
     busyEstimate_ = std::min(t_.now() - start, kMaxBusyEstimate);
     if (t_.now() - start > options_.commandTimeout) {
       st.ok = false;
       st.commandBusy = true;
+      if (st.replyLost) ++lostCycles_;
       return st;
     }
     t_.sleep(options_.pollInterval);
@@ -353,7 +366,8 @@ CycleStatus SmartSerial::collectInputs() {
   if (!sawBusy) busyEstimate_ /= 2;
   st.doitTime = t_.now() - start;
   st.failedMask = static_cast<std::uint8_t>(pollData_);
-  st.ok = st.failedMask == 0;
+  if (st.replyLost) ++lostCycles_;
+  st.ok = st.failedMask == 0 && !st.replyLost;
   for (auto& s : slots_) {
     if (st.failedMask & (1U << s.identity.channel)) continue;  // stale data: keep the last inputs
     std::array<std::uint8_t, 12> bytes{};
@@ -369,7 +383,7 @@ CycleStatus SmartSerial::collectInputs() {
 
 CycleStatus SmartSerial::cycle() {
   queueOutputs();
-  t_.flush();
+  (void)t_.tryFlush();  // a failure shows in the counters, which collectInputs() reads
   return collectInputs();
 }
 

@@ -22,6 +22,8 @@ class SimTransport final : public Transport {
   void queueRead(std::uint16_t address, std::uint32_t* into, std::size_t count = 1) override;
   void queueWrite(std::uint16_t address, const std::uint32_t* from, std::size_t count = 1) override;
   void flush() override;
+  [[nodiscard]] bool tryFlush() override;
+  [[nodiscard]] LinkCounters linkCounters() const override { return counters_; }
   Nanoseconds now() override { return now_; }
   void sleep(Nanoseconds d) override;
   [[nodiscard]] std::uint64_t exchanges() const override { return exchanges_; }
@@ -31,7 +33,17 @@ class SimTransport final : public Transport {
   // Simulated network round trip added to every flush (0: a local bus).
   void setExchangeLatency(Nanoseconds d) { exchangeLatency_ = d; }
 
+  // Test hook: the replies of the next `n` exchanges that carry reads are
+  // lost on the way back, as on a network. The card still does every access
+  // (its reads too: a read can have side effects); the caller's buffers keep
+  // what they held, tryFlush() returns false and flush() throws. A lost
+  // reply costs the host `lostReplyWait` of simulated time (its timeout).
+  void dropNextReplies(unsigned n) { dropReplies_ = n; }
+  void setLostReplyWait(Nanoseconds d) { lostReplyWait_ = d; }
+
  private:
+  // Runs the queue against the card; false when its reply was dropped.
+  bool run();
   struct Op {
     bool write;
     std::uint16_t address;
@@ -43,9 +55,13 @@ class SimTransport final : public Transport {
   Nanoseconds accessTime_;
   Nanoseconds now_{0};
   Nanoseconds exchangeLatency_{0};
+  Nanoseconds lostReplyWait_{std::chrono::microseconds(500)};
   std::array<Op, kMaxQueued> ops_{};
   std::size_t queued_ = 0;
   std::uint64_t exchanges_ = 0;
+  unsigned dropReplies_ = 0;
+  bool pendingLoss_ = false;  // a full queue's exchange lost its reply, for the next flush to report
+  LinkCounters counters_{};
 };
 
 }  // namespace lbpkit

@@ -1,11 +1,43 @@
 #include "hostmot2/card.hpp"
 
+#include <algorithm>
+
 namespace hm2 {
 
 namespace {
 constexpr std::uint32_t kConfigHost = 0x54534F48;  // "HOST"
 constexpr std::uint32_t kConfigMot2 = 0x32544F4D;  // "MOT2"
+
+// The identification area and the IDROM: read only (HostMot2 regmap;
+// docs/protocol-facts.md#identification-area-and-idrom).
+constexpr bool readOnlyIdentification(std::uint16_t address) {
+  return (address >= idrom::kIdromAddress && address < idrom::kIdromAddress + idrom::kWords * 4) ||
+         address == idrom::kCookieAddress || address == idrom::kConfigName || address == idrom::kConfigName + 4 ||
+         address == idrom::kIdromPointer;
+}
+
+constexpr AccessKind refusal(WriteResult r) {
+  switch (r) {
+    case WriteResult::ReadOnly: return AccessKind::ReadOnlyWrite;
+    case WriteResult::IgnoredCommand: return AccessKind::IgnoredCommand;
+    case WriteResult::LostCommand: return AccessKind::LostCommand;
+    case WriteResult::Accepted:
+    case WriteResult::Unmapped: break;
+  }
+  return AccessKind::UnmappedWrite;
+}
 }  // namespace
+
+std::string_view accessKindName(AccessKind kind) {
+  switch (kind) {
+    case AccessKind::UnmappedRead: return "unmapped_read";
+    case AccessKind::UnmappedWrite: return "unmapped_write";
+    case AccessKind::ReadOnlyWrite: return "read_only_write";
+    case AccessKind::IgnoredCommand: return "ignored_command";
+    case AccessKind::LostCommand: return "lost_command";
+  }
+  return "unknown";
+}
 
 HostMot2Card::HostMot2Card(Options options) : options_(std::move(options)) {
   sevenI77s_.push_back(std::make_unique<SevenI77>(options_.first.fieldIo, options_.first.analog));
@@ -14,7 +46,7 @@ HostMot2Card::HostMot2Card(Options options) : options_(std::move(options)) {
   const auto& b = options_.board;
 
   ioport_ = std::make_unique<IoPort>(b.ioPorts, b.portWidth);
-  watchdog_ = std::make_unique<Watchdog>(b.clockLow, [this] { ioport_->reset(); });
+  watchdog_ = std::make_unique<Watchdog>(b.clockLow, [this] { ioport_->releaseOutputs(); });
   encoders_ = std::make_unique<MuxedEncoder>(6 * n, b.clockLow);
   encoderSelect_ = std::make_unique<MuxedEncoderSelect>();
   // Each 7I77 uses three SSerial channels: field I/O, analog, and the TB6
@@ -67,31 +99,69 @@ void HostMot2Card::advance(SimTime now) {
   }
 }
 
+void HostMot2Card::powerCycle(SimTime now) {
+  advance(now);  // everything up to the moment the power goes
+  for (Module* m : modules_) m->reset();
+  // The 7I77's processors boot again: logic power comes from the card (W5
+  // left), field I/O power from VIN, both off and on with the machine
+  // (manual: CABLE 5V POWER, VIN AND FIELD POWER SUPPLY). One whose supply is
+  // absent stays off.
+  for (auto& d : sevenI77s_) {
+    d->fieldIo.powerCycle(now_);
+    d->analog.powerCycle(now_);
+  }
+}
+
 std::uint32_t HostMot2Card::read32(std::uint16_t address, SimTime now) {
   advance(now);
-  address &= 0xFFFCU;
-  if (address >= idrom::kIdromAddress && address < idrom::kIdromAddress + idrom::kWords * 4)
-    return idrom_[static_cast<unsigned>(address - idrom::kIdromAddress) / 4];
-  switch (address) {
+  const auto reg = static_cast<std::uint16_t>(address & 0xFFFCU);
+  if (reg >= idrom::kIdromAddress && reg < idrom::kIdromAddress + idrom::kWords * 4)
+    return idrom_[static_cast<unsigned>(reg - idrom::kIdromAddress) / 4];
+  switch (reg) {
     case idrom::kCookieAddress: return idrom::kCookie;
     case idrom::kConfigName: return kConfigHost;
     case idrom::kConfigName + 4: return kConfigMot2;
     case idrom::kIdromPointer: return idrom::kIdromAddress;
     default: break;
   }
-  if (Module* m = moduleAt(address)) return m->read(address, now_);
-  ++unmappedReads_;
+  if (Module* m = moduleAt(reg)) return m->read(reg, now_);
+  noteAccess(AccessKind::UnmappedRead, address, 0);
   return 0;
 }
 
 void HostMot2Card::write32(std::uint16_t address, std::uint32_t value, SimTime now) {
   advance(now);
-  address &= 0xFFFCU;
-  if (Module* m = moduleAt(address)) {
-    m->write(address, value, now_);
+  const auto reg = static_cast<std::uint16_t>(address & 0xFFFCU);
+  if (Module* m = moduleAt(reg)) {
+    const WriteResult r = m->write(reg, value, now_);
+    if (r != WriteResult::Accepted) [[unlikely]]
+      noteAccess(refusal(r), address, value);
     return;
   }
-  ++unmappedWrites_;  // ID area, IDROM and holes are read only
+  noteAccess(readOnlyIdentification(reg) ? AccessKind::ReadOnlyWrite : AccessKind::UnmappedWrite, address, value);
+}
+
+// Off the per-access path: only for the rare accesses it counts.
+void HostMot2Card::noteAccess(AccessKind kind, std::uint16_t address, std::uint32_t value) {
+  switch (kind) {
+    case AccessKind::UnmappedRead: ++access_.unmappedReads; break;
+    case AccessKind::UnmappedWrite: ++access_.unmappedWrites; break;
+    case AccessKind::ReadOnlyWrite: ++access_.readOnlyWrites; break;
+    case AccessKind::IgnoredCommand: ++access_.ignoredCommands; break;
+    case AccessKind::LostCommand: ++access_.lostCommands; break;
+  }
+  const AccessEvent event{now_, address, value, kind};
+  recent_[events_ % recent_.size()] = event;
+  ++events_;
+  if (observer_ != nullptr) observer_(observerContext_, event);
+}
+
+RecentAccesses HostMot2Card::recentAccesses() const {
+  RecentAccesses r;
+  r.size = static_cast<std::size_t>(std::min<std::uint64_t>(events_, recent_.size()));
+  const std::uint64_t first = events_ - r.size;
+  for (std::size_t i = 0; i < r.size; ++i) r.events[i] = recent_[(first + i) % recent_.size()];
+  return r;
 }
 
 }  // namespace hm2

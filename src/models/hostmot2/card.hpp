@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <string_view>
 #include <vector>
 
 #include "hostmot2/idrom.hpp"
@@ -28,6 +29,51 @@ struct SevenI77 {
   SevenI77(remote::FieldIoProcessor::Options io, remote::AnalogProcessor::Options an)
       : fieldIo(std::move(io)), analog(std::move(an)) {}
 };
+
+// Accesses nothing decodes, and writes a module refuses. The card counts
+// them per kind and keeps the last few, so a driver developer can see that
+// "hm2_eth wrote 0x00005A04 to 0x1234, which nothing decodes"; models do no
+// I/O, so logging them is for whoever observes the card (setAccessObserver).
+enum class AccessKind : std::uint8_t {
+  UnmappedRead,    // no module answers there: reads 0
+  UnmappedWrite,   // no module (or no register in a module's block) there: dropped
+  ReadOnlyWrite,   // the ID area and IDROM (docs/protocol-facts.md#identification-area-and-idrom),
+                   // or another read-only register: dropped
+  IgnoredCommand,  // SSLBP COMMAND with bit 31 set (manual: COMMAND REGISTER WRITE IGNORE)
+  LostCommand,     // SSLBP command written while one runs (manual: COMMAND REGISTER): lost
+};
+// "unmapped_read", "unmapped_write", "read_only_write", "ignored_command", "lost_command".
+[[nodiscard]] std::string_view accessKindName(AccessKind kind);
+
+struct AccessEvent {
+  SimTime at{};
+  std::uint16_t address = 0;  // as the host gave it
+  std::uint32_t value = 0;    // the value written; 0 for a read
+  AccessKind kind = AccessKind::UnmappedRead;
+};
+
+struct AccessCounters {
+  std::uint64_t unmappedReads = 0;
+  std::uint64_t unmappedWrites = 0;
+  std::uint64_t readOnlyWrites = 0;
+  std::uint64_t ignoredCommands = 0;
+  std::uint64_t lostCommands = 0;
+};
+
+// The most recent events, oldest first (a fixed-size copy: no allocation).
+struct RecentAccesses {
+  static constexpr std::size_t kCapacity = 8;
+  std::array<AccessEvent, kCapacity> events{};
+  std::size_t size = 0;
+  [[nodiscard]] const AccessEvent* begin() const { return events.data(); }
+  [[nodiscard]] const AccessEvent* end() const { return events.data() + size; }
+};
+
+// Told of every event as it is counted, on the thread making the access and
+// in the middle of it: it must not call back into the card, and should be
+// quick (the daemon's card thread runs it). Events are rare by nature, but a
+// driver that writes bit-31 COMMAND placeholders every cycle makes one a cycle.
+using AccessObserver = void (*)(void* context, const AccessEvent& event);
 
 class HostMot2Card {
  public:
@@ -51,6 +97,12 @@ class HostMot2Card {
   void write32(std::uint16_t address, std::uint32_t value, SimTime now);
   // Let simulated time pass (watchdogs, encoders, SSLBP, remotes).
   void advance(SimTime now);
+  // Switch the machine off and on at `now`: every module back to its
+  // power-up state (Module::reset()) and both processors of every 7I77
+  // booted again, so their NV parameters become working values again
+  // (manual: NON-VOLATILE FIELD I/O PARAMETERS). The IDROM, the world at the
+  // terminals, the cables and the access counters stay.
+  void powerCycle(SimTime now);
 
   // --- Parts -----------------------------------------------------------------------
   SmartSerial& smartSerial() { return *sserial_; }
@@ -65,12 +117,23 @@ class HostMot2Card {
   [[nodiscard]] std::vector<ModuleDescriptor> moduleDescriptors() const;
   [[nodiscard]] SimTime now() const { return now_; }
 
-  // Accesses no module answers: reads give 0, writes are dropped; counted.
-  [[nodiscard]] std::uint64_t unmappedReads() const { return unmappedReads_; }
-  [[nodiscard]] std::uint64_t unmappedWrites() const { return unmappedWrites_; }
+  // Accesses no module answers and writes a module refuses (AccessKind).
+  [[nodiscard]] const AccessCounters& accessCounters() const { return access_; }
+  [[nodiscard]] RecentAccesses recentAccesses() const;
+  // Set up before the card runs (not thread-safe against accesses); nullptr
+  // removes it.
+  void setAccessObserver(AccessObserver observer, void* context) {
+    observer_ = observer;
+    observerContext_ = context;
+  }
+  // Reads no module answers (they give 0), and writes that changed nothing
+  // because nothing writable is there: holes and read-only registers.
+  [[nodiscard]] std::uint64_t unmappedReads() const { return access_.unmappedReads; }
+  [[nodiscard]] std::uint64_t unmappedWrites() const { return access_.unmappedWrites + access_.readOnlyWrites; }
 
  private:
   Module* moduleAt(std::uint16_t address);
+  void noteAccess(AccessKind kind, std::uint16_t address, std::uint32_t value);
 
   Options options_;
   std::vector<std::unique_ptr<SevenI77>> sevenI77s_;
@@ -83,8 +146,11 @@ class HostMot2Card {
   std::vector<Module*> modules_;  // IDROM order
   std::array<Module*, 256> byBlock_{};  // address >> 8 -> module
   std::array<std::uint32_t, idrom::kWords> idrom_{};
-  std::uint64_t unmappedReads_ = 0;
-  std::uint64_t unmappedWrites_ = 0;
+  AccessCounters access_;
+  std::array<AccessEvent, RecentAccesses::kCapacity> recent_{};  // a ring
+  std::uint64_t events_ = 0;  // ever noted; the next goes to recent_[events_ % kCapacity]
+  AccessObserver observer_ = nullptr;
+  void* observerContext_ = nullptr;
   SimTime now_{};
 };
 

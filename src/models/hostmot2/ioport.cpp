@@ -12,11 +12,12 @@ std::uint32_t IoPort::read(std::uint16_t address, SimTime) {
   return v;
 }
 
-void IoPort::write(std::uint16_t address, std::uint32_t value, SimTime) {
+WriteResult IoPort::write(std::uint16_t address, std::uint32_t value, SimTime) {
   const unsigned port = (address & 0xFFU) / 4;
   const unsigned reg = static_cast<unsigned>((address & 0xFF00U) - kData) / kRegisterStride;
-  if (port >= ports_ || reg >= 5) return;
+  if (port >= ports_ || reg >= 5) return WriteResult::Unmapped;
   regs_[port][reg] = value & mask();
+  return WriteResult::Accepted;
 }
 
 void IoPort::setInput(unsigned port, unsigned bit, bool level) {
@@ -36,7 +37,31 @@ bool IoPort::pin(unsigned port, unsigned bit) const {
   return level;
 }
 
+IoPort::State IoPort::state() const {
+  State s;
+  s.ports = ports_;
+  s.width = width_;
+  for (unsigned p = 0; p < ports_; ++p) {
+    const auto& r = regs_[p];
+    auto& o = s.port[p];
+    for (unsigned b = 0; b < width_; ++b) o.pins |= static_cast<std::uint32_t>(pin(p, b)) << b;
+    o.outputLatch = r[0] & mask();
+    o.ddr = r[1] & mask();
+    o.altSource = r[2] & mask();
+    o.openDrain = r[3] & mask();
+    o.outputInvert = r[4] & mask();
+  }
+  return s;
+}
+
 void IoPort::reset() {
+  // Power-up (HostMot2 regmap, IOPort): outputs latched low, every pin a
+  // GPIO input, no alternate source, no open drain, no inversion. The input
+  // levels are the world's and stay.
+  for (auto& r : regs_) r.fill(0);
+}
+
+void IoPort::releaseOutputs() {
   for (auto& r : regs_) {
     r[0] = 0;
     r[1] = 0;

@@ -20,6 +20,22 @@ class IoPort final : public Module {
   static constexpr std::uint16_t kOutputInvert = 0x1400;
   static constexpr unsigned kMaxPorts = 4;
 
+  // What an observer sees: per port the pin levels (as the data register
+  // reads) and the host-written registers, masked to the port's width.
+  struct Port {
+    std::uint32_t pins = 0;
+    std::uint32_t outputLatch = 0;
+    std::uint32_t ddr = 0;
+    std::uint32_t altSource = 0;
+    std::uint32_t openDrain = 0;
+    std::uint32_t outputInvert = 0;
+  };
+  struct State {
+    unsigned ports = 0;  // the first `ports` entries are valid
+    unsigned width = 0;
+    std::array<Port, kMaxPorts> port{};
+  };
+
   IoPort(unsigned ports, unsigned width) : ports_(ports), width_(width) {}
 
   [[nodiscard]] std::string_view name() const override { return "IOPort"; }
@@ -30,15 +46,17 @@ class IoPort final : public Module {
     return a >= kData && a < kOutputInvert + kRegisterStride && (a & 0xFFU) < ports_ * 4;
   }
   std::uint32_t read(std::uint16_t address, SimTime now) override;
-  void write(std::uint16_t address, std::uint32_t value, SimTime now) override;
+  WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) override;
+  void reset() override;  // power-up: every register 0, every pin an input
 
   // The world drives GPIO inputs (default: pulled up).
   void setInput(unsigned port, unsigned bit, bool level);
   // What a pin shows: a GPIO output's level, else the input level.
   [[nodiscard]] bool pin(unsigned port, unsigned bit) const;
   // Watchdog bite: every GPIO output is released.
-  void reset();
+  void releaseOutputs();
   [[nodiscard]] std::uint32_t ddr(unsigned port) const { return regs_.at(port)[1]; }
+  [[nodiscard]] State state() const;
 
  private:
   [[nodiscard]] std::uint32_t mask() const { return width_ >= 32 ? ~0U : (1U << width_) - 1; }
@@ -52,6 +70,10 @@ class IoPort final : public Module {
 class Led final : public Module {
  public:
   static constexpr std::uint16_t kLeds = 0x0200;
+  struct State {
+    unsigned count = 0;
+    std::uint32_t leds = 0;  // as leds() gives them
+  };
   explicit Led(unsigned count) : count_(count) {}
   [[nodiscard]] std::string_view name() const override { return "LED"; }
   [[nodiscard]] ModuleDescriptor descriptor() const override {
@@ -59,9 +81,14 @@ class Led final : public Module {
   }
   [[nodiscard]] bool decodes(std::uint16_t a) const override { return a == kLeds; }
   std::uint32_t read(std::uint16_t, SimTime) override { return 0; }  // write only
-  void write(std::uint16_t, std::uint32_t value, SimTime) override { value_ = value; }
+  WriteResult write(std::uint16_t, std::uint32_t value, SimTime) override {
+    value_ = value;
+    return WriteResult::Accepted;
+  }
+  void reset() override { value_ = 0; }  // LEDs off
   // The LEDs take the top `count` data bits.
   [[nodiscard]] std::uint32_t leds() const { return count_ ? value_ >> (32 - count_) : 0; }
+  [[nodiscard]] State state() const { return State{count_, leds()}; }
 
  private:
   unsigned count_;

@@ -35,6 +35,17 @@ struct ModuleDescriptor {
   std::uint32_t multipleRegisters = 0;
 };
 
+// What became of a register write, so the card can count the writes a
+// module refuses (HostMot2Card::accessCounters()). Returned by value on the
+// per-access path: no allocation, no logging in the model.
+enum class WriteResult : std::uint8_t {
+  Accepted,
+  Unmapped,        // the module's block, but no register there (e.g. a channel it does not have)
+  ReadOnly,        // a register that cannot be written: the value is dropped
+  IgnoredCommand,  // SSLBP COMMAND with bit 31 set (docs/protocol-facts.md#sslbp-command-register)
+  LostCommand,     // SSLBP command written while one runs: lost, DATA then reads 0xFF
+};
+
 class Module {
  public:
   virtual ~Module() = default;
@@ -43,9 +54,15 @@ class Module {
   // Does this module answer at `address`?
   [[nodiscard]] virtual bool decodes(std::uint16_t address) const = 0;
   virtual std::uint32_t read(std::uint16_t address, SimTime now) = 0;
-  virtual void write(std::uint16_t address, std::uint32_t value, SimTime now) = 0;
+  virtual WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) = 0;
   // Let simulated time pass.
   virtual void advance(SimTime now) { (void)now; }
+  // Back to the state the module powers up in, as a freshly configured FPGA
+  // has it (HostMot2 regmap: every register at its power-up value). What the
+  // world drives into the card (encoder signals, GPIO input levels) and the
+  // cables behind it are not the module's and stay; simulated time does not
+  // go back. The card's powerCycle() calls this for every module.
+  virtual void reset() = 0;
 };
 
 // Whole clock cycles in a (non-negative) span of simulated time, without

@@ -15,9 +15,22 @@ constexpr std::int64_t kMaxSimulatedSamples = 2'000'000;
 
 MuxedEncoder::MuxedEncoder(unsigned counters, std::uint32_t clockLow)
     : counters_(std::min(counters, kMaxCounters)), clockLow_(clockLow) {
+  MuxedEncoder::reset();
+}
+
+void MuxedEncoder::reset() {
   // Power-up mux rate: about 8 MHz ticks (10 at 100 MHz, the value LinuxCNC
-  // also writes for its default 8 MHz muxed-sample-frequency).
+  // also writes for its default 8 MHz muxed-sample-frequency;
+  // docs/protocol-facts.md#muxed-encoders).
   rateDivisor_ = clockLow_ / 8'000'000U - 2;
+  tsDivisor_ = 0;
+  // Counts, CCRs and latches cleared; the filters start from the inputs as
+  // they are now (the encoders do not move because the card restarts).
+  for (unsigned n = 0; n < kMaxCounters; ++n) {
+    Counter& c = state_[n];
+    c = Counter{};
+    c.filtered = c.candidate = stateOf(signals_[n].position);
+  }
 }
 
 SimTime MuxedEncoder::samplePeriod() const {
@@ -36,6 +49,13 @@ void MuxedEncoder::setVelocity(unsigned n, double countsPerSecond, SimTime now) 
 }
 
 void MuxedEncoder::setIndexPeriod(unsigned n, std::uint32_t countsPerRev) { signals_.at(n).countsPerRev = countsPerRev; }
+
+MuxedEncoder::State MuxedEncoder::state() const {
+  State s;
+  s.counters = counters_;
+  for (unsigned n = 0; n < counters_; ++n) s.counter[n] = {count(n), control(n), signals_[n]};
+  return s;
+}
 
 void MuxedEncoder::advance(SimTime now) {
   if (now <= now_) return;
@@ -149,19 +169,22 @@ std::uint32_t MuxedEncoder::read(std::uint16_t address, SimTime now) {
   }
 }
 
-void MuxedEncoder::write(std::uint16_t address, std::uint32_t value, SimTime now) {
+WriteResult MuxedEncoder::write(std::uint16_t address, std::uint32_t value, SimTime now) {
   advance(now);
   const unsigned n = (address & 0xFFU) / 4;
   switch (address & 0xFF00U) {
     case kCount:
-      if (n < counters_) state_[n].count = 0;  // any write clears the count
-      break;
+      if (n >= counters_) return WriteResult::Unmapped;
+      state_[n].count = 0;  // any write clears the count
+      return WriteResult::Accepted;
     case kControl:
-      if (n < counters_) state_[n].ccr = value & 0xFFF8U;
-      break;
-    case kTimestampDiv: tsDivisor_ = value & 0xFFFFU; break;
-    case kRate: rateDivisor_ = value & 0xFFFU; break;
-    default: break;
+      if (n >= counters_) return WriteResult::Unmapped;
+      state_[n].ccr = value & 0xFFF8U;
+      return WriteResult::Accepted;
+    case kTimestampDiv: tsDivisor_ = value & 0xFFFFU; return WriteResult::Accepted;
+    case kRate: rateDivisor_ = value & 0xFFFU; return WriteResult::Accepted;
+    case kTimestamp: return WriteResult::ReadOnly;  // the free-running timestamp counter
+    default: return WriteResult::Unmapped;
   }
 }
 

@@ -47,6 +47,18 @@ class MuxedEncoder final : public Module {
   static constexpr std::uint16_t kRate = 0x3900;
   static constexpr unsigned kMaxCounters = 12;
 
+  // What an observer sees per counter: the count and CCR as the registers
+  // hold them, and the encoder signal the world drives into it.
+  struct State {
+    struct Counter {
+      std::uint16_t count = 0;
+      std::uint32_t ccr = 0;
+      EncoderSignal signal;
+    };
+    unsigned counters = 0;  // the first `counters` entries are valid
+    std::array<Counter, kMaxCounters> counter{};
+  };
+
   // CCR bits.
   static constexpr std::uint32_t kQuadError = lbpkit::wire::qcount::ccr::kQuadError;
   static constexpr std::uint32_t kFilter = lbpkit::wire::qcount::ccr::kFilter;
@@ -64,8 +76,9 @@ class MuxedEncoder final : public Module {
   }
   [[nodiscard]] bool decodes(std::uint16_t a) const override { return a >= kCount && a < kRate + 4; }
   std::uint32_t read(std::uint16_t address, SimTime now) override;
-  void write(std::uint16_t address, std::uint32_t value, SimTime now) override;
+  WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) override;
   void advance(SimTime now) override;
+  void reset() override;  // counts, CCRs and divisors at power-up; the encoders stay where they are
 
   // The world: what the encoder on input `n` does from `now` on.
   void setVelocity(unsigned n, double countsPerSecond, SimTime now);
@@ -76,6 +89,7 @@ class MuxedEncoder final : public Module {
   [[nodiscard]] std::uint32_t control(unsigned n) const { return state_.at(n).ccr; }
   [[nodiscard]] SimTime samplePeriod() const;
   [[nodiscard]] unsigned counters() const { return counters_; }
+  [[nodiscard]] State state() const;
 
  private:
   struct Counter {
@@ -110,7 +124,8 @@ class MuxedEncoderSelect final : public Module {
   }
   [[nodiscard]] bool decodes(std::uint16_t) const override { return false; }
   std::uint32_t read(std::uint16_t, SimTime) override { return 0; }
-  void write(std::uint16_t, std::uint32_t, SimTime) override {}
+  WriteResult write(std::uint16_t, std::uint32_t, SimTime) override { return WriteResult::Unmapped; }
+  void reset() override {}
 };
 
 }  // namespace hm2

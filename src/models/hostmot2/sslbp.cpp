@@ -53,6 +53,30 @@ enum State : std::uint8_t {
 
 SmartSerial::SmartSerial(unsigned channels, unsigned instance)
     : instance_(instance), channelCount_(std::min<unsigned>(channels, kMaxChannels)) {
+  SmartSerial::reset();
+}
+
+void SmartSerial::reset() {
+  // A freshly configured FPGA: every channel variable (the host-written
+  // halves of CS and the interface registers too, and the byte of interface
+  // 0 that STOP leaves alone), the command state and the local RAM start
+  // from zero. The cable to each remote is not the card's and stays; the
+  // counters are the simulator's and keep counting.
+  for (auto& c : channels_) {
+    const SerialLink link = c.link;
+    c = Channel{};
+    c.link = link;
+  }
+  command_ = 0;
+  dataIn_ = 0;
+  dataOut_ = 0;
+  inReset_ = false;
+  busy_ = Busy::Idle;
+  commandMask_ = 0;
+  immediateData_ = 0;
+  immediateDone_ = SimTime{};
+  lost_ = false;
+  ram_.fill(0);
   // initmem: identity and the per-channel baud rates, at power-up only.
   ram_[local::kInterfaceType] = 0x12;
   ram_[local::kInterfaceWidth] = 8;
@@ -80,7 +104,10 @@ ModuleDescriptor SmartSerial::descriptor() const {
 
 bool SmartSerial::decodes(std::uint16_t address) const {
   if (address < kCommand || address >= kInterface0 + 3 * kRegisterStride) return false;
-  return ((address & 0xFFU) / kInstanceStride1) == instance_;
+  if (((address & 0xFFU) / kInstanceStride1) != instance_) return false;
+  // CS and interface registers exist only for the channels the instance has
+  // (COMMAND and DATA are one per instance, whatever the low bits).
+  return (address & 0xFF00U) < kCs || (address & 0x3FU) / 4 < channelCount_;
 }
 
 // --- Registers -------------------------------------------------------------------
@@ -89,6 +116,21 @@ std::uint32_t SmartSerial::csRegister(unsigned channel) const {
   const auto& c = channels_.at(channel);
   return static_cast<std::uint32_t>(c.errorLog) | (static_cast<std::uint32_t>(c.status) << 8) |
          (static_cast<std::uint32_t>(c.state) << 16) | (static_cast<std::uint32_t>(c.remoteFault) << 24);
+}
+
+SmartSerial::State SmartSerial::state() const {
+  State s;
+  s.command = command_;
+  s.data = dataOut_;
+  s.counters = counters_;
+  s.channels = channelCount_;
+  for (unsigned ch = 0; ch < channelCount_; ++ch) {
+    const auto& c = channels_[ch];
+    const auto csValue = csRegister(ch);
+    s.channel[ch] = {c.ready, csValue, static_cast<std::uint8_t>(csValue >> cs::kRemoteByteShift), c.baud,
+                     c.link.connected(), c.link.counters()};
+  }
+  return s;
 }
 
 std::uint32_t SmartSerial::read(std::uint16_t address, SimTime now) {
@@ -102,13 +144,13 @@ std::uint32_t SmartSerial::read(std::uint16_t address, SimTime now) {
   return channels_[ch].ifIn[static_cast<unsigned>(block - kInterface0) / kRegisterStride];
 }
 
-void SmartSerial::write(std::uint16_t address, std::uint32_t value, SimTime now) {
+WriteResult SmartSerial::write(std::uint16_t address, std::uint32_t value, SimTime now) {
   advance(now);
   const std::uint16_t block = address & 0xFF00U;
   const unsigned ch = (address & 0x3FU) / 4;
   if (block == kCommand) {
     // COMMAND REGISTER WRITE IGNORE: bit 31 set means "no command" (DMA/TRAM).
-    if (value & command::kIgnore) return;
+    if (value & command::kIgnore) return WriteResult::IgnoredCommand;
     const auto cmd = static_cast<std::uint16_t>(value & 0xFFFFU);
     ++counters_.commands;
     if (cmd & command::kReset) {
@@ -117,7 +159,7 @@ void SmartSerial::write(std::uint16_t address, std::uint32_t value, SimTime now)
       command_ = cmd;
       busy_ = Busy::Idle;
       for (unsigned i = 0; i < channelCount_; ++i) initChannel(channels_[i]);
-      return;
+      return WriteResult::Accepted;
     }
     if (inReset_) {
       inReset_ = false;
@@ -133,24 +175,25 @@ void SmartSerial::write(std::uint16_t address, std::uint32_t value, SimTime now)
         command_ = cmd;
         lost_ = true;
         ++counters_.lostCommands;
-        return;
+        return WriteResult::LostCommand;
       }
       busy_ = Busy::Idle;
       lost_ = false;
     }
     command_ = cmd;
     execute(cmd, now);
-    return;
+    return WriteResult::Accepted;
   }
   if (block == kData) {
     dataIn_ = static_cast<std::uint8_t>(value & 0xFFU);
-    return;
+    return WriteResult::Accepted;
   }
-  if (ch >= channelCount_) return;
+  if (ch >= channelCount_) return WriteResult::Unmapped;
   if (block == kCs)
     channels_[ch].csOut = value;
   else
     channels_[ch].ifOut[static_cast<unsigned>(block - kInterface0) / kRegisterStride] = value;
+  return WriteResult::Accepted;
 }
 
 // --- Commands ----------------------------------------------------------------------
@@ -375,95 +418,205 @@ void SmartSerial::transact(Channel& c, std::span<const std::uint8_t> body, unsig
 }
 
 // --- The per-channel state machine (SSLBP.JMP's "dochannel") -----------------------
+//
+// A channel is in one of four phases, told apart by its COM_STATE (CS byte 2,
+// docs/protocol-facts.md#sslbp-cs-register): the start sequence (START and
+// SETUP START), chatter (normal START done, no DOIT yet), the normal run
+// (DOIT) and the setup-mode run (DOIT after SETUP START).
+
+namespace {
+
+// The start sequence as a table (docs/protocol-facts.md#sslbp-start-and-timeouts;
+// manual: NORMAL START, SETUP START). Each row is one LBP transaction: what
+// is sent, how many reply bytes are expected, the wait state COM_STATE shows
+// while the reply is outstanding, what a good reply must be, and the state
+// the sequence goes on to. Every row waits a START step timeout.
+enum class Payload : std::uint8_t {
+  Fixed,            // the row's bytes
+  SoftwareMode,     // the row's command byte, then the remote mode the host wrote to CS byte 3
+                    // (manual: REMOTE MODE IS WRITTEN TO CSR MS BYTE BEFORE START)
+  ZeroProcessData,  // the process data RPC with every output 0 ("outputs off")
+};
+// A missing or damaged reply is counted as a timeout, then:
+enum class OnTimeout : std::uint8_t {
+  Restart,  // the sequence starts over from its quiet period
+  Retry,    // the row is sent again, until errors are too many
+};
+// What is done with a good reply.
+enum class OnReply : std::uint8_t {
+  Next,           // nothing to check
+  Cookie,         // must be the LBP cookie, else InvalidCookie and restart
+  StatusClear,    // the LBP status must be 0, else RemoteFault and restart
+  UnitNumber,     // into interface 0
+  NameByte,       // one card name character into interface 1
+  Discovery,      // RX/TX sizes into RAM, PTOC/GTOC into interface 2; SETUP START ends here
+  PollUntilZero,  // the fault clear is done when its flag reads 0: ask again until then
+  FaultsClear,    // remote faults must read 0: report them and ask again until too many
+};
+struct StartRow {
+  std::uint8_t wait;    // COM_STATE while the reply is outstanding
+  Payload payload;
+  std::array<std::uint8_t, 2> bytes;
+  std::uint8_t length;  // of `bytes` sent (Fixed)
+  std::uint8_t expect;  // reply data bytes (ZeroProcessData: the discovered RX size)
+  OnTimeout onTimeout;
+  bool setupGoesOn;     // SETUP START takes a missing reply here and goes on without it
+  OnReply onReply;
+  std::uint8_t next;    // the next row's wait state, or kBlather: the sequence is done
+};
+constexpr std::uint8_t kNameChars = 4;
+constexpr StartRow kStartRows[] = {
+    {kCookieWait, Payload::Fixed, {lbp::local_read::kCookie, 0}, 1, 1, OnTimeout::Restart, false, OnReply::Cookie,
+     kCharTimeoutWait},
+    {kCharTimeoutWait, Payload::Fixed, {lbp::local_write::kCommandTimeout, kLbpCharTimeout}, 2, 0,
+     OnTimeout::Restart, false, OnReply::Next, kClearStatusWait},
+    {kClearStatusWait, Payload::Fixed, {lbp::local_write::kStatus, 0x00}, 2, 0, OnTimeout::Restart, false,
+     OnReply::Next, kReadStatusWait},
+    {kReadStatusWait, Payload::Fixed, {lbp::local_read::kStatus, 0}, 1, 1, OnTimeout::Restart, false,
+     OnReply::StatusClear, kUnitWait},
+    // Normal START insists on a unit number: every miss counts and it asks again.
+    {kUnitWait, Payload::Fixed, {lbp::special_rpc::kUnitNumber, 0}, 1, 4, OnTimeout::Retry, true,
+     OnReply::UnitNumber, kNameWait},
+    {kNameWait, Payload::Fixed, {lbp::local_read::kCardName0, 0}, 1, 1, OnTimeout::Restart, false,
+     OnReply::NameByte, kNameWait + 2},
+    {kNameWait + 2, Payload::Fixed, {lbp::local_read::kCardName0 + 1, 0}, 1, 1, OnTimeout::Restart, false,
+     OnReply::NameByte, kNameWait + 4},
+    {kNameWait + 4, Payload::Fixed, {lbp::local_read::kCardName0 + 2, 0}, 1, 1, OnTimeout::Restart, false,
+     OnReply::NameByte, kNameWait + 6},
+    {kNameWait + 6, Payload::Fixed, {lbp::local_read::kCardName0 + 3, 0}, 1, 1, OnTimeout::Restart, false,
+     OnReply::NameByte, kSetModeWait},
+    // Not an 8I20 or 7I64 (those have hard-wired paths): the generic path.
+    {kSetModeWait, Payload::SoftwareMode, {lbp::local_write::kRemoteSwMode, 0}, 1, 0, OnTimeout::Restart, false,
+     OnReply::Next, kDiscoveryWait},
+    {kDiscoveryWait, Payload::Fixed, {lbp::special_rpc::kDiscovery, 0}, 1, 6, OnTimeout::Restart, true,
+     OnReply::Discovery, kClearOutputsWait},
+    // From here on normal START only (SETUP START does no device setup).
+    {kClearOutputsWait, Payload::ZeroProcessData, {0, 0}, 0, 0, OnTimeout::Retry, false, OnReply::Next,
+     kSetClearFaultWait},
+    {kSetClearFaultWait, Payload::Fixed, {lbp::local_write::kClearFault, 0xFF}, 2, 0, OnTimeout::Restart, false,
+     OnReply::Next, kPollClearFaultWait},
+    {kPollClearFaultWait, Payload::Fixed, {lbp::local_read::kClearFault, 0}, 1, 1, OnTimeout::Restart, false,
+     OnReply::PollUntilZero, kReadFaultWait},
+    {kReadFaultWait, Payload::Fixed, {lbp::local_read::kFaultStatus, 0}, 1, 1, OnTimeout::Restart, false,
+     OnReply::FaultsClear, kBlather},
+};
+constexpr unsigned kStartRowCount = sizeof kStartRows / sizeof kStartRows[0];
+
+// The row whose reply a channel in wait state `state` is waiting for;
+// kStartRowCount if none is.
+constexpr unsigned startRowWaitingIn(std::uint8_t state) {
+  for (unsigned r = 0; r < kStartRowCount; ++r)
+    if (kStartRows[r].wait == state) return r;
+  return kStartRowCount;
+}
+
+// The table is walked by its `next` column: each row must lead to one that
+// exists (or to chatter), and the wait states must tell the rows apart.
+constexpr bool startTableConsistent() {
+  for (unsigned r = 0; r < kStartRowCount; ++r) {
+    if (startRowWaitingIn(kStartRows[r].wait) != r) return false;
+    if (kStartRows[r].next != kBlather && startRowWaitingIn(kStartRows[r].next) == kStartRowCount) return false;
+  }
+  return kStartRows[startRowWaitingIn(kNameWait + 2 * (kNameChars - 1))].next == kSetModeWait;
+}
+static_assert(startTableConsistent());
+
+std::uint32_t littleEndian32(const std::array<std::uint8_t, 16>& b, unsigned at) {
+  return static_cast<std::uint32_t>(b[at]) | (static_cast<std::uint32_t>(b[at + 1]) << 8) |
+         (static_cast<std::uint32_t>(b[at + 2]) << 16) | (static_cast<std::uint32_t>(b[at + 3]) << 24);
+}
+
+}  // namespace
 
 void SmartSerial::step(unsigned index, SimTime now) {
   Channel& c = channels_[index];
-  const bool ok = c.outcome == Outcome::Ok;
-  auto send = [&](std::initializer_list<std::uint8_t> frame, unsigned expect, std::uint8_t wait,
-                  SimTime timeout = SimTime{0}) {
-    transact(c, std::span<const std::uint8_t>(frame.begin(), frame.size()), expect,
-             timeout.count() ? timeout : startTimeout(c), wait, now);
-  };
-  auto sendProcessData = [&](bool zeros, std::uint8_t wait, SimTime timeout) {
-    std::array<std::uint8_t, 13> f{};
-    f[0] = lbp::special_rpc::kProcessData;
-    for (unsigned i = 0; i < c.txSize && i < 12; ++i)
-      f[1 + i] = zeros ? std::uint8_t{0} : static_cast<std::uint8_t>(c.ifOut[i / 4] >> (8 * (i % 4)));
-    transact(c, {f.data(), 1U + std::min<unsigned>(c.txSize, 12)}, c.rxSize, timeout, wait, now);
-  };
-  auto timedOut = [&]() {
-    if (!ok) setError(c, cs::kTimeout, kTimeoutCount);
-    return !ok;
-  };
-
   switch (c.state) {
-    case kStartTimer:
-      // Stay silent for a start timeout so the remote's parser resets.
-      c.state = kWaitTimeout;
-      schedule(c, now + startTimeout(c));
+    case kBlather:
+    case kBlatherWait: return chatter(c, now);
+    case kRun:
+    case kRunWait: return runNormal(c, now);
+    case kSetupRun:
+    case kSetupRunWait: return runSetup(c, now);
+    default: return startSequence(index, now);
+  }
+}
+
+bool SmartSerial::timedOut(Channel& c) {
+  // A damaged reply (CRC, break) was discarded: the channel saw no reply.
+  if (c.outcome == Outcome::Ok) return false;
+  setError(c, cs::kTimeout, kTimeoutCount);
+  return true;
+}
+
+void SmartSerial::sendProcessData(Channel& c, bool zeros, std::uint8_t waitState, SimTime timeout, SimTime now) {
+  std::array<std::uint8_t, 13> f{};
+  f[0] = lbp::special_rpc::kProcessData;
+  for (unsigned i = 0; i < c.txSize && i < 12; ++i)
+    f[1 + i] = zeros ? std::uint8_t{0} : static_cast<std::uint8_t>(c.ifOut[i / 4] >> (8 * (i % 4)));
+  transact(c, {f.data(), 1U + std::min<unsigned>(c.txSize, 12)}, c.rxSize, timeout, waitState, now);
+}
+
+void SmartSerial::sendStartRow(Channel& c, unsigned row, SimTime now) {
+  const StartRow& r = kStartRows[row];
+  switch (r.payload) {
+    case Payload::Fixed: transact(c, {r.bytes.data(), r.length}, r.expect, startTimeout(c), r.wait, now); return;
+    case Payload::SoftwareMode: {
+      const std::array<std::uint8_t, 2> f{r.bytes[0], static_cast<std::uint8_t>(c.csOut >> 24)};
+      transact(c, f, r.expect, startTimeout(c), r.wait, now);
       return;
-    case kWaitTimeout:
-      send({lbp::local_read::kCookie}, 1, kCookieWait);
-      return;
-    case kCookieWait:
-      if (timedOut()) return restart(c, now);
+    }
+    case Payload::ZeroProcessData: sendProcessData(c, true, r.wait, startTimeout(c), now); return;
+  }
+}
+
+// START and SETUP START (manual: NORMAL START, SETUP START;
+// docs/protocol-facts.md#sslbp-start-and-timeouts, #sslbp-setup-mode): a
+// quiet start timeout so the remote's parser resets, then the rows of
+// kStartRows in order. Normal START ends in chatter; SETUP START ends after
+// discovery with the channel serving setup requests.
+void SmartSerial::startSequence(unsigned index, SimTime now) {
+  Channel& c = channels_[index];
+  if (c.state == kStartTimer) {
+    // Stay silent for a start timeout so the remote's parser resets.
+    c.state = kWaitTimeout;
+    schedule(c, now + startTimeout(c));
+    return;
+  }
+  if (c.state == kWaitTimeout) return sendStartRow(c, 0, now);
+  const unsigned row = startRowWaitingIn(c.state);
+  if (row == kStartRowCount) return;  // stopped
+  const StartRow& r = kStartRows[row];
+
+  const bool ok = !timedOut(c);
+  if (!ok && !(r.setupGoesOn && c.mode == Mode::Setup)) {
+    if (r.onTimeout == OnTimeout::Retry && !(c.errorLog & cs::kTooManyErrors)) return sendStartRow(c, row, now);
+    return restart(c, now);
+  }
+
+  switch (r.onReply) {
+    case OnReply::Next: break;
+    case OnReply::Cookie:
       if (c.reply[0] != lbp::kCookie) {
         setError(c, cs::kInvalidCookie, kCookie);
         return restart(c, now);
       }
-      send({lbp::local_write::kCommandTimeout, kLbpCharTimeout}, 0, kCharTimeoutWait);
-      return;
-    case kCharTimeoutWait:
-      if (timedOut()) return restart(c, now);
-      send({lbp::local_write::kStatus, 0x00}, 0, kClearStatusWait);
-      return;
-    case kClearStatusWait:
-      if (timedOut()) return restart(c, now);
-      send({lbp::local_read::kStatus}, 1, kReadStatusWait);
-      return;
-    case kReadStatusWait:
-      if (timedOut()) return restart(c, now);
+      break;
+    case OnReply::StatusClear:
       if (c.reply[0] != 0) {
         setError(c, cs::kRemoteFault, kRemFault);
         return restart(c, now);
       }
-      send({lbp::special_rpc::kUnitNumber}, 4, kUnitWait);
-      return;
-    case kUnitWait:
-      if (timedOut() && c.mode == Mode::Normal) {
-        // Normal start insists on a unit number; every miss counts.
-        if (c.errorLog & cs::kTooManyErrors) return restart(c, now);
-        send({lbp::special_rpc::kUnitNumber}, 4, kUnitWait);
-        return;
-      }
-      c.ifIn[0] = ok ? (static_cast<std::uint32_t>(c.reply[0]) | (static_cast<std::uint32_t>(c.reply[1]) << 8) |
-                        (static_cast<std::uint32_t>(c.reply[2]) << 16) | (static_cast<std::uint32_t>(c.reply[3]) << 24))
-                     : 0;
+      break;
+    case OnReply::UnitNumber:
+      c.ifIn[0] = ok ? littleEndian32(c.reply, 0) : 0;
       c.nameIndex = 0;
       c.ifIn[1] = 0;
-      send({lbp::local_read::kCardName0}, 1, kNameWait);
-      return;
-    case kNameWait:
-    case kNameWait + 2:
-    case kNameWait + 4:
-    case kNameWait + 6:
-      if (timedOut()) return restart(c, now);
+      break;
+    case OnReply::NameByte:
       c.ifIn[1] |= static_cast<std::uint32_t>(c.reply[0]) << (8 * c.nameIndex);
-      if (++c.nameIndex < 4) {
-        send({static_cast<std::uint8_t>(lbp::local_read::kCardName0 + c.nameIndex)}, 1,
-             static_cast<std::uint8_t>(kNameWait + 2 * c.nameIndex));
-        return;
-      }
-      // Not an 8I20 or 7I64 (those have hard-wired paths): the generic path.
-      // The remote's software mode is the top byte the host wrote to CS.
-      send({lbp::local_write::kRemoteSwMode, static_cast<std::uint8_t>(c.csOut >> 24)}, 0, kSetModeWait);
-      return;
-    case kSetModeWait:
-      if (timedOut()) return restart(c, now);
-      send({lbp::special_rpc::kDiscovery}, 6, kDiscoveryWait);
-      return;
-    case kDiscoveryWait:
-      if (timedOut() && c.mode == Mode::Normal) return restart(c, now);
+      ++c.nameIndex;
+      break;
+    case OnReply::Discovery:
       if (ok) {
         c.rxSize = c.reply[0];
         c.txSize = c.reply[1];
@@ -471,8 +624,7 @@ void SmartSerial::step(unsigned index, SimTime now) {
         const auto block = local::kChannelBlock + index * local::kChannelBlockStride;
         ram_[block + local::kRxSizeOffset] = c.rxSize;
         ram_[block + local::kTxSizeOffset] = c.txSize;
-        c.ifIn[2] = static_cast<std::uint32_t>(c.reply[2]) | (static_cast<std::uint32_t>(c.reply[3]) << 8) |
-                    (static_cast<std::uint32_t>(c.reply[4]) << 16) | (static_cast<std::uint32_t>(c.reply[5]) << 24);
+        c.ifIn[2] = littleEndian32(c.reply, 2);
       }
       if (c.mode == Mode::Setup) {
         // SETUP START: pass-through from here on, no device setup, no chatter.
@@ -485,158 +637,157 @@ void SmartSerial::step(unsigned index, SimTime now) {
         return;
       }
       c.status = static_cast<std::uint8_t>(c.status & ~cs::kStatusNoRemoteId);
-      sendProcessData(true, kClearOutputsWait, startTimeout(c));  // outputs off
-      return;
-    case kClearOutputsWait:
-      if (timedOut()) {
-        if (c.errorLog & cs::kTooManyErrors) return restart(c, now);
-        sendProcessData(true, kClearOutputsWait, startTimeout(c));
-        return;
-      }
-      send({lbp::local_write::kClearFault, 0xFF}, 0, kSetClearFaultWait);
-      return;
-    case kSetClearFaultWait:
-      if (timedOut()) return restart(c, now);
-      send({lbp::local_read::kClearFault}, 1, kPollClearFaultWait);
-      return;
-    case kPollClearFaultWait:
-      if (timedOut()) return restart(c, now);
-      if (c.reply[0] != 0) {
-        send({lbp::local_read::kClearFault}, 1, kPollClearFaultWait);
-        return;
-      }
-      send({lbp::local_read::kFaultStatus}, 1, kReadFaultWait);
-      return;
-    case kReadFaultWait:
-      if (timedOut()) return restart(c, now);
+      break;
+    case OnReply::PollUntilZero:
+      if (c.reply[0] != 0) return sendStartRow(c, row, now);
+      break;
+    case OnReply::FaultsClear:
       if (c.reply[0] != 0) {
         // Faults that do not clear: report them and keep asking until too many.
         c.remoteFault = c.reply[0];
         setError(c, cs::kRemoteFault, kRemFault);
         if (c.errorLog & cs::kTooManyErrors) return restart(c, now);
-        send({lbp::local_read::kFaultStatus}, 1, kReadFaultWait);
-        return;
+        return sendStartRow(c, row, now);
       }
       c.status = static_cast<std::uint8_t>(c.status & ~cs::kStatusRemoteFault);
-      c.state = kBlather;
-      schedule(c, now + kPass);
-      return;
-    case kBlather:
-      // The "chatter" loop: zero outputs back to back to feed the remote's
-      // watchdog until the first DOIT (manual: NORMAL START).
-      sendProcessData(true, kBlatherWait, kNormalStartTimeout);
-      return;
-    case kBlatherWait:
-      if (!ok) {
-        setError(c, cs::kTimeout, kTimeoutCount);
-        if (c.requested) {
-          c.requested = false;  // the request is cancelled; DOIT reports the channel
-          checkCommandDone(now);
-        }
-        c.state = kBlather;
-        schedule(c, now + kPass);
-        return;
-      }
-      c.measuredRpc = now - c.sentAt;
-      c.status = static_cast<std::uint8_t>(c.status & ~cs::kStatusNotReady);
-      if (!c.ready) {
-        c.ready = true;
-        c.startPending = false;
-        checkCommandDone(now);
-      }
-      if (c.requested) {
-        c.state = kRun;
-        step(index, now);
-        return;
-      }
-      c.state = kBlather;
-      schedule(c, now + kPass);
-      return;
-    case kRun:
-      if (!c.requested) return;
-      sendProcessData(false, kRunWait, c.measuredRpc + kTimeoutFudge);
-      return;
-    case kRunWait:
-      if (!timedOut()) {
-        c.remoteFault = c.reply[0];
-        if (c.remoteFault != 0) {
-          c.status = static_cast<std::uint8_t>(c.status | cs::kStatusRemoteFault);
-          setError(c, cs::kRemoteFault, kRemFault);
-        }
-        // Incoming process data: reply bytes 1.. into interface 0..2.
-        for (unsigned r = 0; r < 3; ++r) {
-          std::uint32_t v = 0;
-          for (unsigned b = 0; b < 4; ++b) {
-            const unsigned i = 1 + r * 4 + b;
-            if (i < c.rxSize && i < c.reply.size()) v |= static_cast<std::uint32_t>(c.reply[i]) << (8 * b);
-          }
-          c.ifIn[r] = v;
-        }
-        c.invalid = false;
-      }
-      c.requested = false;
-      c.state = kRun;
+      break;
+  }
+
+  if (r.next == kBlather) {
+    c.state = kBlather;
+    schedule(c, now + kPass);
+    return;
+  }
+  sendStartRow(c, startRowWaitingIn(r.next), now);
+}
+
+// Chatter (manual: NORMAL START): after a normal START the firmware sends
+// zero outputs back to back, keeping the remote's watchdog fed, until the
+// first DOIT. The first good reply completes the START; its round trip sets
+// the DOIT timeout (docs/protocol-facts.md#sslbp-start-and-timeouts).
+void SmartSerial::chatter(Channel& c, SimTime now) {
+  if (c.state == kBlather) {
+    sendProcessData(c, true, kBlatherWait, kNormalStartTimeout, now);
+    return;
+  }
+  // kBlatherWait
+  if (c.outcome != Outcome::Ok) {
+    setError(c, cs::kTimeout, kTimeoutCount);
+    if (c.requested) {
+      c.requested = false;  // the request is cancelled; DOIT reports the channel
       checkCommandDone(now);
-      return;
-    case kSetupRun: {
-      if (!c.requested) return;
-      // The LBP command the host wrote to CS: header in byte 3, address in
-      // bytes 1..0, write data in interface 0 and 1 (manual: SETUP MODE OPERATION).
-      const auto header = static_cast<std::uint8_t>(c.csOut >> 24);
-      if (!(header & 0x40U)) {  // data bytes and RPCs are not passed through
-        c.requested = false;
-        checkCommandDone(now);
-        return;
+    }
+    c.state = kBlather;
+    schedule(c, now + kPass);
+    return;
+  }
+  c.measuredRpc = now - c.sentAt;
+  c.status = static_cast<std::uint8_t>(c.status & ~cs::kStatusNotReady);
+  if (!c.ready) {
+    c.ready = true;
+    c.startPending = false;
+    checkCommandDone(now);
+  }
+  if (c.requested) {
+    c.state = kRun;
+    runNormal(c, now);
+    return;
+  }
+  c.state = kBlather;
+  schedule(c, now + kPass);
+}
+
+// The normal run (manual: DOIT, CS REGISTER AFTER DOIT, HOST READS INCOMING
+// INTERFACE REGISTERS AFTER DOIT): one process data exchange per DOIT
+// request, outputs from interface 0..2, the remote's fault byte to CS byte 3.
+void SmartSerial::runNormal(Channel& c, SimTime now) {
+  if (c.state == kRun) {
+    if (!c.requested) return;
+    sendProcessData(c, false, kRunWait, c.measuredRpc + kTimeoutFudge, now);
+    return;
+  }
+  // kRunWait
+  if (!timedOut(c)) {
+    c.remoteFault = c.reply[0];
+    if (c.remoteFault != 0) {
+      c.status = static_cast<std::uint8_t>(c.status | cs::kStatusRemoteFault);
+      setError(c, cs::kRemoteFault, kRemFault);
+    }
+    // Incoming process data: reply bytes 1.. into interface 0..2.
+    for (unsigned r = 0; r < 3; ++r) {
+      std::uint32_t v = 0;
+      for (unsigned b = 0; b < 4; ++b) {
+        const unsigned i = 1 + r * 4 + b;
+        if (i < c.rxSize && i < c.reply.size()) v |= static_cast<std::uint32_t>(c.reply[i]) << (8 * b);
       }
-      std::array<std::uint8_t, 12> f{};
-      std::size_t n = 0;
-      unsigned expect = 0;
-      f[n++] = header;
-      if (header < 0xC0) {
-        const auto d = lbp::DataCommand::decode(header);
-        if (d.hasAddress) {
-          f[n++] = static_cast<std::uint8_t>(c.csOut & 0xFFU);
-          f[n++] = static_cast<std::uint8_t>((c.csOut >> 8) & 0xFFU);
-        }
-        if (d.write) {
-          for (unsigned i = 0; i < d.dataSize; ++i) f[n++] = static_cast<std::uint8_t>(c.ifOut[i / 4] >> (8 * (i % 4)));
-        } else {
-          expect = d.dataSize;
-        }
-      } else if (header & 0x20U) {
-        f[n++] = static_cast<std::uint8_t>(c.ifOut[0] & 0xFFU);
-      } else {
-        expect = 1;
-      }
-      c.setupExpect = static_cast<std::uint8_t>(expect);
-      transact(c, {f.data(), n}, expect, kSetupRunTimeout, kSetupRunWait, now);
+      c.ifIn[r] = v;
+    }
+    c.invalid = false;
+  }
+  c.requested = false;
+  c.state = kRun;
+  checkCommandDone(now);
+}
+
+// The setup-mode run (manual: SETUP MODE OPERATION, REMOTE READ/WRITE
+// EXAMPLE; docs/protocol-facts.md#sslbp-setup-mode): each DOIT passes the
+// LBP command the host wrote to CS through to the remote.
+void SmartSerial::runSetup(Channel& c, SimTime now) {
+  if (c.state == kSetupRun) {
+    if (!c.requested) return;
+    // The LBP command the host wrote to CS: header in byte 3, address in
+    // bytes 1..0, write data in interface 0 and 1.
+    const auto header = static_cast<std::uint8_t>(c.csOut >> 24);
+    if (!(header & 0x40U)) {  // data bytes and RPCs are not passed through
+      c.requested = false;
+      checkCommandDone(now);
       return;
     }
-    case kSetupRunWait:
-      if (ok) {
-        if (c.setupExpect > 0) {  // a write's CRC-only reply leaves them alone
-          std::array<std::uint8_t, 8> data{};
-          std::copy_n(c.reply.begin(), std::min<unsigned>(c.setupExpect, 8), data.begin());
-          for (unsigned r = 0; r < 2; ++r) {
-            std::uint32_t v = 0;
-            for (unsigned b = 0; b < 4; ++b) v |= static_cast<std::uint32_t>(data[r * 4 + b]) << (8 * b);
-            c.ifIn[r] = v;
-          }
-        }
-        c.invalid = false;
-      } else {
-        setError(c, cs::kTimeout, kTimeoutCount);
-        // Since SSLBP 40 a setup-mode timeout is flagged in DATA only once
-        // errors are too many; the CS error byte always shows it.
-        if (!(c.errorLog & cs::kTooManyErrors)) c.invalid = false;
+    std::array<std::uint8_t, 12> f{};
+    std::size_t n = 0;
+    unsigned expect = 0;
+    f[n++] = header;
+    if (header < 0xC0) {
+      const auto d = lbp::DataCommand::decode(header);
+      if (d.hasAddress) {
+        f[n++] = static_cast<std::uint8_t>(c.csOut & 0xFFU);
+        f[n++] = static_cast<std::uint8_t>((c.csOut >> 8) & 0xFFU);
       }
-      c.requested = false;
-      c.state = kSetupRun;
-      checkCommandDone(now);
-      return;
-    default:
-      return;
+      if (d.write) {
+        for (unsigned i = 0; i < d.dataSize; ++i) f[n++] = static_cast<std::uint8_t>(c.ifOut[i / 4] >> (8 * (i % 4)));
+      } else {
+        expect = d.dataSize;
+      }
+    } else if (header & 0x20U) {
+      f[n++] = static_cast<std::uint8_t>(c.ifOut[0] & 0xFFU);
+    } else {
+      expect = 1;
+    }
+    c.setupExpect = static_cast<std::uint8_t>(expect);
+    transact(c, {f.data(), n}, expect, kSetupRunTimeout, kSetupRunWait, now);
+    return;
   }
+  // kSetupRunWait
+  if (c.outcome == Outcome::Ok) {
+    if (c.setupExpect > 0) {  // a write's CRC-only reply leaves them alone
+      std::array<std::uint8_t, 8> data{};
+      std::copy_n(c.reply.begin(), std::min<unsigned>(c.setupExpect, 8), data.begin());
+      for (unsigned r = 0; r < 2; ++r) {
+        std::uint32_t v = 0;
+        for (unsigned b = 0; b < 4; ++b) v |= static_cast<std::uint32_t>(data[r * 4 + b]) << (8 * b);
+        c.ifIn[r] = v;
+      }
+    }
+    c.invalid = false;
+  } else {
+    setError(c, cs::kTimeout, kTimeoutCount);
+    // Since SSLBP 40 a setup-mode timeout is flagged in DATA only once
+    // errors are too many; the CS error byte always shows it.
+    if (!(c.errorLog & cs::kTooManyErrors)) c.invalid = false;
+  }
+  c.requested = false;
+  c.state = kSetupRun;
+  checkCommandDone(now);
 }
 
 }  // namespace hm2

@@ -54,8 +54,11 @@ class SmartSerial final : public Module {
   [[nodiscard]] ModuleDescriptor descriptor() const override;
   [[nodiscard]] bool decodes(std::uint16_t address) const override;
   std::uint32_t read(std::uint16_t address, SimTime now) override;
-  void write(std::uint16_t address, std::uint32_t value, SimTime now) override;
+  WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) override;
   void advance(SimTime now) override;
+  // Power-up: the firmware's initmem and init (local RAM, baud rates,
+  // every channel stopped, DATA 0xAA). The cables (links) stay attached.
+  void reset() override;
 
   [[nodiscard]] unsigned channels() const { return channelCount_; }
   SerialLink& link(unsigned channel) { return channels_.at(channel).link; }
@@ -76,6 +79,25 @@ class SmartSerial final : public Module {
     std::uint64_t transactions = 0;
   };
   [[nodiscard]] const Counters& counters() const { return counters_; }
+
+  // What an observer sees: the registers as they would read, each channel's
+  // state and its link to the remote.
+  struct State {
+    struct Channel {
+      bool running = false;  // started: blathering, or serving setup requests
+      std::uint32_t cs = 0;
+      std::uint8_t remoteFaults = 0;  // the remote's fault byte, CS bits 31..24
+      std::uint32_t baud = kDefaultBaud;
+      bool cableConnected = true;
+      SerialLink::Counters link;
+    };
+    std::uint16_t command = 0;
+    std::uint8_t data = 0;
+    Counters counters;
+    unsigned channels = 0;  // the first `channels` entries are valid
+    std::array<Channel, kMaxChannels> channel{};
+  };
+  [[nodiscard]] State state() const;
 
  private:
   enum class Mode : std::uint8_t { Stopped, Normal, Setup };
@@ -120,7 +142,16 @@ class SmartSerial final : public Module {
   void startChannels(std::uint8_t mask, Mode mode, SimTime now);
   void doit(std::uint8_t mask, SimTime now);
   void checkCommandDone(SimTime now);
+  // The per-channel state machine, by phase (sslbp.cpp says which manual
+  // section each follows).
   void step(unsigned index, SimTime now);
+  void startSequence(unsigned index, SimTime now);
+  void sendStartRow(Channel& c, unsigned row, SimTime now);
+  void chatter(Channel& c, SimTime now);
+  void runNormal(Channel& c, SimTime now);
+  void runSetup(Channel& c, SimTime now);
+  void sendProcessData(Channel& c, bool zeros, std::uint8_t waitState, SimTime timeout, SimTime now);
+  bool timedOut(Channel& c);
   void transact(Channel& c, std::span<const std::uint8_t> frame, unsigned expect, SimTime timeout,
                 std::uint8_t waitState, SimTime now);
   void setError(Channel& c, std::uint8_t bit, unsigned counter);

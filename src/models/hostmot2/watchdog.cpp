@@ -29,7 +29,16 @@ std::uint32_t Watchdog::read(std::uint16_t address, SimTime now) {
   }
 }
 
-void Watchdog::write(std::uint16_t address, std::uint32_t value, SimTime now) {
+void Watchdog::reset() {
+  // Power-up (HostMot2 regmap, watchdog; docs/protocol-facts.md#hostmot2-watchdog):
+  // disarmed (bit 31 set) and not bitten.
+  reload_ = kDisarmed;
+  loadedAt_ = SimTime{};
+  running_ = false;
+  bitten_ = false;
+}
+
+WriteResult Watchdog::write(std::uint16_t address, std::uint32_t value, SimTime now) {
   advance(now);
   switch (address & 0xFF00U) {
     case kTimer:
@@ -47,8 +56,9 @@ void Watchdog::write(std::uint16_t address, std::uint32_t value, SimTime now) {
       }
       break;
     default:
-      break;
+      return WriteResult::Unmapped;
   }
+  return WriteResult::Accepted;
 }
 
 }  // namespace hm2

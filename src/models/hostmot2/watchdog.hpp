@@ -21,6 +21,13 @@ class Watchdog final : public Module {
   static constexpr std::uint16_t kReset = 0x0E00;
   static constexpr std::uint32_t kDisarmed = 0x80000000U;
 
+  // What an observer sees (the status bit and the timer as a read at `now`
+  // would return them), without the read's side effect of advancing.
+  struct State {
+    bool bitten = false;
+    std::uint32_t timer = kDisarmed;
+  };
+
   Watchdog(std::uint32_t clockLow, std::function<void()> onBite);
 
   [[nodiscard]] std::string_view name() const override { return "WatchDog"; }
@@ -29,11 +36,13 @@ class Watchdog final : public Module {
   }
   [[nodiscard]] bool decodes(std::uint16_t a) const override { return a >= kTimer && a < kReset + 4; }
   std::uint32_t read(std::uint16_t address, SimTime now) override;
-  void write(std::uint16_t address, std::uint32_t value, SimTime now) override;
+  WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) override;
   void advance(SimTime now) override;
+  void reset() override;  // disarmed, not bitten
 
   [[nodiscard]] bool bitten() const { return bitten_; }
   [[nodiscard]] std::uint32_t timer(SimTime now) const;
+  [[nodiscard]] State state(SimTime now) const { return State{bitten_, timer(now)}; }
 
  private:
   std::uint32_t clockLow_;

@@ -45,7 +45,7 @@ constexpr std::uint8_t kHardwareRevision = 1;
 
 AnalogProcessor::AnalogProcessor(Options options, SimTime now)
     : RemoteDevice({"7I77", options.unitNumber, 14, 0, "Standard"}, kElements, kModes, kParameters,
-                   options.nvFile) {
+                   options.nvFile, options.nvOwner, options.nvReport) {
   setSetupJumper(options.setupMode);
   powerUp(now);
 }
@@ -55,6 +55,13 @@ void AnalogProcessor::onPowerUp() { setRaw(kHwRevision, kHardwareRevision); }
 void AnalogProcessor::setLogicPower(bool on, SimTime now) {
   if (on && !powered()) powerUp(now);
   if (!on && powered()) powerDown();
+}
+
+AnalogProcessor::State AnalogProcessor::state() const {
+  State s;
+  s.device = deviceState();
+  for (unsigned ch = 0; ch < kChannels; ++ch) s.outputs[ch] = {volts_[ch], codes_[ch], enables_[ch]};
+  return s;
 }
 
 double AnalogProcessor::dacVolts(std::int64_t code) {

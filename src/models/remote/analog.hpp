@@ -24,7 +24,20 @@ class AnalogProcessor final : public RemoteDevice {
   struct Options {
     std::uint32_t unitNumber = 0x11000AEE;  // top byte 0x11: 7I77 analog (REFERENCES.md)
     std::filesystem::path nvFile;
+    std::string nvOwner;   // who holds nvFile, told to a second user (nv_store.hpp)
+    NvReporter nvReport;   // what the EEPROM file has to say (the model cannot log)
     bool setupMode = false;  // W4 right
+  };
+
+  // What an observer sees at TB5 and of the processor.
+  struct State {
+    struct Output {
+      double volts = 0.0;
+      std::int16_t code = 0;  // DAC code
+      bool enable = false;    // ENA0..ENA5
+    };
+    DeviceState device;
+    std::array<Output, kChannels> outputs{};
   };
 
   explicit AnalogProcessor(Options options, SimTime now = SimTime{0});
@@ -37,6 +50,7 @@ class AnalogProcessor final : public RemoteDevice {
   [[nodiscard]] double outputVoltage(unsigned channel) const { return volts_.at(channel); }
   [[nodiscard]] bool enable(unsigned channel) const { return enables_.at(channel); }  // ENA0..ENA5
   [[nodiscard]] std::int16_t dacCode(unsigned channel) const { return codes_.at(channel); }
+  [[nodiscard]] State state() const;
 
   // The DAC: code 4095 is +10 V (manual: NUMERIC PROCESS DATA SCALING maps
   // PARAM_MAX to 2^(N-1)-1), clamped to the +-10 V output range.

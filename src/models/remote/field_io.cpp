@@ -71,7 +71,7 @@ constexpr unsigned kMpgB[] = {17, 19};
 
 FieldIoProcessor::FieldIoProcessor(Options options, SimTime now)
     : RemoteDevice({"7I77", options.unitNumber, 14, 0, "Standard"}, kElements, kModes, kParameters,
-                   options.nvFile),
+                   options.nvFile, options.nvOwner, options.nvReport),
       outputType_(options.outputs),
       vinFromField_(options.vinFromField),
       fieldVolts_(options.fieldVoltage),
@@ -97,6 +97,12 @@ void FieldIoProcessor::applyPower(SimTime now) {
   for (unsigned i = 0; i < kInputs; ++i) updateInput(i);
   if (powered()) checkSupply();
   driveOutputs();
+}
+
+void FieldIoProcessor::powerCycle(SimTime now) {
+  advance(now);
+  powerDown();
+  applyPower(now);
 }
 
 void FieldIoProcessor::setFieldVoltage(double volts, SimTime now) {
@@ -213,6 +219,19 @@ double FieldIoProcessor::outputVoltage(unsigned i) const {
   // sits at field power through the load.
   if (outputType_ == OutputType::Sourcing) return outputOn(i) ? fieldVolts_ : 0.0;
   return outputOn(i) ? 0.0 : fieldVolts_;
+}
+
+FieldIoProcessor::State FieldIoProcessor::state() const {
+  State s;
+  s.device = deviceState();
+  s.outputType = outputType_;
+  s.fieldVoltage = fieldVoltage();
+  s.vin = vin();
+  s.fieldVoltageLed = fieldVoltageLed();
+  for (unsigned i = 0; i < kInputs; ++i) s.inputs[i] = {inputVoltage(i), input(i)};
+  for (unsigned i = 0; i < kOutputs; ++i) s.outputs[i] = {outputOn(i), outputVoltage(i), outputCurrent(i), outputTripped(i)};
+  for (unsigned n = 0; n < kMpgs; ++n) s.mpg[n] = mpgCount(n);
+  return s;
 }
 
 void FieldIoProcessor::driveOutputs() {

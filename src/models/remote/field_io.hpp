@@ -42,10 +42,34 @@ class FieldIoProcessor final : public RemoteDevice {
     OutputType outputs = OutputType::Sourcing;
     std::uint32_t unitNumber = 0x12000AEE;  // top byte 0x12: 7I77 field I/O (REFERENCES.md)
     std::filesystem::path nvFile;          // empty: EEPROM in memory
+    std::string nvOwner;                    // who holds nvFile, told to a second user (nv_store.hpp)
+    NvReporter nvReport;                    // what the EEPROM file has to say (the model cannot log)
     bool setupMode = false;                 // W12 right
     bool vinFromField = true;               // W1 left: VIN = field power
     double fieldVoltage = 24.0;
     double vin = 24.0;  // only used with vinFromField = false
+  };
+
+  // What an observer sees at the terminals and of the processor.
+  struct State {
+    struct Input {
+      double volts = 0.0;
+      bool on = false;
+    };
+    struct Output {
+      bool on = false;
+      double volts = 0.0;
+      double amps = 0.0;  // infinity: a dead short on a driver that is on
+      bool tripped = false;
+    };
+    DeviceState device;
+    OutputType outputType = OutputType::Sourcing;
+    double fieldVoltage = 0.0;
+    double vin = 0.0;
+    bool fieldVoltageLed = false;  // CR3
+    std::array<Input, kInputs> inputs{};
+    std::array<Output, kOutputs> outputs{};
+    std::array<std::uint8_t, kMpgs> mpg{};
   };
 
   explicit FieldIoProcessor(Options options, SimTime now = SimTime{0});
@@ -54,6 +78,9 @@ class FieldIoProcessor final : public RemoteDevice {
   // --- The world at the terminals ---------------------------------------------
   void setFieldVoltage(double volts, SimTime now);
   void setVin(double volts, SimTime now);  // TB2 pin 5, with W1 right
+  // VIN off and on (the machine power-cycled): the processor boots again if
+  // VIN is present, with the supply checks a power-up makes.
+  void powerCycle(SimTime now) override;
   void setInputVoltage(unsigned input, double volts);
   // Resistive load from an output to field ground (7I77) or field power
   // (7I77D); infinity is an open terminal, 0 a dead short.
@@ -76,6 +103,7 @@ class FieldIoProcessor final : public RemoteDevice {
   [[nodiscard]] OutputType outputType() const { return outputType_; }
   // CR3: field voltage present.
   [[nodiscard]] bool fieldVoltageLed() const { return fieldVolts_ >= kLowFieldVoltage; }
+  [[nodiscard]] State state() const;
 
   // 8-bit reading of a voltage at 36.3 V full scale (manual: ANALOG INPUTS).
   static std::uint8_t analogReading(double volts);

@@ -52,12 +52,12 @@ bool receivesFromHost(Direction d) { return d == Direction::Output || d == Direc
 
 RemoteDevice::RemoteDevice(Identity identity, std::span<const ProcessDataDescriptor> elements,
                            std::span<const SoftwareMode> modes, std::span<const ElementId> parameters,
-                           std::filesystem::path nvFile)
+                           std::filesystem::path nvFile, std::string nvOwner, NvReporter nvReport)
     : identity_(identity),
       modes_(modes),
       ownElements_(elements.size()),
       parser_(*this, parserConfig(false, kBaudRates[kDefaultBaudIndex])),
-      nv_(memory::kEepromSize, std::move(nvFile)) {
+      nv_(memory::kEepromSize, std::move(nvFile), std::move(nvOwner), std::move(nvReport)) {
   if (modes_.empty()) throw std::logic_error("a remote needs at least one software mode");
   buildTables(elements, parameters);
 }
@@ -196,6 +196,12 @@ void RemoteDevice::powerUp(SimTime now) {
 void RemoteDevice::powerDown() {
   powered_ = false;
   driveOutputs();
+}
+
+void RemoteDevice::powerCycle(SimTime now) {
+  if (!powered_) return;
+  powerDown();
+  powerUp(now);
 }
 
 void RemoteDevice::resetProcessor() { powerUp(now_); }

@@ -94,7 +94,7 @@ class RemoteDevice : public lbp::Target {
   // carry them; the standard parameters are added after them.
   RemoteDevice(Identity identity, std::span<const ProcessDataDescriptor> elements,
                std::span<const SoftwareMode> modes, std::span<const ElementId> parameters,
-               std::filesystem::path nvFile = {});
+               std::filesystem::path nvFile = {}, std::string nvOwner = {}, NvReporter nvReport = {});
   ~RemoteDevice() override = default;
   RemoteDevice(const RemoteDevice&) = delete;
   RemoteDevice& operator=(const RemoteDevice&) = delete;
@@ -109,6 +109,10 @@ class RemoteDevice : public lbp::Target {
   // --- Power and jumpers ---------------------------------------------------
   void powerUp(SimTime now);
   void powerDown();
+  // Its supply off and on again (the machine power-cycled): a processor that
+  // was running boots, NV values becoming working values again; one that
+  // was off stays off.
+  virtual void powerCycle(SimTime now);
   [[nodiscard]] bool powered() const { return powered_; }
   // W4 / W12: setup mode (115.2 kBaud fixed). Read at power-up.
   void setSetupJumper(bool setup) { setupJumper_ = setup; }
@@ -130,6 +134,23 @@ class RemoteDevice : public lbp::Target {
   [[nodiscard]] const NvStore& nvStore() const { return nv_; }
   NvStore& nvStore() { return nv_; }
   [[nodiscard]] const lbp::Parser& parser() const { return parser_; }
+
+  // What every processor shows an observer; each processor's State adds its
+  // own terminals.
+  struct DeviceState {
+    bool powered = false;
+    std::uint32_t unitNumber = 0;
+    std::uint8_t faults = 0;  // fault:: bits
+    std::uint8_t softwareMode = 0;
+    std::uint16_t watchdogMs = 0;
+    std::uint32_t baud = 0;
+    bool activityLed = false;  // CR15
+    bool faultLed = false;     // CR16
+  };
+  [[nodiscard]] DeviceState deviceState() const {
+    return DeviceState{powered(), unitNumber(), faults(), softwareMode(),
+                       watchdogTimeMs(), baud(), activityLed(), faultLed()};
+  }
 
   // Discovery facts for the current mode (what the 0xBB RPC answers).
   struct Discovery {

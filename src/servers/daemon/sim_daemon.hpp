@@ -1,10 +1,11 @@
 // `lbpkit sim`: a virtual 7I92 with 7I77s on the network.
 //
 // One thread owns the card: it waits on the LBP16 socket, answers each
-// datagram, and lets simulated time follow the wall clock (scaled, or
-// paused) so the 7I77 and HostMot2 watchdogs bite when the host stops. The
-// HTTP control API runs on its own threads and hands its work to the card
-// thread as jobs, taken between datagrams without ever blocking it.
+// datagram, and lets simulated time follow the wall clock (sim_clock.hpp) so
+// the 7I77 and HostMot2 watchdogs bite when the host stops. The HTTP control
+// API (api_routes.hpp) runs on its own threads and hands its work to the card
+// thread as jobs, taken between datagrams without ever blocking it; what it
+// answers is the models' state (state_json.hpp).
 #pragma once
 
 #include <array>
@@ -18,6 +19,7 @@
 #include <mutex>
 #include <string>
 
+#include "daemon/sim_clock.hpp"
 #include "hostmot2/card.hpp"
 #include "lbp16/lbp16_card.hpp"
 
@@ -43,28 +45,16 @@ struct SimOptions {
   std::string configDescription = "built-in default";
 };
 
-// Simulated time from the wall clock, scaled and pausable.
-class SimClock {
- public:
-  explicit SimClock(double speed = 1.0, bool paused = false);
-  hm2::SimTime now() const;
-  void set(double speed, bool paused);
-  [[nodiscard]] double speed() const { return speed_; }
-  [[nodiscard]] bool paused() const { return paused_; }
-  void advanceBy(hm2::SimTime t);  // while paused: step time by hand
-
- private:
-  using Wall = std::chrono::steady_clock;
-  Wall::time_point wallBase_;
-  hm2::SimTime simBase_{0};
-  double speed_;
-  bool paused_;
-};
+struct SimState;
+class ControlApi;
+class UdpServer;
 
 class SimDaemon {
  public:
   explicit SimDaemon(SimOptions options);
   ~SimDaemon();
+  SimDaemon(const SimDaemon&) = delete;
+  SimDaemon& operator=(const SimDaemon&) = delete;
 
   // What `lbpkit sim` prints at start: where it listens, what it carries.
   [[nodiscard]] std::string banner() const;
@@ -73,13 +63,13 @@ class SimDaemon {
 
   [[nodiscard]] std::uint16_t port() const;
   [[nodiscard]] int apiPort() const { return apiPort_; }
-  // The whole board as JSON (for the API; call on the card thread).
+  // The whole board now, and as JSON (for the API; call on the card thread).
+  [[nodiscard]] SimState state();
   std::string stateJson();
   // "median 3 us, 99th percentile 9 us, max 40 us over N datagrams".
   [[nodiscard]] std::string latencySummary() const;
 
  private:
-  struct Api;
   std::string runJob(std::function<std::string()> job);
   void drainJobs();
   void log(LogLevel level, const std::string& text) const;
@@ -87,13 +77,11 @@ class SimDaemon {
   SimOptions options_;
   hm2::HostMot2Card card_;
   std::unique_ptr<Lbp16Card> lbp16_;
-  std::unique_ptr<class UdpServer> udp_;
+  std::unique_ptr<UdpServer> udp_;
   SimClock clock_;
   std::string interface_;
   std::string schedule_ = "normal scheduling";
   bool macFromInterface_ = false;
-  std::unique_ptr<Api> api_;
-  int apiPort_ = -1;
   std::mutex jobsMutex_;
   std::deque<std::packaged_task<std::string()>> jobs_;
   // Server-side time per datagram (receive to reply sent), 1 us buckets.
@@ -105,8 +93,10 @@ class SimDaemon {
     [[nodiscard]] double percentileUs(double p) const;
   } latency_;
   // Rate-limited logging of bad datagrams.
-  std::uint64_t loggedBad_ = 0;
   std::chrono::steady_clock::time_point lastBadLog_{};
+  // Last: its threads call into the members above until it is gone.
+  std::unique_ptr<ControlApi> api_;
+  int apiPort_ = -1;
 };
 
 }  // namespace net

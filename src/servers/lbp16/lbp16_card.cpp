@@ -39,13 +39,11 @@ Lbp16Card::Lbp16Card(hm2::HostMot2Card& card, Identity identity)
   // the card name at 0x10, IP at 0x20 (low word c.d) and 0x22 (high word a.b).
   const auto& m = identity_.mac;
   const std::uint8_t macBytes[6] = {m[5], m[4], m[3], m[2], m[1], m[0]};
-  std::copy_n(macBytes, 6, eeprom_.begin() + 2);
-  std::copy_n(identity_.name.begin(), std::min<std::size_t>(identity_.name.size(), 16), eeprom_.begin() + 0x10);
+  std::copy_n(macBytes, 6, eeprom_.begin() + lbp16::eeprom::kMac);
+  std::copy_n(identity_.name.begin(), std::min<std::size_t>(identity_.name.size(), 16),
+              eeprom_.begin() + lbp16::eeprom::kCardName);
   const auto& ip = identity_.ip;
-  eeprom_[0x20] = ip[3];
-  eeprom_[0x21] = ip[2];
-  eeprom_[0x22] = ip[1];
-  eeprom_[0x23] = ip[0];
+  for (unsigned i = 0; i < 4; ++i) eeprom_[lbp16::eeprom::kIp + i] = ip[3 - i];
 }
 
 std::uint8_t Lbp16Card::infoByte(std::uint8_t space, std::uint32_t offset) const {
@@ -72,8 +70,9 @@ std::uint16_t Lbp16Card::readWord16(std::uint8_t space, std::uint32_t address, h
   switch (space) {
     case 2: return static_cast<std::uint16_t>(eeprom_[address & 0x7F] | (eeprom_[(address + 1) & 0x7F] << 8));
     case 4:
-      if (address >= 0x10 && address < 0x18) return scratch_[(address - 0x10) / 2];
-      if (address == 0x00) return static_cast<std::uint16_t>(us);  // microsecond timestamp
+      if (address >= lbp16::timer::kScratch && address < lbp16::timer::kScratchEnd)
+        return scratch_[(address - lbp16::timer::kScratch) / 2];
+      if (address == lbp16::timer::kMicroseconds) return static_cast<std::uint16_t>(us);  // microsecond timestamp
       return 0;
     case 6:
       switch (address) {
@@ -87,7 +86,7 @@ std::uint16_t Lbp16Card::readWord16(std::uint8_t space, std::uint32_t address, h
         case 0x0E:
         case 0x10: return static_cast<std::uint16_t>(counters_.replies);
         case 0x14: return ledMode_;
-        case 0x18: return commScratch_;
+        case lbp16::comm::kScratch: return commScratch_;
         default: return 0;
       }
     case 7: {
@@ -169,15 +168,15 @@ void Lbp16Card::write(std::uint8_t space, std::uint32_t address, unsigned size, 
       flashAddress_ = (flashAddress_ + 4) % kFlashBytes;
       return;
     case 4:
-      if (address >= 0x10 && address < 0x18) {
+      if (address >= lbp16::timer::kScratch && address < lbp16::timer::kScratchEnd) {
         for (unsigned i = 0; i < size; i += 2)
-          if (address + i < 0x18) scratch_[(address + i - 0x10) / 2] = static_cast<std::uint16_t>(value >> (8 * i));
+          if (address + i < lbp16::timer::kScratchEnd) scratch_[(address + i - lbp16::timer::kScratch) / 2] = static_cast<std::uint16_t>(value >> (8 * i));
       }
       return;
     case 6:
       if (address == 0x14) ledMode_ = static_cast<std::uint16_t>(value);
-      else if (address == 0x18) commScratch_ = static_cast<std::uint16_t>(value);
-      else if (address == 0x1A) writeEnable_ = static_cast<std::uint16_t>(value);
+      else if (address == lbp16::comm::kScratch) commScratch_ = static_cast<std::uint16_t>(value);
+      else if (address == lbp16::comm::kEepromWriteEnable) writeEnable_ = static_cast<std::uint16_t>(value);
       // 0x1C reset and 0x1E ICAP reload: nothing to do for a virtual FPGA
       return;
     default:

@@ -21,7 +21,11 @@ class MuxedEncoders {
   void initialize();
   // Per cycle: queue the reads (and any control changes); after the flush, update().
   void queue();
-  void update();
+  // Returns false, changing nothing, when an exchange failed since queue()
+  // (the transport's linkCounters() tell): the registers may be stale, and a
+  // velocity from them would be wrong. The next fresh update takes the whole
+  // count change since, timed by the card's timestamps.
+  bool update();
 
   [[nodiscard]] std::int64_t counts(unsigned n) const { return state_.at(n).counts - state_.at(n).offset; }
   [[nodiscard]] double position(unsigned n) const { return static_cast<double>(counts(n)) / state_.at(n).scale; }
@@ -43,6 +47,7 @@ class MuxedEncoders {
     double velocity = 0, scale = 1;
     Nanoseconds lastChange{0};
     bool indexArmed = false, writeControl = false, first = true;
+    bool controlQueued = false;  // written in the exchange update() has not yet seen succeed
     std::uint32_t controlOut = 0;
   };
   Transport& t_;
@@ -54,6 +59,7 @@ class MuxedEncoders {
   std::uint32_t timestamp_ = 0;
   std::uint32_t tsDivisor_;
   std::array<State, kMax> state_{};
+  std::uint64_t failuresAtQueue_ = 0;  // the transport's failed exchanges when queue() ran
 };
 
 }  // namespace lbpkit

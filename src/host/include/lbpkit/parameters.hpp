@@ -12,6 +12,9 @@
 namespace lbpkit {
 
 std::uint64_t readElement(RemoteAccess& remote, const ProcessDataElement& e);
+// Throws lbpkit::Error when the remote refused the write (LBP Invalid write
+// status) or, for a non-volatile element, when its EEPROM does not read back
+// the value written: a value only counts as saved when the remote kept it.
 void writeElement(RemoteAccess& remote, const ProcessDataElement& e, std::uint64_t raw);
 
 // RPD's output: decimal, or hexadecimal with `hex` ("H" on the command line).

@@ -58,10 +58,17 @@ struct ElementRef {
   [[nodiscard]] bool valid() const { return slot != 0xFF; }
 };
 
+// What one cycle saw. Inputs are unpacked only from a reply that came, and
+// only for channels that answered; the others keep their last good values.
 struct CycleStatus {
-  bool ok = true;              // every channel answered
+  bool ok = true;              // every exchange got its reply and every channel answered
   std::uint8_t failedMask = 0;  // DATA after DOIT
   bool commandBusy = false;     // COMMAND not clear at the start of the cycle (cycle too short)
+  // An exchange of this cycle (from queueOutputs() on) got no reply in time
+  // or could not be sent (Transport::linkCounters() says which). When the
+  // outputs' exchange was the one lost, inputs that were read afterwards are
+  // still unpacked: they are the card's registers as they are.
+  bool replyLost = false;
   Nanoseconds doitTime{};       // from DOIT to COMMAND clear, as far as polling tells
 };
 
@@ -123,17 +130,21 @@ class SmartSerial {
     return static_cast<std::uint8_t>(slots_.at(slot).cs >> wire::sslbp::cs::kRemoteByteShift);
   }
 
-  // Queue this cycle's output writes and the DOIT (the caller flushes, so
-  // other modules' accesses share the exchange).
+  // Queue this cycle's output writes and the DOIT (the caller flushes, with
+  // Transport::tryFlush(), so other modules' accesses share the exchange).
   void queueOutputs();
   // Wait for the DOIT, read CS and inputs, unpack. Needs the outputs flushed.
+  // Never throws: a lost reply is reported in the status (the cycle path
+  // uses tryFlush(), waiting at most the transport's cycle timeout).
   CycleStatus collectInputs();
   // Both, for a caller with nothing else to do.
   CycleStatus cycle();
   // A channel that keeps failing is stopped and started again, at most once
   // per recoveryInterval. Returns true when it tried.
   bool recover(unsigned slot);
+  // Cycles whose inputs were read; cycles that lost a reply.
   [[nodiscard]] std::uint64_t cycles() const { return cycles_; }
+  [[nodiscard]] std::uint64_t lostCycles() const { return lostCycles_; }
 
  private:
   struct Slot {
@@ -159,6 +170,8 @@ class SmartSerial {
   DiscoveryStats discoveryStats_;
   std::uint64_t doits_ = 0;
   std::uint64_t cycles_ = 0;
+  std::uint64_t lostCycles_ = 0;
+  std::uint64_t failuresAtQueue_ = 0;  // the transport's failed exchanges when the outputs were queued
   std::uint32_t pollCommand_ = 0, pollData_ = 0;
   std::uint32_t doitWord_ = 0;
   Nanoseconds busyEstimate_{0};

@@ -73,6 +73,19 @@ inline constexpr std::uint16_t kIp = 0x20;
 inline constexpr std::uint16_t kSize = 0x80;
 }  // namespace eeprom
 
+// The timer space's scratch words (0x10..0x17), where hm2_eth echoes its
+// packet counters to pair replies with requests, and the comm-control
+// space's scratch word.
+namespace timer {
+inline constexpr std::uint16_t kMicroseconds = 0x00;  // free-running microsecond timestamp
+inline constexpr std::uint16_t kScratch = 0x10;
+inline constexpr std::uint16_t kScratchEnd = 0x18;
+}  // namespace timer
+namespace comm {
+inline constexpr std::uint16_t kEepromWriteEnable = 0x1A;  // where the write-enable keys go
+inline constexpr std::uint16_t kScratch = 0x18;
+}  // namespace comm
+
 // Ready-made words.
 constexpr std::uint16_t hm2Read(unsigned words) {
   return Command{false, true, false, 0, 4, true, static_cast<std::uint8_t>(words)}.encode();

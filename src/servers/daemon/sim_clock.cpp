@@ -1,0 +1,27 @@
+#include "daemon/sim_clock.hpp"
+
+#include <cstdint>
+
+namespace net {
+
+SimClock::SimClock(double speed, bool paused) : wallBase_(Wall::now()), speed_(speed), paused_(paused) {}
+
+lbp::SimTime SimClock::now() const {
+  if (paused_) return simBase_;
+  const auto wall = std::chrono::duration<double, std::nano>(Wall::now() - wallBase_).count();
+  return simBase_ + lbp::SimTime{static_cast<std::int64_t>(wall * speed_)};
+}
+
+void SimClock::set(double speed, bool paused) {
+  simBase_ = now();
+  wallBase_ = Wall::now();
+  speed_ = speed;
+  paused_ = paused;
+}
+
+void SimClock::advanceBy(lbp::SimTime t) {
+  simBase_ = now() + t;
+  wallBase_ = Wall::now();
+}
+
+}  // namespace net

@@ -1,0 +1,159 @@
+#include "daemon/state_json.hpp"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+namespace net {
+
+using nlohmann::json;
+
+namespace {
+
+std::string hex32(std::uint32_t v) { return fmt::format("0x{:08X}", v); }
+
+}  // namespace
+
+json faultNames(std::uint8_t faults) {
+  json a = json::array();
+  for (unsigned b = 0; b < 8; ++b)
+    if ((static_cast<unsigned>(faults) >> b) & 1U) a.push_back(std::string(remote::fault::kNames[b]));
+  return a;
+}
+
+json toJson(const hm2::Watchdog::State& s) { return {{"bitten", s.bitten}, {"timer", s.timer}}; }
+
+json toJson(const hm2::SmartSerial::State& s) {
+  json chans = json::array();
+  for (unsigned ch = 0; ch < s.channels; ++ch) {
+    const auto& c = s.channel[ch];
+    const auto& lc = c.link;
+    chans.push_back({{"channel", ch},
+                     {"running", c.running},
+                     {"cs", hex32(c.cs)},
+                     {"remote_faults", faultNames(c.remoteFaults)},
+                     {"baud", c.baud},
+                     {"cable_connected", c.cableConnected},
+                     {"link",
+                      {{"to_remote", lc.toRemote},
+                       {"from_remote", lc.fromRemote},
+                       {"corrupted", lc.corrupted},
+                       {"dropped", lc.dropped},
+                       {"added", lc.added},
+                       {"breaks", lc.breaks}}}});
+  }
+  return {{"command", fmt::format("0x{:04X}", s.command)},
+          {"data", fmt::format("0x{:02X}", s.data)},
+          {"doits", s.counters.doits},
+          {"lost_commands", s.counters.lostCommands},
+          {"channels", chans}};
+}
+
+json toJson(const hm2::MuxedEncoder::State::Counter& s) {
+  return {{"count", s.count},
+          {"position", s.signal.position},
+          {"velocity", s.signal.velocity},
+          {"counts_per_rev", s.signal.countsPerRev}};
+}
+
+json toJson(const remote::FieldIoProcessor::State& s) {
+  json inputs = json::array(), outputs = json::array();
+  for (const auto& in : s.inputs) inputs.push_back({{"volts", in.volts}, {"on", in.on}});
+  // JSON has no infinity: a dead short's current reads -1.
+  for (const auto& out : s.outputs)
+    outputs.push_back({{"on", out.on},
+                       {"volts", out.volts},
+                       {"amps", std::isinf(out.amps) ? -1.0 : out.amps},
+                       {"tripped", out.tripped}});
+  return {{"powered", s.device.powered},
+          {"field_voltage", s.fieldVoltage},
+          {"vin", s.vin},
+          {"mode", s.device.softwareMode},
+          {"unit_number", hex32(s.device.unitNumber)},
+          {"watchdog_ms", s.device.watchdogMs},
+          {"faults", faultNames(s.device.faults)},
+          {"baud", s.device.baud},
+          {"inputs", inputs},
+          {"outputs", outputs},
+          {"mpg", s.mpg}};
+}
+
+json toJson(const remote::AnalogProcessor::State& s) {
+  json outputs = json::array();
+  for (const auto& out : s.outputs) outputs.push_back({{"volts", out.volts}, {"code", out.code}, {"enable", out.enable}});
+  return {{"powered", s.device.powered},
+          {"unit_number", hex32(s.device.unitNumber)},
+          {"faults", faultNames(s.device.faults)},
+          {"outputs", outputs}};
+}
+
+json toJson(const Lbp16Card::Counters& s) {
+  return {{"packets", s.packets},
+          {"replies", s.replies},
+          {"parse_errors", s.parseErrors},
+          {"memory_errors", s.memoryErrors},
+          {"write_errors", s.writeErrors}};
+}
+
+json toJson(const hm2::AccessCounters& s) {
+  return {{"unmapped_reads", s.unmappedReads},
+          {"unmapped_writes", s.unmappedWrites},
+          {"read_only_writes", s.readOnlyWrites},
+          {"ignored_commands", s.ignoredCommands},
+          {"lost_commands", s.lostCommands}};
+}
+
+json toJson(const SimState::Server& s) {
+  return {{"datagrams", s.datagrams},
+          {"scheduling", s.scheduling},
+          {"median_us", s.medianUs},
+          {"p99_us", s.p99Us},
+          {"max_us", s.maxUs}};
+}
+
+json toJson(const SimState::Daughtercard& s, unsigned connector) {
+  json enc = json::array();
+  for (const auto& e : s.encoders) enc.push_back(toJson(e));
+  const auto& io = s.fieldIo;
+  // CR1, CR6 and CR7 watch the 5 V, +16 V and -12 V supplies (manual: STATUS
+  // LEDs); the model has no supply faults, so they are always on.
+  return {{"connector", connector},
+          {"type", io.outputType == remote::OutputType::Sinking ? "7I77D" : "7I77"},
+          {"leds",
+           {{"CR1", true},
+            {"CR3", io.fieldVoltageLed},
+            {"CR6", true},
+            {"CR7", true},
+            {"CR15", io.device.activityLed},
+            {"CR16", io.device.faultLed}}},
+          {"field_io", toJson(io)},
+          {"analog", toJson(s.analog)},
+          {"encoders", enc}};
+}
+
+json toJson(const SimState& s) {
+  json j;
+  j["time_s"] = std::chrono::duration<double>(s.time).count();
+  j["clock"] = {{"speed", s.clock.speed}, {"paused", s.clock.paused}};
+  const auto& m = s.card.mac;
+  j["card"] = {{"name", s.card.name},
+               {"address", s.card.address},
+               {"port", s.card.port},
+               {"mac", fmt::format("{:02x}:{:02x}:{:02x}:{:02x}:{:02x}:{:02x}", m[0], m[1], m[2], m[3], m[4], m[5])}};
+  j["lbp16"] = toJson(s.lbp16);
+  j["server"] = toJson(s.server);
+  j["watchdog"] = toJson(s.watchdog);
+  j["card_leds"] = s.cardLeds.leds;
+  j["sserial"] = toJson(s.sserial);
+  j["access_counters"] = toJson(s.accessCounters);
+  json boards = json::array();
+  for (unsigned d = 0; d < s.daughtercards.size(); ++d) boards.push_back(toJson(s.daughtercards[d], d));
+  j["daughtercards"] = boards;
+  return j;
+}
+
+std::string stateJson(const SimState& s) { return toJson(s).dump(); }
+
+}  // namespace net

@@ -1,0 +1,85 @@
+// GET /api/state: the models' observable state as JSON.
+//
+// The models expose what can be observed as plain State structs next to
+// their registers; the daemon collects them into a SimState on the card
+// thread, and this is the only code that knows how they look in JSON. The
+// keys and values are an interface (tests, scripts and README.md use them):
+// add keys, never rename or reshape one.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+#include "hostmot2/card.hpp"
+#include "hostmot2/ioport.hpp"
+#include "hostmot2/muxed_encoder.hpp"
+#include "hostmot2/sslbp.hpp"
+#include "hostmot2/watchdog.hpp"
+#include "lbp16/lbp16_card.hpp"
+#include "remote/analog.hpp"
+#include "remote/field_io.hpp"
+
+namespace net {
+
+// Everything GET /api/state shows, taken at one simulated instant.
+struct SimState {
+  lbp::SimTime time{};
+  struct Clock {
+    double speed = 1.0;
+    bool paused = false;
+  } clock;
+  // Who the card says it is on the network, and where it listens.
+  struct Card {
+    std::string name;
+    std::string address;
+    std::uint16_t port = 0;
+    std::array<std::uint8_t, 6> mac{};
+  } card;
+  Lbp16Card::Counters lbp16;
+  // The UDP server's own figures: server-side time per datagram.
+  struct Server {
+    std::uint64_t datagrams = 0;
+    std::string scheduling;
+    double medianUs = 0;
+    double p99Us = 0;
+    double maxUs = 0;
+  } server;
+  hm2::Watchdog::State watchdog;
+  hm2::Led::State cardLeds;
+  hm2::SmartSerial::State sserial;
+  // Register accesses the card did not carry out, per kind.
+  hm2::AccessCounters accessCounters;
+  // One 7I77 and the card's muxed encoder counters for its connector
+  // (counters 6d..6d+5 for connector d, as HostMot2Card lays them out).
+  static constexpr unsigned kEncodersPerDaughtercard = 6;
+  struct Daughtercard {
+    remote::FieldIoProcessor::State fieldIo;
+    remote::AnalogProcessor::State analog;
+    std::array<hm2::MuxedEncoder::State::Counter, kEncodersPerDaughtercard> encoders{};
+  };
+  std::vector<Daughtercard> daughtercards;
+};
+
+// Each part as it appears under its key in GET /api/state.
+nlohmann::json toJson(const hm2::Watchdog::State& s);
+nlohmann::json toJson(const hm2::SmartSerial::State& s);
+nlohmann::json toJson(const hm2::MuxedEncoder::State::Counter& s);
+nlohmann::json toJson(const remote::FieldIoProcessor::State& s);
+nlohmann::json toJson(const remote::AnalogProcessor::State& s);
+nlohmann::json toJson(const Lbp16Card::Counters& s);
+nlohmann::json toJson(const hm2::AccessCounters& s);
+nlohmann::json toJson(const SimState::Server& s);
+// A daughtercard on connector `connector`, with its LEDs.
+nlohmann::json toJson(const SimState::Daughtercard& s, unsigned connector);
+// The remote fault byte as the names of its set bits, lowest bit first.
+nlohmann::json faultNames(std::uint8_t faults);
+
+// The whole document.
+nlohmann::json toJson(const SimState& s);
+std::string stateJson(const SimState& s);
+
+}  // namespace net
