@@ -1,4 +1,4 @@
-// The real-time paths do no heap allocation (DEVELOPERS.md): the host cycle
+// The real-time paths do no heap allocation (docs/README.md#engineering-standards): the host cycle
 // and the per-datagram server path, counted with a global operator new.
 #include <gtest/gtest.h>
 

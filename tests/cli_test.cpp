@@ -145,13 +145,15 @@ TEST(Cli, SimRefusesBadConfigurationsClearly) {
   }
   auto r = run({"sim", "--config", bad, "--api", "0"});
   EXPECT_EQ(r.exit, 1);
-  EXPECT_NE(r.err.find("daughtercard 0: type \"7I88\""), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(bad + ":2:8: daughtercard[0].type: \"7I88\" is not one of \"7I77\", \"7I77D\", \"none\""),
+            std::string::npos)
+      << r.err;
   {
     std::ofstream(bad) << "[[daughtercard\n";
   }
   r = run({"sim", "--config", bad, "--api", "0"});
   EXPECT_EQ(r.exit, 1);
-  EXPECT_NE(r.err.find("line 1"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(bad + ":1:"), std::string::npos) << r.err;
   r = run({"sim", "--bind", "127.0.0.1:70000", "--api", "0"});
   EXPECT_EQ(r.exit, 1);
   EXPECT_NE(r.err.find("not a port number"), std::string::npos) << r.err;
@@ -224,7 +226,11 @@ TEST(Cli, SimRefusesAStateFileThatIsNotAnEepromImage) {
   EXPECT_EQ(r.exit, 1);
   EXPECT_NE(r.err.find("directory " + dir + "/sub does not exist"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(dir));
-  for (const auto& p : {toml, link, fifo}) std::filesystem::remove(p);
+  std::filesystem::remove_all(dir);
+  for (const auto& p : {toml, link, fifo}) {
+    std::filesystem::remove(p);
+    std::filesystem::remove(p + ".analog");  // none, unless a sim started after all
+  }
 }
 
 // Item 2: a write the EEPROM did not keep is an error, not "written to the EEPROM".
@@ -379,6 +385,43 @@ TEST(Cli, MonitorStopsPromptlyOnSigterm) {
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "status " << status;
   EXPECT_LT(took, std::chrono::milliseconds(500))
       << std::chrono::duration_cast<std::chrono::milliseconds>(took).count() << " ms";
+}
+
+// Every mistake in a configuration file is an error naming file, line and
+// key: nothing is ignored or silently replaced by a default.
+TEST(Cli, SimConfigurationMistakesNameFileLineAndKey) {
+  const auto path = tempPath("mistakes.toml");
+  const auto state = tempPath("mistakes.eeprom");
+  struct Case {
+    std::string line;
+    std::string expected;
+  };
+  const Case cases[] = {
+      {"feild_voltage = 24.0", ":3:17: daughtercard[0].feild_voltage: unknown key; did you mean field_voltage?"},
+      {"field_voltage = nan", ":3:17: daughtercard[0].field_voltage: nan is out of range: 0 to 36 V"},
+      {"field_voltage = inf", ":3:17: daughtercard[0].field_voltage: inf is out of range: 0 to 36 V"},
+      {"field_voltage = -5", ":3:17: daughtercard[0].field_voltage: -5 is out of range: 0 to 36 V"},
+      {"field_voltage = \"24\"", ":3:17: daughtercard[0].field_voltage: expected a number (V), not a string"},
+      {"field_io_unit = 0x112000AEE",
+       ":3:17: daughtercard[0].field_io_unit: 0x112000AEE is out of range: 0x12000000 to 0x12FFFFFF"},
+      {"w12_setup = 1", ":3:13: daughtercard[0].w12_setup: expected true or false, not an integer"},
+  };
+  for (const auto& c : cases) {
+    std::ofstream(path) << "[[daughtercard]]\ntype = \"7I77\"\n" << c.line << "\n";
+    const auto r = run({"sim", "--config", path, "--bind", "127.0.0.1:0", "--no-api", "--state", state},
+                       std::chrono::seconds(10));
+    EXPECT_EQ(r.exit, 1) << c.line;
+    EXPECT_NE(r.err.find(path + c.expected), std::string::npos) << c.line << "\n" << r.err;
+  }
+  const auto dir = tempPath("config.dir");
+  std::filesystem::create_directories(dir);
+  const auto r = run({"sim", "--config", dir, "--bind", "127.0.0.1:0", "--no-api", "--state", state},
+                     std::chrono::seconds(10));
+  EXPECT_EQ(r.exit, 1);
+  EXPECT_NE(r.err.find(dir + ": is not a regular file"), std::string::npos) << r.err;
+  std::filesystem::remove(dir);
+  std::filesystem::remove(path);
+  std::filesystem::remove(state);
 }
 
 }  // namespace

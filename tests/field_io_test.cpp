@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <vector>
 
 #include "lbp_host.hpp"
 #include "remote/field_io.hpp"
@@ -296,6 +297,33 @@ TEST(FieldIo, AnEepromFileThatCannotBeWrittenDoesNotKillTheProcessor) {
   EXPECT_TRUE(h.write(nvwd, 2, 100));
   EXPECT_TRUE(io.powered());
   EXPECT_TRUE(io.lbpStatus() & lbp::status::kInvalidWrite);  // it did not take
+  EXPECT_EQ(h.read(nvwd, 2), 50U);
+}
+
+// Issue 9, item 2: an NV write the EEPROM did not save is refused to the host
+// (Invalid write) and told to whoever runs the model, every time.
+TEST(FieldIo, AnNvWriteTheEepromDidNotSaveIsRefusedAndReported) {
+  std::vector<remote::NvEvent> events;
+  FieldIoProcessor::Options o;
+  o.nvFile = "/dev/full";  // a device, not an EEPROM image: never written
+  o.nvReport = [&](const remote::NvEvent& e) { events.push_back(e); };
+  FieldIoProcessor io(o);
+  ASSERT_FALSE(events.empty());
+  EXPECT_EQ(events.front().kind, remote::NvEvent::Kind::Refused);
+  EXPECT_NE(events.front().message.find("/dev/full: is a character device"), std::string::npos)
+      << events.front().message;
+  Host h(io);
+  const auto nvwd = io.address(io.standard(remote::Standard::NvWatchdogTimeout));
+  ASSERT_TRUE(h.setLocal(lbp::local_write::kNonVolatile, lbp::nonvolatile::kEeprom));
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    ASSERT_TRUE(h.setLocal(lbp::local_write::kStatus, 0));
+    const auto before = events.size();
+    EXPECT_TRUE(h.write(nvwd, 2, 100));
+    EXPECT_TRUE(io.lbpStatus() & lbp::status::kInvalidWrite);
+    ASSERT_EQ(events.size(), before + 1);
+    EXPECT_EQ(events.back().kind, remote::NvEvent::Kind::WriteFailed);
+    EXPECT_NE(events.back().message.find("not saved"), std::string::npos) << events.back().message;
+  }
   EXPECT_EQ(h.read(nvwd, 2), 50U);
 }
 

@@ -58,7 +58,7 @@ std::vector<Record> readTable(Host& h, std::uint16_t toc) {
       r.direction = static_cast<std::uint8_t>(h.read(at + 3, 1));
       r.min = std::bit_cast<float>(static_cast<std::uint32_t>(h.read(at + 4, 4)));
       r.max = std::bit_cast<float>(static_cast<std::uint32_t>(h.read(at + 8, 4)));
-      r.address = static_cast<std::uint16_t>(h.read(at + 12, 2));  // the table's offsets (REFERENCES.md)
+      r.address = static_cast<std::uint16_t>(h.read(at + 12, 2));  // the table's offsets (docs/protocol-facts.md#discovery-records)
       std::uint16_t p = static_cast<std::uint16_t>(at + 14);
       r.unit = readString(h, p);
       r.name = readString(h, p);

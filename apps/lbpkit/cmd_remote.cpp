@@ -5,7 +5,6 @@
 #include <functional>
 #include <memory>
 #include <string>
-#include <vector>
 
 #include "common.hpp"
 #include "lbpkit/error.hpp"
@@ -38,17 +37,17 @@ int runRemote(const RemoteOptions& o) {
     std::error_code ec;
     std::filesystem::create_directories(state.parent_path(), ec);  // lbpkit's own directory (a --state FILE's is not created)
   }
-  // What the EEPROM file says (models cannot log): a file it will not use
-  // stops it before it serves; afterwards every refused write is logged.
-  auto refused = std::make_shared<std::vector<std::string>>();
-  auto serving = std::make_shared<bool>(false);
+  // A file it will not use (not an EEPROM image, a symlink, held by another
+  // lbpkit, ...) stops it before it starts: the checks the processor makes.
+  {
+    remote::NvStore probe(remote::memory::kEepromSize, state);
+    probe.load();
+    if (!probe.refusal().empty()) throw lbpkit::Error(probe.refusal());
+  }
+  // What the EEPROM file says (models cannot log): every refused write is logged.
   const auto owner = fmt::format("lbpkit remote --pty{}", o.analog ? " --analog" : "");
-  auto report = [refused, serving](const remote::NvEvent& e) {
+  auto report = [](const remote::NvEvent& e) {
     using Kind = remote::NvEvent::Kind;
-    if (e.kind == Kind::Refused && !*serving) {
-      refused->push_back(e.message);
-      return;
-    }
     const bool error = e.kind == Kind::Refused || e.kind == Kind::WriteFailed;
     // fputs, not fmt::print: a log that cannot be written must not throw out of the serving loop.
     std::fputs(fmt::format("lbpkit remote: {}: EEPROM: {}\n", error ? "error" : "warning", e.message).c_str(), stderr);
@@ -72,8 +71,6 @@ int runRemote(const RemoteOptions& o) {
     f.setupMode = o.setup;
     device = std::make_unique<remote::FieldIoProcessor>(f);
   }
-  if (!refused->empty()) throw lbpkit::Error(refused->front());
-  *serving = true;
   net::PtyRemote pty(*device);
   app::installSignalHandlers();
   fmt::print("lbpkit remote: virtual 7I77{} {} processor (unit 0x{:08X}), {} mode at {} baud\n",

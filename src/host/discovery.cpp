@@ -67,7 +67,7 @@ std::vector<std::uint16_t> readToc(ChunkReader& r, RemoteAccess& remote, std::ui
     if (std::find(entries.begin(), entries.end(), e) != entries.end())
       throw Error(fmt::format("{}: {} entry {} at 0x{:04X} points to record 0x{:04X} again (a pointer loop)",
                               remote.where(), table, i, at, e));
-    if (e > 0xFFFF - 14)
+    if (e > 0xFFFF - wire::lbp::pdd::kStrings)
       throw Error(fmt::format("{}: {} entry {} at 0x{:04X} points out of range (0x{:04X})", remote.where(), table, i,
                               at, e));
     entries.push_back(e);

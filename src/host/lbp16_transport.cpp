@@ -54,7 +54,7 @@ void Lbp16Transport::sleep(Nanoseconds d) {
 
 namespace {
 // The sequence tag: one 16-bit scratch word in the LBP16 timer space, the one
-// hm2_eth checks its reads with (REFERENCES.md). Written, then read back as
+// hm2_eth checks its reads with (docs/protocol-facts.md#lbp16-clients). Written, then read back as
 // the datagram's last read.
 constexpr std::uint16_t kTagAddress = wire::lbp16::timer::kScratch;
 constexpr std::size_t kTagRequestBytes = 6 + 4;  // write: command, address, data; read: command, address

@@ -1,5 +1,5 @@
 // The HostMot2 identification area and IDROM (HostMot2 regmap; idrom.vhd and
-// IDROMConst.vhd as REFERENCES.md cites): what drivers read to learn the
+// IDROMConst.vhd; docs/protocol-facts.md#identification-area-and-idrom): what drivers read to learn the
 // card, its clocks, its modules and the function of every I/O pin.
 #pragma once
 

@@ -1,6 +1,6 @@
 // The SSerial module running SSLBP, HostMot2's smart-serial firmware for
 // LBP remotes (manual: REFERENCE INFORMATION, SSLBP; firmware behaviour from
-// Mesa's SSLBP source as summarised in REFERENCES.md).
+// Mesa's SSLBP source; docs/protocol-facts.md#sslbp).
 //
 // Registers (per instance, base + i*0x40; channel c at +4c):
 //   0x5A00 COMMAND  W M R D S T T T | N..N (16 bits; writes with bit 31 set are ignored)

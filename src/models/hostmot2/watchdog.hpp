@@ -1,4 +1,4 @@
-// HostMot2 watchdog (HostMot2 regmap; watchdog.vhd as REFERENCES.md cites).
+// HostMot2 watchdog (HostMot2 regmap; watchdog.vhd; docs/protocol-facts.md#hostmot2-watchdog).
 //   0x0C00 timer   32 bits, counts down at ClockLow while bit 31 is 0; a write
 //                  loads the timer and its reload value (0x80000000: disarmed)
 //   0x0D00 status  bit 0: bitten (read/write)

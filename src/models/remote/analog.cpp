@@ -8,7 +8,7 @@ namespace {
 
 // Process data and parameters of the analog processor, declared once. Names
 // are the ones real 7I77s report (analogout0..5, analogena, spinena;
-// hwrevision as a GTOC parameter; REFERENCES.md). Packing: six 13-bit
+// hwrevision as a GTOC parameter; docs/protocol-facts.md#unit-numbers-and-names). Packing: six 13-bit
 // outputs in bits 0..77, AnalogEna bit 78, SpinEna bit 79 (mesaflash's
 // 7I77 analog layout agrees): 10 bytes from the host, the fault byte back.
 enum Element : ElementId {

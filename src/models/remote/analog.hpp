@@ -22,7 +22,7 @@ class AnalogProcessor final : public RemoteDevice {
   static constexpr double kFullScaleVolts = 10.0;
 
   struct Options {
-    std::uint32_t unitNumber = 0x11000AEE;  // top byte 0x11: 7I77 analog (REFERENCES.md)
+    std::uint32_t unitNumber = 0x11000AEE;  // top byte 0x11: 7I77 analog (docs/protocol-facts.md#unit-numbers-and-names)
     std::filesystem::path nvFile;
     std::string nvOwner;   // who holds nvFile, told to a second user (nv_store.hpp)
     NvReporter nvReport;   // what the EEPROM file has to say (the model cannot log)

@@ -10,7 +10,7 @@ namespace {
 // Process data and parameters of the field I/O processor, declared once.
 // Names: pins real 7I77s report (input-NN, output-NN) and the GTOC
 // parameters seen on real boards (analogin0..3, fieldvoltage, encmode0/1,
-// nvencmode0/1); MPG names from the sibling 7I76E (REFERENCES.md). Units and
+// nvencmode0/1); MPG names from the sibling 7I76E (docs/protocol-facts.md#unit-numbers-and-names). Units and
 // the exact case of names are not attested: our choice.
 enum Element : ElementId {
   kInput,

@@ -40,7 +40,7 @@ class FieldIoProcessor final : public RemoteDevice {
 
   struct Options {
     OutputType outputs = OutputType::Sourcing;
-    std::uint32_t unitNumber = 0x12000AEE;  // top byte 0x12: 7I77 field I/O (REFERENCES.md)
+    std::uint32_t unitNumber = 0x12000AEE;  // top byte 0x12: 7I77 field I/O (docs/protocol-facts.md#unit-numbers-and-names)
     std::filesystem::path nvFile;          // empty: EEPROM in memory
     std::string nvOwner;                    // who holds nvFile, told to a second user (nv_store.hpp)
     NvReporter nvReport;                    // what the EEPROM file has to say (the model cannot log)

@@ -14,7 +14,7 @@ namespace status = lbp::status;
 namespace {
 
 // Declared once: the parameters every remote here reports in its GTOC after
-// its process data. Names as sibling Mesa remotes spell them (REFERENCES.md);
+// its process data. Names as sibling Mesa remotes spell them (docs/protocol-facts.md#unit-numbers-and-names);
 // order follows the Standard enum.
 constexpr ProcessDataDescriptor kStandardParameters[] = {
     {"SwRevision", "none", DataType::Unsigned, Direction::Input, 16, 0.0F, 65535.0F},

@@ -66,7 +66,7 @@ struct SoftwareMode {
   std::span<const ElementId> processData;
 };
 
-// Parameters every remote here carries after its own elements (REFERENCES.md:
+// Parameters every remote here carries after its own elements (docs/protocol-facts.md#choices-lbpkit-made:
 // the names sibling Mesa remotes report, which mesaflash and LinuxCNC match).
 enum class Standard : std::uint8_t {
   SwRevision,

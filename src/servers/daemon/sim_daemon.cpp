@@ -28,6 +28,18 @@ SimDaemon::SimDaemon(SimOptions options)
   std::sscanf(options_.bindAddress.c_str(), "%u.%u.%u.%u", &a[0], &a[1], &a[2], &a[3]);
   for (int i = 0; i < 4; ++i) id.ip[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(a[i]);
   lbp16_ = std::make_unique<Lbp16Card>(card_, id);
+  // A driver developer needs to see "hm2_eth wrote 0x5A04 to 0x1234, which
+  // nothing decodes": at debug level every such access is logged as it
+  // happens (the card counts them by kind at every level, /api/state).
+  if (options_.logLevel >= LogLevel::Debug)
+    card_.setAccessObserver(
+        [](void* self, const hm2::AccessEvent& e) {
+          static_cast<const SimDaemon*>(self)->log(
+              LogLevel::Debug, fmt::format("{}: address 0x{:04X}, value 0x{:08X}, at {:.6f} s simulated",
+                                           hm2::accessKindName(e.kind), e.address, e.value,
+                                           std::chrono::duration<double>(e.at).count()));
+        },
+        this);
 
   if (options_.apiPort < 0) return;
   api_ = std::make_unique<ControlApi>(ApiOptions{options_.apiAddress, options_.apiPort},

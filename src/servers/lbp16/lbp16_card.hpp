@@ -1,5 +1,5 @@
 // A 7I92-style Ethernet card's LBP16 face: the memory spaces hm2_eth and
-// mesaflash use, around the HostMot2 register file (REFERENCES.md; LBP16 as
+// mesaflash use, around the HostMot2 register file (docs/protocol-facts.md#lbp16; LBP16 as
 // LinuxCNC's hm2_eth and mesaflash speak it).
 //
 //   0 HostMot2 registers (32-bit)      1 Ethernet chip (16-bit, read only)

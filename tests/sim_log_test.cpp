@@ -1,0 +1,69 @@
+// What `lbpkit sim --log-level debug` tells a driver developer: every
+// register access nothing decodes, with its address and value.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdio>
+#include <string>
+
+#include "lbpkit/wire/lbp16.hpp"
+#include "process.hpp"
+
+namespace {
+
+// Reads `fd` until `marker` has appeared (5 s at most).
+std::string readUntil(int fd, std::string& text, const std::string& marker) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (text.find(marker) == std::string::npos && std::chrono::steady_clock::now() < deadline) {
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, 50) <= 0) continue;
+    char buf[512];
+    const ssize_t n = ::read(fd, buf, sizeof buf);
+    if (n <= 0) break;
+    text.append(buf, static_cast<std::size_t>(n));
+  }
+  return text;
+}
+
+TEST(SimLog, DebugLevelNamesWritesThatNothingDecodes) {
+  int out = -1, err = -1;
+  const pid_t pid = testing_process::spawn(
+      {"sim", "--bind", "127.0.0.94:0", "--api", "0", "--no-realtime", "--log-level", "debug", "--state",
+       ::testing::TempDir() + "sim-log-" + std::to_string(::getpid()) + ".eeprom"},
+      out, err);
+  std::string banner, log;
+  readUntil(out, banner, "on UDP 127.0.0.94:");
+  const auto at = banner.find("on UDP 127.0.0.94:");
+  ASSERT_NE(at, std::string::npos) << banner;
+  const int port = std::stoi(banner.substr(at + 18));
+
+  // hm2_eth-style write of 0x5A04 to 0x7F00, where this card has no module.
+  const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+  sockaddr_in sa{};
+  sa.sin_family = AF_INET;
+  sa.sin_port = htons(static_cast<std::uint16_t>(port));
+  ::inet_pton(AF_INET, "127.0.0.94", &sa.sin_addr);
+  const std::uint16_t cmd = lbpkit::wire::lbp16::hm2Write(1);
+  const std::uint8_t datagram[8] = {static_cast<std::uint8_t>(cmd), static_cast<std::uint8_t>(cmd >> 8), 0x00, 0x7F,
+                                    0x04, 0x5A, 0x00, 0x00};
+  ASSERT_EQ(::sendto(fd, datagram, sizeof datagram, 0, reinterpret_cast<sockaddr*>(&sa), sizeof sa), 8);
+  ::close(fd);
+  readUntil(err, log, "0x00005A04");
+  EXPECT_NE(log.find("unmapped_write: address 0x7F00, value 0x00005A04"), std::string::npos) << log;
+
+  ::kill(pid, SIGTERM);
+  ::waitpid(pid, nullptr, 0);
+  ::close(out);
+  ::close(err);
+  std::remove((::testing::TempDir() + "sim-log-" + std::to_string(::getpid()) + ".eeprom").c_str());
+}
+
+}  // namespace
