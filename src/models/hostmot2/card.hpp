@@ -13,7 +13,9 @@
 
 #include "hostmot2/idrom.hpp"
 #include "hostmot2/ioport.hpp"
+#include "hostmot2/led.hpp"
 #include "hostmot2/muxed_encoder.hpp"
+#include "hostmot2/muxed_encoder_select.hpp"
 #include "hostmot2/sslbp.hpp"
 #include "hostmot2/watchdog.hpp"
 #include "remote/analog.hpp"

@@ -115,17 +115,4 @@ class MuxedEncoder final : public Module {
   SimTime now_{};
 };
 
-// The mux select outputs: a module with pins but no registers.
-class MuxedEncoderSelect final : public Module {
- public:
-  [[nodiscard]] std::string_view name() const override { return "MuxedQCountSel"; }
-  [[nodiscard]] ModuleDescriptor descriptor() const override {
-    return ModuleDescriptor{tag::kMuxedQCountSel, 0, kClockLow, 1, 0, 0, 0, 0};
-  }
-  [[nodiscard]] bool decodes(std::uint16_t) const override { return false; }
-  std::uint32_t read(std::uint16_t, SimTime) override { return 0; }
-  WriteResult write(std::uint16_t, std::uint32_t, SimTime) override { return WriteResult::Unmapped; }
-  void reset() override {}
-};
-
 }  // namespace hm2

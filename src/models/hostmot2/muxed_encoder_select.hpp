@@ -1,0 +1,23 @@
+// HostMot2 MuxedQCountSel: the ENCMUX select line that multiplexes the
+// 7I77's six encoders onto three pin groups (manual: P1 HOST INTERFACE;
+// docs/protocol-facts.md#muxed-encoders). A module with pins in the IDROM but
+// no registers: the muxed counters (muxed_encoder.hpp) do the sampling.
+#pragma once
+
+#include "hostmot2/module.hpp"
+
+namespace hm2 {
+
+class MuxedEncoderSelect final : public Module {
+ public:
+  [[nodiscard]] std::string_view name() const override { return "MuxedQCountSel"; }
+  [[nodiscard]] ModuleDescriptor descriptor() const override {
+    return ModuleDescriptor{tag::kMuxedQCountSel, 0, kClockLow, 1, 0, 0, 0, 0};
+  }
+  [[nodiscard]] bool decodes(std::uint16_t) const override { return false; }
+  std::uint32_t read(std::uint16_t, SimTime) override { return 0; }
+  WriteResult write(std::uint16_t, std::uint32_t, SimTime) override { return WriteResult::Unmapped; }
+  void reset() override {}
+};
+
+}  // namespace hm2

@@ -1,0 +1,618 @@
+// `lbpkit sim` under attack and misuse (issue 9): its HTTP control API, its
+// shutdown, its card thread under load, and what it reports. Each test
+// starts its own sim on a loopback address of its own, talks to it over
+// plain sockets (so it can misbehave as a hostile client would), and stops
+// it before it ends.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "hostmot2/muxed_encoder.hpp"
+#include "lbpkit/wire/lbp16.hpp"
+#include "process.hpp"
+
+namespace {
+
+using namespace std::chrono_literals;
+using nlohmann::json;
+using testing_process::Daemon;
+using Clock = std::chrono::steady_clock;
+
+// A loopback address of this test's own: 127.93.P.n, P from the process id
+// (ctest runs tests side by side), n per test.
+std::string loopback(int n) { return "127.93." + std::to_string(::getpid() % 250) + "." + std::to_string(n); }
+
+std::string tempPath(const std::string& name) {
+  auto p = std::filesystem::temp_directory_path() / ("lbpkit-simapi-" + name + "-" + std::to_string(::getpid()));
+  std::filesystem::remove(p);
+  return p.string();
+}
+
+// A TCP connection to the API, closed when it goes.
+class Conn {
+ public:
+  Conn(const std::string& address, int port) {
+    fd_ = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_in sa{};
+    sa.sin_family = AF_INET;
+    sa.sin_port = htons(static_cast<std::uint16_t>(port));
+    ::inet_pton(AF_INET, address.c_str(), &sa.sin_addr);
+    ok_ = ::connect(fd_, reinterpret_cast<sockaddr*>(&sa), sizeof sa) == 0;
+    const int on = 1;
+    ::setsockopt(fd_, IPPROTO_TCP, TCP_NODELAY, &on, sizeof on);
+  }
+  ~Conn() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  Conn(const Conn&) = delete;
+  Conn& operator=(const Conn&) = delete;
+  [[nodiscard]] bool ok() const { return ok_; }
+  bool send(const std::string& s) {
+    std::size_t at = 0;
+    while (at < s.size()) {
+      const ssize_t n = ::send(fd_, s.data() + at, s.size() - at, MSG_NOSIGNAL);
+      if (n <= 0) return false;
+      at += static_cast<std::size_t>(n);
+    }
+    return true;
+  }
+  // Everything until the server closes, or `limit`.
+  std::string readAll(std::chrono::milliseconds limit) {
+    std::string out;
+    const auto end = Clock::now() + limit;
+    while (Clock::now() < end) {
+      pollfd p{fd_, POLLIN, 0};
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(end - Clock::now()).count();
+      if (::poll(&p, 1, static_cast<int>(std::max<long long>(left, 1))) <= 0) continue;
+      char buf[65536];
+      const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
+      if (n <= 0) break;
+      out.append(buf, static_cast<std::size_t>(n));
+    }
+    return out;
+  }
+
+ private:
+  int fd_ = -1;
+  bool ok_ = false;
+};
+
+struct Reply {
+  int status = 0;  // 0: no answer
+  json body;
+  std::string raw;
+  std::chrono::milliseconds took{0};
+};
+
+Reply parse(const std::string& raw) {
+  Reply r;
+  r.raw = raw;
+  if (raw.rfind("HTTP/1.", 0) == 0 && raw.size() > 12) r.status = std::atoi(raw.c_str() + 9);
+  const auto at = raw.find("\r\n\r\n");
+  if (at != std::string::npos) r.body = json::parse(raw.substr(at + 4), nullptr, false);
+  return r;
+}
+
+struct Request {
+  std::string method = "GET";
+  std::string path = "/api/state";
+  std::string body;
+  std::string contentType = "application/json";
+  std::optional<std::string> host;  // default: the API's own address:port
+  std::vector<std::string> headers;
+};
+
+Reply http(const std::string& address, int port, const Request& q, std::chrono::milliseconds limit = 3000ms) {
+  const auto start = Clock::now();
+  Conn c(address, port);
+  if (!c.ok()) return {};
+  std::string s = q.method + " " + q.path + " HTTP/1.1\r\n";
+  s += "Host: " + q.host.value_or(address + ":" + std::to_string(port)) + "\r\n";
+  for (const auto& h : q.headers) s += h + "\r\n";
+  if (q.method == "POST") {
+    if (!q.contentType.empty()) s += "Content-Type: " + q.contentType + "\r\n";
+    s += "Content-Length: " + std::to_string(q.body.size()) + "\r\n";
+  }
+  s += "Connection: close\r\n\r\n" + q.body;
+  c.send(s);
+  Reply r = parse(c.readAll(limit));
+  r.took = std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - start);
+  return r;
+}
+
+// `lbpkit sim` on ADDRESS (LBP16 and API on free ports), its own state file.
+class Sim {
+ public:
+  explicit Sim(const std::string& address, std::vector<std::string> extra = {}, bool apiOnOwnAddress = true)
+      : address_(address), state_(tempPath(address)) {
+    std::vector<std::string> args = {"sim", "--bind", address + ":0", "--no-realtime", "--state", state_};
+    if (apiOnOwnAddress) args.insert(args.end(), {"--api", address + ":0"});
+    args.insert(args.end(), extra.begin(), extra.end());
+    daemon_ = std::make_unique<Daemon>(args);
+    udpPort_ = std::atoi(daemon_->value("on UDP " + address + ":").c_str());
+    apiPort_ = std::atoi(daemon_->value("control API: http://" + address + ":").c_str());
+  }
+  ~Sim() {
+    daemon_.reset();
+    std::filesystem::remove(state_);
+    std::filesystem::remove(state_ + ".analog");
+  }
+  [[nodiscard]] bool up() const { return udpPort_ > 0 && apiPort_ > 0; }
+  [[nodiscard]] const std::string& address() const { return address_; }
+  [[nodiscard]] int apiPort() const { return apiPort_; }
+  [[nodiscard]] int udpPort() const { return udpPort_; }
+  Reply get(const std::string& path = "/api/state", std::chrono::milliseconds limit = 3000ms) {
+    Request q;
+    q.path = path;
+    return http(address_, apiPort_, q, limit);
+  }
+  Reply post(const std::string& path, const json& body, std::chrono::milliseconds limit = 3000ms) {
+    Request q;
+    q.method = "POST";
+    q.path = path;
+    q.body = body.dump();
+    return http(address_, apiPort_, q, limit);
+  }
+  Reply send(const Request& q, std::chrono::milliseconds limit = 3000ms) { return http(address_, apiPort_, q, limit); }
+  // SIGTERM (or `sig`): the exit code, -2 when it did not stop within `limit`.
+  int stopWithin(std::chrono::milliseconds limit, int sig = SIGTERM) { return daemon_->stopWithin(limit, sig); }
+  Daemon& daemon() { return *daemon_; }
+
+ private:
+  std::string address_;
+  std::string state_;
+  std::unique_ptr<Daemon> daemon_;
+  int udpPort_ = 0;
+  int apiPort_ = 0;
+};
+
+// --- LBP16 datagrams, as hm2_eth and mesaflash send them
+
+namespace lbp16 = lbpkit::wire::lbp16;
+using Bytes = std::vector<std::uint8_t>;
+
+void command(Bytes& d, lbp16::Command c, std::uint16_t address) {
+  c.hasAddress = true;
+  const auto w = c.encode();
+  d.insert(d.end(), {static_cast<std::uint8_t>(w), static_cast<std::uint8_t>(w >> 8), static_cast<std::uint8_t>(address),
+                     static_cast<std::uint8_t>(address >> 8)});
+}
+
+void put16(Bytes& d, std::uint16_t v) { d.insert(d.end(), {static_cast<std::uint8_t>(v), static_cast<std::uint8_t>(v >> 8)}); }
+
+void put32(Bytes& d, std::uint32_t v) {
+  put16(d, static_cast<std::uint16_t>(v));
+  put16(d, static_cast<std::uint16_t>(v >> 16));
+}
+
+// Sends `d` and returns the reply (empty when none came within 1 s).
+Bytes exchange(const std::string& address, int port, const Bytes& d) {
+  const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  sockaddr_in sa{};
+  sa.sin_family = AF_INET;
+  sa.sin_port = htons(static_cast<std::uint16_t>(port));
+  ::inet_pton(AF_INET, address.c_str(), &sa.sin_addr);
+  ::sendto(fd, d.data(), d.size(), 0, reinterpret_cast<sockaddr*>(&sa), sizeof sa);
+  Bytes reply(1500);
+  pollfd p{fd, POLLIN, 0};
+  ssize_t n = -1;
+  if (::poll(&p, 1, 1000) > 0) n = ::recv(fd, reply.data(), reply.size(), 0);
+  ::close(fd);
+  reply.resize(n > 0 ? static_cast<std::size_t>(n) : 0);
+  return reply;
+}
+
+// A cookie read at the end of a datagram: its reply says the card took the
+// whole datagram.
+void cookieRead(Bytes& d) { command(d, {false, true, false, 0, 4, true, 1}, 0x0100); }
+
+// --- Item 6: the control API's limits -------------------------------------------
+
+// Slow-loris clients (a header byte every 2 s) and a hundred idle connections
+// used to hold every one of httplib's threads: the API answered nobody for
+// as long as they stayed.
+TEST(SimApi, SlowAndIdleClientsDoNotLockOthersOut) {
+  Sim sim(loopback(1));
+  ASSERT_TRUE(sim.up());
+  std::vector<std::unique_ptr<Conn>> loris, idle;
+  const std::string head = "GET /api/state HTTP/1.1\r\nHost: " + sim.address() + "\r\n";
+  for (int i = 0; i < 8; ++i) {
+    loris.push_back(std::make_unique<Conn>(sim.address(), sim.apiPort()));
+    loris.back()->send(head.substr(0, 1));
+  }
+  for (int i = 0; i < 100; ++i) idle.push_back(std::make_unique<Conn>(sim.address(), sim.apiPort()));
+  std::atomic<bool> done{false};
+  std::thread drip([&] {
+    for (std::size_t k = 1; !done; ++k) {
+      for (int t = 0; t < 200 && !done; ++t) std::this_thread::sleep_for(10ms);  // 2 s
+      for (auto& c : loris) c->send(head.substr(k % head.size(), 1));
+    }
+  });
+  std::this_thread::sleep_for(300ms);  // all of them connected and waiting
+  for (int round = 0; round < 3; ++round) {
+    const auto r = sim.get("/api/state", 2000ms);
+    EXPECT_EQ(r.status, 200) << "round " << round << ": " << r.raw.substr(0, 200);
+    EXPECT_LT(r.took.count(), 1000) << "round " << round;
+    std::this_thread::sleep_for(700ms);
+  }
+  done = true;
+  drip.join();
+  EXPECT_EQ(sim.stopWithin(2000ms), 0);
+}
+
+// A body over the limit is refused without being kept (three 100 MB posts
+// took the daemon to 2 GB).
+TEST(SimApi, OversizedBodiesAreRefusedWith413) {
+  Sim sim(loopback(2));
+  ASSERT_TRUE(sim.up());
+  Request q;
+  q.method = "POST";
+  q.path = "/api/time";
+  q.body = "{\"speed\": 1, \"pad\": \"" + std::string(2 * 1024 * 1024, 'x') + "\"}";
+  const auto r = sim.send(q);
+  EXPECT_EQ(r.status, 413) << r.raw.substr(0, 300);
+  ASSERT_TRUE(r.body.is_object()) << r.raw.substr(0, 300);
+  EXPECT_NE(r.body.value("error", "").find("too large"), std::string::npos) << r.body;
+  // A body of unknown length is refused too: it could be any size.
+  Conn c(sim.address(), sim.apiPort());
+  c.send("POST /api/time HTTP/1.1\r\nHost: " + sim.address() + ":" + std::to_string(sim.apiPort()) +
+         "\r\nContent-Type: application/json\r\nTransfer-Encoding: chunked\r\n\r\n2\r\n{}\r\n0\r\n\r\n");
+  const auto rc = parse(c.readAll(2000ms));
+  EXPECT_EQ(rc.status, 411) << rc.raw;
+  // And the API still works.
+  EXPECT_EQ(sim.get().status, 200);
+  EXPECT_EQ(sim.stopWithin(2000ms), 0);
+}
+
+// httplib set SO_REUSEPORT: a second sim shared the first one's API port and
+// requests landed on either.
+TEST(SimApi, ASecondSimOnTheSameApiPortIsRefused) {
+  Sim first(loopback(3));
+  ASSERT_TRUE(first.up());
+  const auto api = first.address() + ":" + std::to_string(first.apiPort());
+  const auto state = tempPath("second");
+  const auto r = testing_process::run(
+      {"sim", "--bind", loopback(4) + ":0", "--no-realtime", "--state", state, "--api", api}, std::chrono::seconds(5));
+  EXPECT_NE(r.exit, 0);
+  EXPECT_NE(r.err.find("control API port " + api + " is in use (another lbpkit sim?)"), std::string::npos) << r.err;
+  std::filesystem::remove(state);
+  std::filesystem::remove(state + ".analog");
+  EXPECT_EQ(first.get().status, 200);
+  EXPECT_EQ(first.stopWithin(2000ms), 0);
+}
+
+// --- Item 7: stopping whatever clients do ---------------------------------------
+
+// One slow client kept the sim running (not answering, holding its ports)
+// for as long as it dripped.
+TEST(SimApi, SigtermAndSigintStopTheSimWhateverClientsDo) {
+  for (const int sig : {SIGTERM, SIGINT}) {
+    Sim sim(loopback(5));
+    ASSERT_TRUE(sim.up());
+    Conn slow(sim.address(), sim.apiPort());
+    Conn idle(sim.address(), sim.apiPort());
+    const std::string head = "GET /api/state HTTP/1.1\r\n";
+    std::atomic<bool> done{false};
+    std::thread drip([&] {
+      for (std::size_t k = 0; !done && k < head.size(); ++k) {
+        slow.send(head.substr(k, 1));
+        std::this_thread::sleep_for(200ms);
+      }
+    });
+    std::this_thread::sleep_for(700ms);
+    EXPECT_EQ(sim.stopWithin(2000ms, sig), 0) << "signal " << sig;
+    done = true;
+    drip.join();
+  }
+}
+
+// --- Item 8: the card thread never locks up -------------------------------------
+
+// An index every count (1 count per revolution) at 2 MHz with latch on
+// index: the model walked every index, one by one. Computed now, with the
+// same results.
+TEST(MuxedEncoderCatchUp, AnIndexEveryCountCostsNoMoreThanOne) {
+  constexpr std::uint32_t kClock = 100'000'000;
+  for (const std::uint32_t mode : {hm2::MuxedEncoder::kLatchOnIndex, hm2::MuxedEncoder::kLatchOnIndex | hm2::MuxedEncoder::kClearOnIndex}) {
+    for (const std::uint32_t cpr : {1U, 7U}) {
+      hm2::MuxedEncoder enc(6, kClock);
+      for (unsigned n = 0; n < 6; ++n) {
+        ASSERT_EQ(enc.write(static_cast<std::uint16_t>(hm2::MuxedEncoder::kControl + 4 * n), mode, hm2::SimTime{0}),
+                  hm2::WriteResult::Accepted);
+        enc.setIndexPeriod(n, cpr);
+        enc.setVelocity(n, n % 2 ? -2e6 : 2e6, hm2::SimTime{0});
+      }
+      const auto start = Clock::now();
+      const hm2::SimTime end{100'000'000'000LL + 123'456};  // 100 s and a bit: 2e8 counts each
+      enc.advance(end);
+      ASSERT_LT(Clock::now() - start, 100ms) << "mode " << mode << " cpr " << cpr;
+      for (unsigned n = 0; n < 6; ++n) {
+        // The position in counts, and so the count and the last index.
+        const auto p = static_cast<std::int64_t>(std::floor(enc.signal(n).position));
+        const auto ccr = enc.read(static_cast<std::uint16_t>(hm2::MuxedEncoder::kControl + 4 * n), end);
+        const auto latched = static_cast<std::uint16_t>(ccr >> 16);
+        const auto c = static_cast<std::int64_t>(cpr);
+        const std::int64_t lastIndex = p >= 0 ? (p / c) * c : -((-p) / c) * c;  // the index crossed last
+        if (mode & hm2::MuxedEncoder::kClearOnIndex) {
+          // Cleared at every index: latched one revolution, counting since the last.
+          EXPECT_EQ(latched, static_cast<std::uint16_t>(p >= 0 ? c : -c)) << n;
+          EXPECT_EQ(enc.count(n), static_cast<std::uint16_t>(p - lastIndex)) << n << " p " << p;
+        } else {
+          // Counting on; latched the count at the last index.
+          EXPECT_EQ(enc.count(n), static_cast<std::uint16_t>(p)) << n;
+          EXPECT_EQ(latched, static_cast<std::uint16_t>(lastIndex)) << n << " p " << p;
+        }
+      }
+    }
+  }
+}
+
+// Latches a counter's count on its index (CCR bit 4), as LinuxCNC does for
+// index-enable, through LBP16.
+void latchOnIndex(const Sim& sim, unsigned counters) {
+  Bytes d;
+  for (unsigned n = 0; n < counters; ++n) {
+    command(d, {true, true, false, 0, 4, true, 1}, static_cast<std::uint16_t>(hm2::MuxedEncoder::kControl + 4 * n));
+    put32(d, hm2::MuxedEncoder::kLatchOnIndex);
+  }
+  cookieRead(d);
+  ASSERT_EQ(exchange(sim.address(), sim.udpPort(), d).size(), 4U);
+}
+
+// Time at 1000x and six encoders at 2 MHz with an index every count: the
+// card thread stopped answering, refused API changes and ignored SIGTERM.
+TEST(SimApi, TheCardThreadKeepsAnsweringAtSpeed1000WithAnIndexEveryCount) {
+  Sim sim(loopback(6));
+  ASSERT_TRUE(sim.up());
+  latchOnIndex(sim, 6);
+  for (int n = 0; n < 6; ++n)
+    ASSERT_EQ(sim.post("/api/encoder", {{"encoder", n}, {"velocity", 2e6}, {"counts_per_rev", 1}}).status, 200);
+  ASSERT_EQ(sim.post("/api/time", {{"speed", 1000}}).status, 200);
+  std::this_thread::sleep_for(500ms);
+  double last = -1;
+  for (int round = 0; round < 3; ++round) {
+    const auto r = sim.get("/api/state", 2000ms);
+    ASSERT_EQ(r.status, 200) << r.raw.substr(0, 200);
+    EXPECT_LT(r.took.count(), 1000);
+    const double t = r.body["time_s"].get<double>();
+    EXPECT_GT(t, last);
+    last = t;
+    ASSERT_TRUE(r.body["clock"].contains("behind_ms")) << r.body["clock"];
+    ASSERT_TRUE(r.body["clock"].contains("slips")) << r.body["clock"];
+    EXPECT_TRUE(r.body["daughtercards"][0]["encoders"][0]["position"].is_number());
+    std::this_thread::sleep_for(200ms);
+  }
+  // Changes still go through.
+  EXPECT_EQ(sim.post("/api/field", {{"volts", 20.0}}, 2000ms).status, 200);
+  EXPECT_EQ(sim.stopWithin(2000ms), 0);
+}
+
+// When the card cannot keep up (encoders too fast for the filter are
+// simulated sample by sample), simulated time falls behind the wall clock,
+// visibly, instead of the card thread falling behind forever.
+TEST(SimApi, WhenTheCardCannotKeepUpSimulatedTimeFallsBehindVisibly) {
+  Sim sim(loopback(7));
+  ASSERT_TRUE(sim.up());
+  for (int n = 0; n < 6; ++n)
+    ASSERT_EQ(sim.post("/api/encoder", {{"encoder", n}, {"velocity", 9e6}}).status, 200);
+  ASSERT_EQ(sim.post("/api/time", {{"speed", 10000}}).status, 200);
+  std::this_thread::sleep_for(1000ms);
+  const auto r = sim.get("/api/state", 2000ms);
+  ASSERT_EQ(r.status, 200);
+  EXPECT_LT(r.took.count(), 1000);
+  EXPECT_GT(r.body["clock"]["slips"].get<double>(), 0) << r.body["clock"];
+  EXPECT_GT(r.body["clock"]["behind_ms"].get<double>(), 0) << r.body["clock"];
+  EXPECT_LT(r.body["time_s"].get<double>(), 10000 * 1.5);
+  EXPECT_EQ(sim.stopWithin(2000ms), 0);
+  EXPECT_NE(sim.daemon().readUntil("\n").size(), 0U);
+}
+
+// --- Item 12: who may use the API -----------------------------------------------
+
+// A web page in the user's browser could POST (text/plain, no preflight) and
+// unplug a channel; a DNS-rebinding page could read and write as if local.
+TEST(SimApi, RefusesForeignOriginsHostsAndNonJsonPosts) {
+  Sim sim(loopback(8));
+  ASSERT_TRUE(sim.up());
+  const auto own = sim.address() + ":" + std::to_string(sim.apiPort());
+  Request unplug;
+  unplug.method = "POST";
+  unplug.path = "/api/cable";
+  unplug.body = R"({"channel": 0, "connected": false})";
+  auto q = unplug;
+  q.headers = {"Origin: http://evil.example"};
+  q.contentType = "text/plain";
+  auto r = sim.send(q);
+  EXPECT_EQ(r.status, 403) << r.raw;
+  EXPECT_TRUE(r.body.contains("error")) << r.raw;
+  q.contentType = "application/json";
+  EXPECT_EQ(sim.send(q).status, 403);
+  q = unplug;
+  q.host = "evil.example:" + std::to_string(sim.apiPort());  // DNS rebinding
+  r = sim.send(q);
+  EXPECT_EQ(r.status, 403) << r.raw;
+  EXPECT_NE(r.body.value("error", "").find("Host"), std::string::npos) << r.raw;
+  Request get;
+  get.host = "evil.example";
+  EXPECT_EQ(sim.send(get).status, 403);
+  q = unplug;
+  q.contentType = "text/plain";
+  r = sim.send(q);
+  EXPECT_EQ(r.status, 415) << r.raw;
+  EXPECT_NE(r.body.value("error", "").find("application/json"), std::string::npos) << r.raw;
+  q.contentType = "application/x-www-form-urlencoded";  // what curl -d sends
+  EXPECT_EQ(sim.send(q).status, 415);
+  q.contentType = "";
+  EXPECT_EQ(sim.send(q).status, 415);
+  // Nothing got through.
+  r = sim.get();
+  ASSERT_EQ(r.status, 200);
+  EXPECT_TRUE(r.body["sserial"]["channels"][0]["cable_connected"].get<bool>());
+  // Its own origin, localhost, and a JSON content type with parameters pass.
+  q = unplug;
+  q.headers = {"Origin: http://" + own};
+  q.contentType = "application/json; charset=utf-8";
+  EXPECT_EQ(sim.send(q).status, 200);
+  get.host = "localhost:" + std::to_string(sim.apiPort());
+  EXPECT_EQ(sim.send(get).status, 200);
+  EXPECT_EQ(sim.stopWithin(2000ms), 0);
+}
+
+TEST(SimApi, ATokenIsRequiredWhenSet) {
+  for (const bool fromEnvironment : {false, true}) {
+    if (fromEnvironment) ::setenv("LBPKIT_API_TOKEN", "s3cret-from-env", 1);
+    const std::string token = fromEnvironment ? "s3cret-from-env" : "s3cret";
+    Sim sim(loopback(9), fromEnvironment ? std::vector<std::string>{} : std::vector<std::string>{"--api-token", token});
+    ::unsetenv("LBPKIT_API_TOKEN");
+    ASSERT_TRUE(sim.up());
+    auto r = sim.get();
+    EXPECT_EQ(r.status, 401) << r.raw;
+    EXPECT_TRUE(r.body.contains("error")) << r.raw;
+    Request q;
+    q.headers = {"Authorization: Bearer wrong"};
+    EXPECT_EQ(sim.send(q).status, 401);
+    q.headers = {"Authorization: Bearer " + token};
+    EXPECT_EQ(sim.send(q).status, 200);
+    q.method = "POST";
+    q.path = "/api/field";
+    q.body = R"({"volts": 12})";
+    EXPECT_EQ(sim.send(q).status, 200);
+    q.headers = {};
+    EXPECT_EQ(sim.send(q).status, 401);
+    EXPECT_EQ(sim.stopWithin(2000ms), 0);
+  }
+}
+
+// `--bind 0.0.0.0` and `--api 0.0.0.0` started without a word, and the
+// banner advised board_ip=0.0.0.0.
+TEST(SimApi, WarnsWhenServingBeyondLoopback) {
+  const auto state = tempPath("anywhere");
+  const auto r = testing_process::run(
+      {"sim", "--bind", "0.0.0.0:0", "--api", "0.0.0.0:0", "--no-realtime", "--state", state}, std::chrono::seconds(2));
+  EXPECT_NE(r.err.find("warning: the control API on 0.0.0.0"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--api-token"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("warning: LBP16 on 0.0.0.0"), std::string::npos) << r.err;
+  EXPECT_NE(r.out.find("board_ip="), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("board_ip=0.0.0.0"), std::string::npos) << r.out;
+  std::filesystem::remove(state);
+  std::filesystem::remove(state + ".analog");
+}
+
+// --- Item 14: values with no physical meaning ----------------------------------
+
+TEST(SimApi, RefusesValuesWithNoPhysicalMeaning) {
+  Sim sim(loopback(10));
+  ASSERT_TRUE(sim.up());
+  struct Case {
+    const char* path;
+    json body;
+    const char* says;  // the key and its range
+  };
+  const Case cases[] = {
+      {"/api/field", {{"volts", 1e308}}, "\"volts\" must be a number from 0 to 36"},
+      {"/api/field", {{"volts", -1}}, "\"volts\" must be a number from 0 to 36"},
+      {"/api/field", {{"vin", 40}}, "\"vin\" must be a number from 0 to 36"},
+      {"/api/input", {{"input", 3}, {"volts", -1e308}}, "\"volts\" must be a number from 0 to 36"},
+      {"/api/input", {{"input", 3}, {"volts", "high"}}, "\"volts\" must be a number from 0 to 36"},
+      {"/api/output", {{"output", 3}, {"ohms", -5}}, "\"ohms\" must be a number above 0"},
+      {"/api/output", {{"output", 3}, {"ohms", 0}}, "\"ohms\" must be a number above 0"},
+      {"/api/encoder", {{"encoder", 1}, {"velocity", 1e308}}, "\"velocity\" must be a number from -1e+07 to 1e+07"},
+      {"/api/encoder", {{"encoder", 1}, {"counts_per_rev", 4294967295U}}, "\"counts_per_rev\" must be a whole number from 0 to 2147483648"},
+      {"/api/encoder", {{"encoder", 1}, {"counts_per_rev", -1}}, "\"counts_per_rev\" must be a whole number from 0 to 2147483648"},
+      {"/api/time", {{"speed", 1e308}}, "\"speed\" must be a number above 0 and at most 10000"},
+      {"/api/time", {{"speed", 0}}, "\"speed\" must be a number above 0 and at most 10000"},
+      {"/api/time", {{"step_ms", 1e9}}, "\"step_ms\" must be a number from 0 to 60000"},
+      {"/api/time", {{"paused", "yes"}}, "\"paused\" must be true or false"},
+  };
+  for (const auto& c : cases) {
+    const auto r = sim.post(c.path, c.body);
+    EXPECT_EQ(r.status, 400) << c.path << " " << c.body;
+    EXPECT_NE(r.body.value("error", "").find(c.says), std::string::npos) << c.path << " " << c.body << ": " << r.raw;
+  }
+  // Open (null) and real loads, and the limits themselves, are fine.
+  EXPECT_EQ(sim.post("/api/output", {{"output", 3}, {"ohms", nullptr}}).status, 200);
+  EXPECT_EQ(sim.post("/api/output", {{"output", 3}, {"ohms", 80}}).status, 200);
+  EXPECT_EQ(sim.post("/api/field", {{"volts", 36}}).status, 200);
+  EXPECT_EQ(sim.post("/api/encoder", {{"encoder", 1}, {"velocity", -1e7}, {"counts_per_rev", 2147483648U}}).status, 200);
+  const auto r = sim.get();
+  ASSERT_EQ(r.status, 200);
+  EXPECT_TRUE(r.body["daughtercards"][0]["encoders"][1]["position"].is_number());
+  EXPECT_GE(r.body["time_s"].get<double>(), 0);
+  EXPECT_EQ(sim.stopWithin(2000ms), 0);
+}
+
+TEST(SimApi, CliRefusesSpeedsWithNoPhysicalMeaning) {
+  for (const char* speed : {"1e308", "inf", "nan", "0", "-1", "10001"}) {
+    const auto state = tempPath("speed");
+    const auto r = testing_process::run(
+        {"sim", "--bind", loopback(11) + ":0", "--api", "0", "--no-realtime", "--state", state, "--speed", speed},
+        std::chrono::seconds(5));
+    EXPECT_NE(r.exit, 0) << speed;
+    EXPECT_NE(r.err.find("--speed"), std::string::npos) << speed << ": " << r.err;
+    EXPECT_NE(r.err.find("10000"), std::string::npos) << speed << ": " << r.err;
+    std::filesystem::remove(state);
+    std::filesystem::remove(state + ".analog");
+  }
+}
+
+// --- Item 15: what /api/state shows ---------------------------------------------
+
+// mesaflash writes the card's EEPROM IP (with the write enable) to move a
+// card to another address: /api/state showed none of it.
+TEST(SimApi, TheEepromWrittenThroughLbp16ShowsInState) {
+  Sim sim(loopback(12));
+  ASSERT_TRUE(sim.up());
+  auto r = sim.get();
+  ASSERT_EQ(r.status, 200);
+  ASSERT_TRUE(r.body["card"].contains("eeprom")) << r.body["card"];
+  EXPECT_EQ(r.body["card"]["eeprom"]["ip"], sim.address());
+  EXPECT_EQ(r.body["card"]["eeprom"]["name"], "7I92");
+  EXPECT_EQ(r.body["card"]["eeprom"]["mac"], r.body["card"]["mac"]);
+  Bytes d;
+  command(d, {true, true, false, 6, 2, true, 1}, lbp16::comm::kEepromWriteEnable);
+  put16(d, lbp16::kEepromWriteEnableKey);
+  command(d, {true, true, false, 2, 2, true, 2}, lbp16::eeprom::kIp);
+  put16(d, (1 << 8) | 121);    // c.d
+  put16(d, (192 << 8) | 168);  // a.b
+  command(d, {true, true, false, 2, 2, true, 1}, lbp16::eeprom::kMac);
+  put16(d, (0x56 << 8) | 0x78);  // the last two bytes of the MAC
+  cookieRead(d);
+  ASSERT_EQ(exchange(sim.address(), sim.udpPort(), d).size(), 4U);
+  r = sim.get();
+  ASSERT_EQ(r.status, 200);
+  EXPECT_EQ(r.body["card"]["eeprom"]["ip"], "192.168.1.121") << r.body["card"];
+  const auto mac = r.body["card"]["eeprom"]["mac"].get<std::string>();
+  EXPECT_EQ(mac.substr(mac.size() - 5), "56:78") << mac;
+  // Without the enable nothing changes.
+  Bytes w;
+  command(w, {true, true, false, 2, 2, true, 1}, lbp16::eeprom::kIp);
+  put16(w, 0);
+  cookieRead(w);
+  ASSERT_EQ(exchange(sim.address(), sim.udpPort(), w).size(), 4U);
+  EXPECT_EQ(sim.get().body["card"]["eeprom"]["ip"], "192.168.1.121");
+  // The server's figures include the time a datagram queued in the socket.
+  const auto server = sim.get().body["server"];
+  EXPECT_TRUE(server.contains("queue_p99_us")) << server;
+  EXPECT_TRUE(server.contains("queue_max_us")) << server;
+  EXPECT_GE(server["max_us"].get<double>(), server["queue_max_us"].get<double>()) << server;
+  EXPECT_EQ(sim.stopWithin(2000ms), 0);
+}
+
+}  // namespace
