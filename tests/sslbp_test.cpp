@@ -461,4 +461,126 @@ TEST(Sslbp, ResetIsThePowerUpState) {
   EXPECT_EQ(h.read(CardHost::iface(1, kFieldIo)), 0x37374937U);  // "7I77", LSB first
 }
 
+// --- Mesa's SSLBP 43 as the truth -----------------------------------------------------------
+// The values below were read from Mesa's real SSLBP firmware (version 43, 3 channels as on a 7I92
+// with one 7I77, 100 MHz) run cycle by cycle in Verilator with lbpkit's own field I/O and analog
+// processors on channels 0 and 1 (tools/sslbp-compare; docs/sslbp-vs-firmware.md). The host
+// accesses registers every 20 ns and polls COMMAND every 220 ns, as the comparison's host does.
+
+double ms(SimTime t) { return std::chrono::duration<double, std::milli>(t).count(); }
+double us(SimTime t) { return std::chrono::duration<double, std::micro>(t).count(); }
+
+SimTime waitPolled(CardHost& h) {
+  const SimTime start = h.now;
+  while (h.read(SmartSerial::kCommand) != 0) {
+    if (h.now - start > 10s) return SimTime{-1};
+    h.wait(SimTime{200});
+  }
+  return h.now - start;
+}
+
+TEST(Sslbp, LocalParametersMatchFirmware43) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  const std::uint8_t identity[8] = {0x12, 0x08, 0x01, 0x2B, 0x70, 0x32, 0xD8, 0x03};
+  for (std::uint16_t a = 0; a < 8; ++a) EXPECT_EQ(localRead(h, a), identity[a]) << "local " << a;
+  // I/O above the RAM: the interface clock, 100 000 000 Hz little-endian, and the hardware
+  // channel count (which local 7 is copied from: 6 in a 6-channel build, 3 here).
+  const std::uint8_t io[5] = {0x00, 0xE1, 0xF5, 0x05, 0x03};
+  for (std::uint16_t a = 0; a < 5; ++a) EXPECT_EQ(localRead(h, 0x230 + a), io[a]) << "local 0x" << std::hex << 0x230 + a;
+}
+
+TEST(Sslbp, StopAllTakesAsLongAsFirmware43) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  h.accessTime = SimTime{20};
+  // The global init sets up every channel's UART: 46.89 us with 3 channels (92.43 us with 6).
+  h.write(SmartSerial::kCommand, cmd::kStop);
+  const SimTime t = waitPolled(h);
+  EXPECT_NEAR(us(t), 46.89, 1.5) << "us";
+  EXPECT_EQ(h.read(SmartSerial::kData), 0xAAU);
+}
+
+TEST(Sslbp, NoRemoteSetupStartMatchesFirmware43) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  h.accessTime = SimTime{20};
+  h.command(cmd::kStop);
+  h.write(CardHost::cs(2), 0);
+  // Nothing on channel 2: the cookie request 21 times, 2.6 ms apart (the first 1.42 ms after
+  // the command), then the 21st timeout: done after 54.62 ms, the channel back at its start
+  // timer (COM_STATE 1), status 0xE1, error log 0x88 (timeout, too many errors).
+  h.write(SmartSerial::kCommand, cmd::kSetupStart | 0x04);
+  const SimTime setup = waitPolled(h);
+  EXPECT_NEAR(ms(setup), 54.62, 0.05) << "ms";
+  EXPECT_EQ(h.read(SmartSerial::kData), 0x04U);
+  EXPECT_EQ(h.read(CardHost::cs(2)), 0x0001E188U);
+  // Normal START next: 2 us timer ticks, cookie requests ~806 us apart, the first one 402 us
+  // plus the rest of the 200 us setup tick after the command (firmware: 553 us in our run,
+  // 17.07 ms in all); CS 0x0001E188 again.
+  h.command(cmd::kStop);
+  h.write(CardHost::cs(2), 0);
+  h.write(SmartSerial::kCommand, cmd::kStart | 0x04);
+  const SimTime normal = waitPolled(h);
+  EXPECT_GT(ms(normal), 16.85) << "ms";
+  EXPECT_LT(ms(normal), 17.25) << "ms";
+  EXPECT_EQ(h.read(SmartSerial::kData), 0x04U);
+  EXPECT_EQ(h.read(CardHost::cs(2)), 0x0001E188U);
+}
+
+TEST(Sslbp, BothProcessorsStartAndRunAsWithFirmware43) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  h.accessTime = SimTime{20};
+  h.command(cmd::kStop);
+  h.write(CardHost::cs(kFieldIo), 0);
+  h.write(CardHost::cs(kAnalog), 0);
+  h.write(SmartSerial::kCommand, cmd::kSetupStart | 0x03);
+  const SimTime setup = waitPolled(h);
+  EXPECT_NEAR(ms(setup), 1.704, 0.05) << "ms";  // firmware 1.704 ms
+  EXPECT_EQ(h.read(SmartSerial::kData), 0U);
+  const std::uint32_t expected[2][4] = {{0x00400000, 0x12000AEE, 0x37374937, 0x069E0694},
+                                        {0x00400000, 0x11000AEE, 0x37374937, 0x05FA05E4}};
+  for (unsigned ch = 0; ch < 2; ++ch) {
+    EXPECT_EQ(h.read(CardHost::cs(ch)), expected[ch][0]);
+    for (unsigned n = 0; n < 3; ++n) EXPECT_EQ(h.read(CardHost::iface(n, ch)), expected[ch][n + 1]);
+  }
+  // A LinuxCNC-style discovery read (one byte per DOIT): firmware 30.7 us each.
+  h.write(CardHost::cs(kFieldIo), 0x4C000000U | 0x0694U);
+  h.write(SmartSerial::kCommand, cmd::kDoit | 0x01);
+  const SimTime read = waitPolled(h);
+  EXPECT_NEAR(us(read), 30.7, 2.0) << "us";
+  EXPECT_EQ(h.read(SmartSerial::kData), 0U);
+  h.command(cmd::kStop);
+  h.write(CardHost::cs(kFieldIo), 0);
+  h.write(CardHost::cs(kAnalog), 0);
+  h.write(SmartSerial::kCommand, cmd::kStart | 0x03);
+  ASSERT_GE(waitPolled(h).count(), 0);
+  EXPECT_EQ(h.read(SmartSerial::kData), 0U);
+  // 1000 process data DOITs of both channels: firmware 63.87 us on average, none failed,
+  // CS 0x00420000 (COM_STATE 0x42: normal run).
+  SimTime total{};
+  for (int k = 0; k < 1000; ++k) {
+    h.write(CardHost::iface(0, kFieldIo), static_cast<std::uint32_t>(k * 7) & 0xFFFF);
+    h.write(CardHost::iface(0, kAnalog), static_cast<std::uint32_t>(k * 13) & 0xFFFF);
+    h.write(SmartSerial::kCommand, cmd::kDoit | 0x03);
+    const SimTime t = waitPolled(h);
+    ASSERT_GE(t.count(), 0);
+    if (k > 0) total += t;
+    ASSERT_EQ(h.read(SmartSerial::kData), 0U) << "DOIT " << k;
+  }
+  EXPECT_NEAR(us(total) / 999.0, 63.87, 1.0) << "us";
+  EXPECT_EQ(h.read(CardHost::cs(kFieldIo)), 0x00420000U);
+  EXPECT_EQ(h.read(CardHost::cs(kAnalog)), 0x00420000U);
+  // The field I/O cable pulled: the next DOIT fails channel 0 after 87-89 us, CS 0x00422008
+  // (timeout in the error log, communication error in the status).
+  card.smartSerial().link(kFieldIo).setConnected(false);
+  h.write(SmartSerial::kCommand, cmd::kDoit | 0x03);
+  const SimTime pulled = waitPolled(h);
+  EXPECT_NEAR(us(pulled), 88.0, 2.0) << "us";
+  EXPECT_EQ(h.read(SmartSerial::kData), 0x01U);
+  EXPECT_EQ(h.read(CardHost::cs(kFieldIo)), 0x00422008U);
+  EXPECT_EQ(h.read(CardHost::cs(kAnalog)), 0x00420000U);
+}
+
 }  // namespace

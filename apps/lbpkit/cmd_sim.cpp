@@ -32,6 +32,7 @@ struct SimCommandOptions {
   std::string state;
   std::string api = "127.0.0.1:27182";
   bool noApi = false;
+  std::string apiToken;
   std::string logLevel = "info";
   double speed = 1.0;
   bool paused = false;
@@ -278,12 +279,30 @@ int runSim(const SimCommandOptions& o) {
     const auto [apiHost, apiPort] = hostPort(o.api, 27182, "--api");
     s.apiAddress = apiHost;
     s.apiPort = apiPort;
+    s.apiToken = o.apiToken;
+    if (std::any_of(o.apiToken.begin(), o.apiToken.end(), [](unsigned char c) { return c <= ' ' || c >= 0x7F; }))
+      throw lbpkit::Error("--api-token: printable ASCII without spaces (it travels in an HTTP header)");
   }
+  // Beyond loopback, anyone who can reach this machine can use what it
+  // serves: said, not refused (a lab network may be what the user wants).
+  auto loopback = [](const std::string& a) { return a.rfind("127.", 0) == 0 || a == "localhost"; };
+  if (!loopback(bindHost))
+    fmt::print(stderr, "lbpkit sim: warning: LBP16 on {} answers anyone who can reach this machine: they can read and "
+                       "write the virtual card's registers, EEPROM and flash (as a real card on that network)\n",
+               bindHost);
+  if (!o.noApi && !loopback(s.apiAddress))
+    fmt::print(stderr, "lbpkit sim: warning: the control API on {} lets anyone who can reach this machine change the "
+                       "simulated machine (unplug cables, short outputs, set field power){}\n",
+               s.apiAddress,
+               o.apiToken.empty() ? "; give it a token (--api-token or LBPKIT_API_TOKEN) or keep it on 127.0.0.1"
+                                  : ", if they have its token");
   s.speed = o.speed;
   s.paused = o.paused;
   s.realtime = !o.noRealtime;
   s.demo = o.demo;
-  if (!(o.speed > 0)) throw lbpkit::Error("--speed must be above 0");
+  // Simulated time is 64-bit nanoseconds: at 10000x it lasts 10 days.
+  if (!(o.speed > 0) || !std::isfinite(o.speed) || o.speed > 10000)
+    throw lbpkit::Error("--speed must be above 0 and at most 10000 (simulated seconds per wall-clock second)");
   static const std::map<std::string, net::LogLevel> kLevels = {
       {"error", net::LogLevel::Error}, {"warn", net::LogLevel::Warn}, {"info", net::LogLevel::Info}, {"debug", net::LogLevel::Debug}};
   if (!kLevels.count(o.logLevel)) throw lbpkit::Error("--log-level: error, warn, info or debug");
@@ -334,8 +353,9 @@ int runSim(const SimCommandOptions& o) {
   net::SimDaemon daemon(s);
   app::installSignalHandlers();
   fmt::print("{}", daemon.banner());
+  // 0.0.0.0 is where the sim listens, not an address a host can reach.
   fmt::print("  point LinuxCNC at it: loadrt hm2_eth board_ip={} config=\"num_encoders=6 sserial_port_0=00xxxx\"\n",
-             s.bindAddress);
+             s.bindAddress == "0.0.0.0" ? "ADDRESS (this machine's address on the host's network)" : s.bindAddress);
   std::fflush(stdout);
   daemon.run(app::gStop);
   fmt::print("lbpkit sim: stopped; server time per datagram: {}\n", daemon.latencySummary());
@@ -355,7 +375,12 @@ void addSimCommand(CLI::App& app) {
   cmd->add_option("--api", o->api, "[ADDR:]PORT of the HTTP control API (0: any free port)")->capture_default_str();
   cmd->add_flag("--no-api", o->noApi, "No control API");
   cmd->add_option("--log-level", o->logLevel, "error, warn, info or debug")->capture_default_str();
-  cmd->add_option("--speed", o->speed, "Simulated seconds per wall-clock second")->capture_default_str();
+  cmd->add_option("--api-token", o->apiToken,
+                  "Require \"Authorization: Bearer TOKEN\" on every control API request (or LBPKIT_API_TOKEN)")
+      ->envname("LBPKIT_API_TOKEN");
+  cmd->add_option("--speed", o->speed, "Simulated seconds per wall-clock second (above 0, at most 10000)")
+      ->check(CLI::Range(0.0, 10000.0))
+      ->capture_default_str();
   cmd->add_flag("--demo", o->demo, "Demo world: field outputs 0..15 wired back to inputs 0..15, encoder 0 turning");
   cmd->add_flag("--no-realtime", o->noRealtime, "Do not ask for real-time (SCHED_FIFO) scheduling of the card thread");
   cmd->add_flag("--paused", o->paused, "Start with simulated time stopped (the API can run or step it)");

@@ -91,17 +91,30 @@ void MuxedEncoder::run(unsigned n, SimTime from, SimTime to) {
     if (a == b) return;
     const std::int64_t step = b > a ? 1 : -1;
     std::int64_t at = a;
-    if (hasIndex) {
-      // Index pulses are one count wide, at multiples of countsPerRev; walk
-      // the ones crossed while clear or latch on index is armed.
+    if (hasIndex && (c.ccr & (kClearOnIndex | kLatchOnIndex))) {
+      // Index pulses are one count wide, at multiples of countsPerRev. Only
+      // the first and the last one crossed while clear or latch on index is
+      // armed matter: the first may disarm it ("just once"), and between
+      // them every index does the same thing. Computed, not walked: with an
+      // index every count at MHz rates, one step can cross billions of them.
       const auto cpr = static_cast<std::int64_t>(s.countsPerRev);
       auto floorDiv = [](std::int64_t x, std::int64_t m) { return x >= 0 ? x / m : -((-x + m - 1) / m); };
-      while (c.ccr & (kClearOnIndex | kLatchOnIndex)) {
-        const std::int64_t next = step > 0 ? (floorDiv(at, cpr) + 1) * cpr : floorDiv(at - 1, cpr) * cpr;
-        if ((step > 0 && next > b) || (step < 0 && next < b)) break;
-        c.count += static_cast<std::int32_t>(next - at);
-        at = next;
+      const std::int64_t first = step > 0 ? (floorDiv(at, cpr) + 1) * cpr : floorDiv(at - 1, cpr) * cpr;
+      if ((step > 0 && first <= b) || (step < 0 && first >= b)) {
+        c.count += static_cast<std::int32_t>(first - at);
+        at = first;
         index(c, c.count);
+        const std::int64_t more = (step > 0 ? b - first : first - b) / cpr;  // indexes after the first
+        if (more > 0 && (c.ccr & (kClearOnIndex | kLatchOnIndex))) {
+          const std::int64_t last = first + step * more * cpr;
+          // Counts wrap as the 32-bit counter does.
+          if (c.ccr & kClearOnIndex)
+            c.count = static_cast<std::int32_t>(step * cpr);  // one revolution since the index before
+          else
+            c.count = static_cast<std::int32_t>(static_cast<std::int64_t>(c.count) + (last - first));
+          at = last;
+          index(c, c.count);
+        }
       }
     }
     c.count += static_cast<std::int32_t>(b - at);

@@ -12,7 +12,22 @@ namespace {
 constexpr SimTime kPass = SimTime{2000};  // 2 us
 // START timeouts (firmware: 200 ticks of 2 us normal, 6 ticks of 200 us setup).
 constexpr SimTime kNormalStartTimeout = SimTime{400'000};
-constexpr SimTime kSetupStartTimeout = SimTime{1'200'000};
+// START step timeouts count ticks of the firmware's hardware timer, which each
+// START sets to 2 us (normal) or 200 us (setup): a reply is late at the 200th
+// (6th) tick after its request, the quiet period ends at the 201st (7th) tick.
+// The new rate starts when the tick running at the START ends, so a normal
+// START after setup mode waits up to 200 us longer (docs/sslbp-vs-firmware.md).
+constexpr SimTime kNormalTick = SimTime{2'000};
+constexpr SimTime kSetupTick = SimTime{200'000};
+constexpr unsigned kNormalStartTicks = 200;
+constexpr unsigned kSetupStartTicks = 6;
+// From a START command to its first channel step: the firmware computes the
+// timer divisor first (measured on SSLBP 43: first request 1.42 ms after a
+// SETUP START).
+constexpr SimTime kStartLatency = SimTime{18'000};
+// STOP ALL: the global init's time, per channel and fixed (measured on SSLBP 43).
+constexpr SimTime kUartInit = SimTime{15'180};
+constexpr SimTime kStopAllBase = SimTime{1'350};
 // Run timeouts: the measured chatter round trip plus 40 us in normal mode;
 // 50 ms in setup mode (room for flash writes).
 constexpr SimTime kTimeoutFudge = SimTime{40'000};
@@ -70,6 +85,8 @@ void SmartSerial::reset() {
   command_ = 0;
   dataIn_ = 0;
   dataOut_ = 0;
+  tickPeriod_ = SimTime{};
+  tickOrigin_ = SimTime{};
   inReset_ = false;
   busy_ = Busy::Idle;
   commandMask_ = 0;
@@ -215,6 +232,9 @@ void SmartSerial::execute(std::uint16_t cmd, SimTime now) {
     if (mask == 0) {
       globalInit();  // STOP ALL: every channel variable reset, DATA = 0xAA
       immediateData_ = 0xAA;
+      // The firmware's global init sets up each channel's UART (a 32-bit
+      // division): SSLBP 43 takes 46.9 us with 3 channels, 92.4 us with 6.
+      immediateDone_ = now + kStopAllBase + kUartInit * channelCount_;
     } else {
       for (unsigned i = 0; i < channelCount_; ++i)
         if (mask & (1U << i)) initChannel(channels_[i]);
@@ -228,6 +248,9 @@ void SmartSerial::execute(std::uint16_t cmd, SimTime now) {
       immediateData_ = dataOut_;
     } else {
       immediateData_ = addr < ram_.size() ? ram_[addr] : 0;  // 0x200.. is I/O space
+      if (addr >= local::kInterfaceClock && addr < local::kInterfaceClock + 4)
+        immediateData_ = static_cast<std::uint8_t>(kInterfaceClockHz >> (8 * (addr - local::kInterfaceClock)));
+      if (addr == local::kHardwareChannels) immediateData_ = static_cast<std::uint8_t>(channelCount_);
     }
   } else {
     immediateData_ = 0xFF;  // unknown command
@@ -273,6 +296,13 @@ void SmartSerial::initChannel(Channel& c) {
 void SmartSerial::startChannels(std::uint8_t mask, Mode mode, SimTime now) {
   busy_ = Busy::Start;
   commandMask_ = mask;
+  // The timer divisor is loaded; the tick running then still ends at its old rate.
+  const SimTime loaded = now + kStartLatency;
+  if (tickPeriod_ > SimTime{} && loaded > tickOrigin_)
+    tickOrigin_ += ((loaded - tickOrigin_ + tickPeriod_ - SimTime{1}) / tickPeriod_) * tickPeriod_;
+  else
+    tickOrigin_ = loaded;
+  tickPeriod_ = mode == Mode::Setup ? kSetupTick : kNormalTick;
   for (unsigned i = 0; i < channelCount_; ++i) {
     auto& c = channels_[i];
     if (!(mask & (1U << i)) || c.ready || c.mode != Mode::Stopped) continue;  // START only starts new channels
@@ -280,7 +310,7 @@ void SmartSerial::startChannels(std::uint8_t mask, Mode mode, SimTime now) {
     c.errorCounts.fill(0);
     c.startPending = true;
     c.state = kStartTimer;
-    schedule(c, now + kPass);
+    schedule(c, loaded + kPass);
   }
   checkCommandDone(now);
 }
@@ -353,8 +383,18 @@ void SmartSerial::advance(SimTime now) {
   }
 }
 
-SimTime SmartSerial::startTimeout(const Channel& c) const {
-  return c.mode == Mode::Setup ? kSetupStartTimeout : kNormalStartTimeout;
+SimTime SmartSerial::tickAfter(SimTime t, unsigned n) const {
+  if (tickPeriod_ <= SimTime{}) return t + kNormalTick * n;
+  if (t < tickOrigin_) return tickOrigin_ + tickPeriod_ * (n - 1);
+  return tickOrigin_ + tickPeriod_ * ((t - tickOrigin_) / tickPeriod_ + n);
+}
+
+SimTime SmartSerial::startTimeout(const Channel& c, SimTime now) const {
+  return tickAfter(now, c.mode == Mode::Setup ? kSetupStartTicks : kNormalStartTicks) - now;
+}
+
+SimTime SmartSerial::startQuiet(const Channel& c, SimTime now) const {
+  return tickAfter(now, (c.mode == Mode::Setup ? kSetupStartTicks : kNormalStartTicks) + 1) - now;
 }
 
 void SmartSerial::setError(Channel& c, std::uint8_t bit, unsigned counter) {
@@ -367,13 +407,15 @@ void SmartSerial::setError(Channel& c, std::uint8_t bit, unsigned counter) {
 }
 
 void SmartSerial::restart(Channel& c, SimTime now) {
+  c.state = kStartTimer;
   if (c.errorLog & cs::kTooManyErrors) {
-    // The channel has failed: START completes without it.
+    // The channel has failed: START completes without it (COM_STATE 1 then,
+    // firmware: dogetcookie); while other channels still start, it goes on
+    // trying.
     c.startPending = false;
     checkCommandDone(now);
-    return;
+    if (busy_ != Busy::Start) return;
   }
-  c.state = kStartTimer;
   schedule(c, now + kPass);
 }
 
@@ -559,13 +601,13 @@ void SmartSerial::sendProcessData(Channel& c, bool zeros, std::uint8_t waitState
 void SmartSerial::sendStartRow(Channel& c, unsigned row, SimTime now) {
   const StartRow& r = kStartRows[row];
   switch (r.payload) {
-    case Payload::Fixed: transact(c, {r.bytes.data(), r.length}, r.expect, startTimeout(c), r.wait, now); return;
+    case Payload::Fixed: transact(c, {r.bytes.data(), r.length}, r.expect, startTimeout(c, now), r.wait, now); return;
     case Payload::SoftwareMode: {
       const std::array<std::uint8_t, 2> f{r.bytes[0], static_cast<std::uint8_t>(c.csOut >> 24)};
-      transact(c, f, r.expect, startTimeout(c), r.wait, now);
+      transact(c, f, r.expect, startTimeout(c, now), r.wait, now);
       return;
     }
-    case Payload::ZeroProcessData: sendProcessData(c, true, r.wait, startTimeout(c), now); return;
+    case Payload::ZeroProcessData: sendProcessData(c, true, r.wait, startTimeout(c, now), now); return;
   }
 }
 
@@ -576,10 +618,12 @@ void SmartSerial::sendStartRow(Channel& c, unsigned row, SimTime now) {
 // discovery with the channel serving setup requests.
 void SmartSerial::startSequence(unsigned index, SimTime now) {
   Channel& c = channels_[index];
+  // A channel that failed its START stops trying once the command is over.
+  if (!c.startPending && busy_ != Busy::Start) return;
   if (c.state == kStartTimer) {
     // Stay silent for a start timeout so the remote's parser resets.
     c.state = kWaitTimeout;
-    schedule(c, now + startTimeout(c));
+    schedule(c, now + startQuiet(c, now));
     return;
   }
   if (c.state == kWaitTimeout) return sendStartRow(c, 0, now);

@@ -35,6 +35,11 @@ using namespace lbpkit::wire::sslbp::local;
 inline constexpr std::uint16_t kChannelBlock = 0x70;
 inline constexpr std::uint16_t kChannelBlockStride = 0x32;
 inline constexpr std::uint16_t kRamSize = 0x200;
+// Above the RAM, read-only I/O (firmware: SSLBP.EQU clock, hardnchannel): the
+// interface clock in Hz (32 bits, little-endian) and the hardware channel count,
+// which is also what local 7 (kChannels) is set from.
+inline constexpr std::uint16_t kInterfaceClock = 0x230;
+inline constexpr std::uint16_t kHardwareChannels = 0x234;
 }  // namespace local
 
 class SmartSerial final : public Module {
@@ -47,6 +52,7 @@ class SmartSerial final : public Module {
   static constexpr std::uint8_t kMajorRevision = 0x01;
   static constexpr std::uint8_t kMinorRevision = 0x2B;  // 43, the ROM Mesa ships
   static constexpr std::uint32_t kDefaultBaud = 2500000;
+  static constexpr std::uint32_t kInterfaceClockHz = 100000000;  // the 7I92's SSerial clock
 
   explicit SmartSerial(unsigned channels, unsigned instance = 0);
 
@@ -157,7 +163,12 @@ class SmartSerial final : public Module {
   void setError(Channel& c, std::uint8_t bit, unsigned counter);
   void restart(Channel& c, SimTime now);
   void schedule(Channel& c, SimTime at);
-  [[nodiscard]] SimTime startTimeout(const Channel& c) const;
+  // START step timeouts count the firmware's hardware timer ticks: the time
+  // from `now` to the reply timeout, and to the end of the quiet period.
+  [[nodiscard]] SimTime startTimeout(const Channel& c, SimTime now) const;
+  [[nodiscard]] SimTime startQuiet(const Channel& c, SimTime now) const;
+  // The time of the n-th tick strictly after t.
+  [[nodiscard]] SimTime tickAfter(SimTime t, unsigned n) const;
 
   unsigned instance_;
   unsigned channelCount_;
@@ -173,6 +184,10 @@ class SmartSerial final : public Module {
   std::uint8_t immediateData_ = 0;
   SimTime immediateDone_{};
   bool lost_ = false;
+  // The hardware timer: the tick period the last START set (0: none since
+  // power-up) and the time of one of its ticks.
+  SimTime tickPeriod_{};
+  SimTime tickOrigin_{};
   Counters counters_;
 };
 

@@ -1,12 +1,15 @@
 // The HTTP control API of `lbpkit sim`: its routes and the validation of
 // what they are sent.
 //
-// The API runs on the HTTP server's own threads, but the card belongs to the
-// card thread: every route hands its whole work (validation that looks at
-// the card included) to the card thread as a job and answers with what the
-// job returns. httplib stays behind this header.
+// The API runs on threads of its own, but the card belongs to the card
+// thread: every route hands its whole work (validation that looks at the
+// card included) to the card thread as a job and answers with what the job
+// returns. The API owns its sockets and threads; httplib only parses
+// requests, routes them and writes answers, and stays behind this header.
 #pragma once
 
+#include <chrono>
+#include <cstddef>
 #include <functional>
 #include <memory>
 #include <string>
@@ -16,29 +19,46 @@
 
 namespace net {
 
-// Where and how the API serves. (Room for its limits: timeouts, connection
-// cap, body size, allowed Host/Origin, token.)
+// Where and how the API serves, who may use it, and its limits. The limits
+// keep it answering whatever clients do: slow or idle connections wait in
+// one thread that costs them nothing but a socket, and only whole requests
+// reach the threads that answer them (README: Reliability).
 struct ApiOptions {
   std::string address = "127.0.0.1";  // never anything else unless the user asks
   int port = 27182;                   // 0: any free port
+  // When set, every request must carry "Authorization: Bearer TOKEN" (401).
+  std::string token;
+  // Open connections at most; a new one beyond closes the one waiting longest
+  // on its client (or itself, when every one is being answered).
+  unsigned maxConnections = 64;
+  unsigned workers = 4;  // threads answering whole requests
+  std::chrono::milliseconds idleTimeout{2000};     // connected, no request begun
+  std::chrono::milliseconds requestTimeout{5000};  // first byte to whole request (408)
+  std::chrono::milliseconds writeTimeout{2000};    // to hand over an answer
+  std::size_t maxHeader = 16 * 1024;               // request line and headers (431)
+  std::size_t maxBody = 64 * 1024;                 // a body (413); unknown lengths: 411
+  unsigned maxRequestsPerConnection = 100;
 };
 
 // What the routes act on: touched only inside jobs, on the card thread.
 struct ApiTarget {
-  hm2::HostMot2Card& card;
+  hm2::HostMot2Card& card;  // card.now(): the simulated time everything happens at
   SimClock& clock;
   // The answer to every successful call: the whole state as JSON.
   std::function<std::string()> stateJson;
 };
 
-// Runs a job on the card thread and returns its result (throws when the card
-// thread does not get to it in time).
+// Runs a job on the card thread and returns its result. What the job throws
+// comes back as is (std::invalid_argument: a bad request); it throws
+// std::runtime_error when the card thread does not get to it in time or the
+// sim is stopping.
 using CardThreadRunner = std::function<std::string(std::function<std::string()>)>;
 
 class ControlApi {
  public:
-  // Binds (throws std::runtime_error saying why it cannot) and serves on a
-  // thread of its own until destroyed.
+  // Binds, exclusively (throws std::runtime_error saying why it cannot), and
+  // serves on threads of its own until destroyed; destruction takes at most
+  // about the time a job may wait for the card thread, whatever clients do.
   ControlApi(const ApiOptions& options, ApiTarget target, CardThreadRunner run);
   ~ControlApi();
   ControlApi(const ControlApi&) = delete;

@@ -19,6 +19,16 @@ void SimClock::set(double speed, bool paused) {
   paused_ = paused;
 }
 
+void SimClock::fallBackTo(lbp::SimTime t) {
+  const auto wall = Wall::now();
+  const auto lag = now() - t;
+  if (lag <= lbp::SimTime{0}) return;
+  simBase_ = t;
+  wallBase_ = wall;
+  behind_ += lag;
+  ++slips_;
+}
+
 void SimClock::advanceBy(lbp::SimTime t) {
   simBase_ = now() + t;
   wallBase_ = Wall::now();

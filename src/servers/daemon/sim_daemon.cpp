@@ -42,30 +42,53 @@ SimDaemon::SimDaemon(SimOptions options)
         this);
 
   if (options_.apiPort < 0) return;
-  api_ = std::make_unique<ControlApi>(ApiOptions{options_.apiAddress, options_.apiPort},
-                                      ApiTarget{card_, clock_, [this] { return stateJson(); }},
+  ApiOptions api;
+  api.address = options_.apiAddress;
+  api.port = options_.apiPort;
+  api.token = options_.apiToken;
+  api_ = std::make_unique<ControlApi>(api, ApiTarget{card_, clock_, [this] { return stateJson(); }},
                                       [this](std::function<std::string()> job) { return runJob(std::move(job)); });
   apiPort_ = api_->port();
 }
 
 SimDaemon::~SimDaemon() {
+  // No card thread runs jobs any more (run() has returned, or never ran):
+  // jobs still queued are dropped, so requests waiting on them fail at once
+  // (a broken promise) instead of after their timeout.
+  {
+    std::lock_guard<std::mutex> lock(jobsMutex_);
+    jobsClosed_ = true;
+    jobs_.clear();
+  }
   // Stop the API first: its threads may be waiting on jobs for this daemon.
   api_.reset();
 }
 
 std::uint16_t SimDaemon::port() const { return udp_->port(); }
 
+lbp::SimTime SimDaemon::catchUp(std::chrono::microseconds budget) {
+  return clock_.catchUp(card_.now(), [this](lbp::SimTime t) { card_.advance(t); }, budget);
+}
+
 SimState SimDaemon::state() {
-  const auto now = clock_.now();
-  card_.advance(now);
+  // A step by hand (paused) is shown whole when it can be had in 200 ms:
+  // stepping is what the user asked for, and paused time keeps no host's
+  // watchdog waiting. Beyond that it goes on between datagrams.
+  const auto now = catchUp(clock_.paused() ? std::chrono::microseconds(200'000) : SimClock::kBudget);
   SimState s;
   s.time = now;
-  s.clock = {clock_.speed(), clock_.paused()};
+  s.clock = {clock_.speed(), clock_.paused(), clock_.behind(), clock_.slips()};
   const auto& id = lbp16_->identity();
-  s.card = {id.name, options_.bindAddress, udp_->port(), id.mac};
+  s.card = {id.name, options_.bindAddress, udp_->port(), id.mac, lbp16_->eeprom()};
   s.lbp16 = lbp16_->counters();
-  s.server = {latency_.count, schedule_, latency_.percentileUs(0.5), latency_.percentileUs(0.99),
-              static_cast<double>(latency_.maxNs) / 1000.0};
+  s.server = {latency_.count,
+              schedule_,
+              latency_.percentileUs(0.5),
+              latency_.percentileUs(0.99),
+              static_cast<double>(latency_.maxNs) / 1000.0,
+              queueing_.percentileUs(0.5),
+              queueing_.percentileUs(0.99),
+              static_cast<double>(queueing_.maxNs) / 1000.0};
   s.watchdog = card_.watchdog().state(now);
   s.cardLeds = card_.led().state();
   s.sserial = card_.smartSerial().state();
@@ -100,7 +123,9 @@ std::string SimDaemon::banner() const {
                      b.fieldIo.nvStore().file().empty() ? "" : ", EEPROM " + b.fieldIo.nvStore().file().string());
   }
   s += fmt::format("  configuration: {}\n", options_.configDescription);
-  if (apiPort_ >= 0) s += fmt::format("  control API: http://{}:{}/api/state\n", options_.apiAddress, apiPort_);
+  if (apiPort_ >= 0)
+    s += fmt::format("  control API: http://{}:{}/api/state{}\n", options_.apiAddress, apiPort_,
+                     options_.apiToken.empty() ? "" : " (with its token: Authorization: Bearer TOKEN)");
   s += fmt::format("  time: {}{}\n", options_.paused ? "paused" : "follows the wall clock",
                    options_.speed != 1.0 ? fmt::format(" x{}", options_.speed) : "");
   return s;
@@ -111,6 +136,7 @@ std::string SimDaemon::runJob(std::function<std::string()> job) {
   auto result = task.get_future();
   {
     std::lock_guard<std::mutex> lock(jobsMutex_);
+    if (jobsClosed_) throw std::runtime_error("the sim is stopping");
     jobs_.push_back(std::move(task));
   }
   if (result.wait_for(std::chrono::seconds(5)) != std::future_status::ready)
@@ -137,8 +163,9 @@ void SimDaemon::log(LogLevel level, const std::string& text) const {
 }
 
 void SimDaemon::Latency::add(std::chrono::nanoseconds d) {
-  const auto us = static_cast<std::size_t>(d.count() / 1000);
-  ++buckets[std::min(us, buckets.size() - 1)];
+  const auto us = static_cast<std::size_t>(std::max<std::int64_t>(d.count(), 0) / 1000);
+  const std::size_t i = us < kFine ? us : kFine + (us - kFine) / kCoarseUs;
+  ++buckets[std::min(i, buckets.size() - 1)];
   ++count;
   maxNs = std::max<std::uint64_t>(maxNs, static_cast<std::uint64_t>(d.count()));
 }
@@ -149,9 +176,11 @@ double SimDaemon::Latency::percentileUs(double p) const {
   std::uint64_t seen = 0;
   for (std::size_t i = 0; i < buckets.size(); ++i) {
     seen += buckets[i];
-    if (seen >= want) return static_cast<double>(i) + 0.5;
+    if (seen >= want)
+      return i < kFine ? static_cast<double>(i) + 0.5
+                       : static_cast<double>(kFine + (i - kFine) * kCoarseUs) + static_cast<double>(kCoarseUs) / 2;
   }
-  return static_cast<double>(buckets.size());
+  return static_cast<double>(kFine + kCoarse * kCoarseUs);
 }
 
 std::string SimDaemon::latencySummary() const {
@@ -171,16 +200,21 @@ void SimDaemon::run(const std::atomic<bool>& stop) {
   }
   auto& lbp16 = *lbp16_;
   std::uint64_t errorsSeen = 0;
-  if (options_.demo) card_.encoders().setVelocity(0, 10000, clock_.now());
+  if (options_.demo) card_.encoders().setVelocity(0, 10000, card_.now());
   while (!stop.load()) {
-    std::chrono::steady_clock::time_point received;
+    // The card catches up before it answers (bounded: the reply may come at
+    // a time that lags the wall clock, never late by more than the budget).
     const bool served = udp_->serveOnce(std::chrono::milliseconds(1),
                                         [&](std::span<const std::uint8_t> req, std::span<std::uint8_t> reply) {
-                                          received = std::chrono::steady_clock::now();
-                                          return lbp16.handle(req, reply, clock_.now());
+                                          return lbp16.handle(req, reply, catchUp());
                                         });
-    if (served) latency_.add(std::chrono::steady_clock::now() - received);
-    card_.advance(clock_.now());
+    // From the kernel's receive timestamp, so time queued in the socket
+    // counts: that is what the host waits.
+    if (served) {
+      latency_.add(udp_->sinceReceived());
+      queueing_.add(udp_->lastQueueing());
+    }
+    catchUp();
     if (options_.demo) {
       auto& io = card_.daughtercard(0).fieldIo;
       for (unsigned i = 0; i < remote::FieldIoProcessor::kOutputs; ++i) {
@@ -201,8 +235,30 @@ void SimDaemon::run(const std::atomic<bool>& stop) {
         errorsSeen = errors;
       }
     }
+    // Simulated time falling behind: logged, at most once a second.
+    if (clock_.slips() != slipsLogged_ && options_.logLevel >= LogLevel::Warn) {
+      const auto wall = std::chrono::steady_clock::now();
+      if (wall - lastSlipLog_ > std::chrono::seconds(1)) {
+        log(LogLevel::Warn,
+            fmt::format("the card cannot keep up at speed {:g}: simulated time has fallen {:.0f} ms behind the wall "
+                        "clock so far ({} slips)",
+                        clock_.speed(), std::chrono::duration<double, std::milli>(clock_.behind()).count(),
+                        clock_.slips()));
+        lastSlipLog_ = wall;
+        slipsLogged_ = clock_.slips();
+      }
+    }
   }
-  drainJobs();
+  // No job is taken after this one last round: the API's threads get their
+  // answers (or "stopping") at once instead of waiting for a thread that is
+  // gone.
+  std::deque<std::packaged_task<std::string()>> last;
+  {
+    std::lock_guard<std::mutex> lock(jobsMutex_);
+    jobsClosed_ = true;
+    last.swap(jobs_);
+  }
+  for (auto& task : last) task();
 }
 
 }  // namespace net

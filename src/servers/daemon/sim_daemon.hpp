@@ -32,6 +32,7 @@ struct SimOptions {
   std::uint16_t port = lbp16::kPort;
   std::string apiAddress = "127.0.0.1";
   int apiPort = 27182;  // -1: no control API; 0: any free port
+  std::string apiToken;  // when set, API requests carry "Authorization: Bearer TOKEN"
   double speed = 1.0;   // simulated seconds per wall-clock second
   bool paused = false;
   LogLevel logLevel = LogLevel::Info;
@@ -72,6 +73,9 @@ class SimDaemon {
  private:
   std::string runJob(std::function<std::string()> job);
   void drainJobs();
+  // Brings the card up to the clock, with bounded work (SimClock::catchUp);
+  // returns the card's time, the time everything happens at.
+  lbp::SimTime catchUp(std::chrono::microseconds budget = SimClock::kBudget);
   void log(LogLevel level, const std::string& text) const;
 
   SimOptions options_;
@@ -84,16 +88,25 @@ class SimDaemon {
   bool macFromInterface_ = false;
   std::mutex jobsMutex_;
   std::deque<std::packaged_task<std::string()>> jobs_;
-  // Server-side time per datagram (receive to reply sent), 1 us buckets.
+  bool jobsClosed_ = false;  // the card thread has stopped: no job would run
+  // Server-side time per datagram: from the kernel's receive
+  // timestamp to the reply sent (latency_), and of that the time it queued
+  // in the socket (queueing_).
   struct Latency {
-    std::array<std::uint64_t, 1001> buckets{};  // the last one: 1 ms and more
+    // 1 us buckets below 1 ms, then 100 us buckets to 100 ms (queueing in a
+    // flood reaches milliseconds); the last one: 100 ms and more.
+    static constexpr std::size_t kFine = 1000, kCoarseUs = 100, kCoarse = 990;
+    std::array<std::uint64_t, kFine + kCoarse + 1> buckets{};
     std::uint64_t count = 0;
     std::uint64_t maxNs = 0;
     void add(std::chrono::nanoseconds d);
     [[nodiscard]] double percentileUs(double p) const;
-  } latency_;
+  } latency_, queueing_;
   // Rate-limited logging of bad datagrams.
   std::chrono::steady_clock::time_point lastBadLog_{};
+  // Rate-limited logging of simulated time falling behind.
+  std::chrono::steady_clock::time_point lastSlipLog_{};
+  std::uint64_t slipsLogged_ = 0;
   // Last: its threads call into the members above until it is gone.
   std::unique_ptr<ControlApi> api_;
   int apiPort_ = -1;

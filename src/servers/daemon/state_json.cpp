@@ -14,6 +14,10 @@ namespace {
 
 std::string hex32(std::uint32_t v) { return fmt::format("0x{:08X}", v); }
 
+std::string macText(const std::array<std::uint8_t, 6>& m) {
+  return fmt::format("{:02x}:{:02x}:{:02x}:{:02x}:{:02x}:{:02x}", m[0], m[1], m[2], m[3], m[4], m[5]);
+}
+
 }  // namespace
 
 json faultNames(std::uint8_t faults) {
@@ -110,7 +114,10 @@ json toJson(const SimState::Server& s) {
           {"scheduling", s.scheduling},
           {"median_us", s.medianUs},
           {"p99_us", s.p99Us},
-          {"max_us", s.maxUs}};
+          {"max_us", s.maxUs},
+          {"queue_median_us", s.queueMedianUs},
+          {"queue_p99_us", s.queueP99Us},
+          {"queue_max_us", s.queueMaxUs}};
 }
 
 json toJson(const SimState::Daughtercard& s, unsigned connector) {
@@ -136,12 +143,19 @@ json toJson(const SimState::Daughtercard& s, unsigned connector) {
 json toJson(const SimState& s) {
   json j;
   j["time_s"] = std::chrono::duration<double>(s.time).count();
-  j["clock"] = {{"speed", s.clock.speed}, {"paused", s.clock.paused}};
-  const auto& m = s.card.mac;
+  j["clock"] = {{"speed", s.clock.speed},
+                {"paused", s.clock.paused},
+                {"behind_ms", std::chrono::duration<double, std::milli>(s.clock.behind).count()},
+                {"slips", s.clock.slips}};
+  const auto& e = s.card.eeprom;
   j["card"] = {{"name", s.card.name},
                {"address", s.card.address},
                {"port", s.card.port},
-               {"mac", fmt::format("{:02x}:{:02x}:{:02x}:{:02x}:{:02x}:{:02x}", m[0], m[1], m[2], m[3], m[4], m[5])}};
+               {"mac", macText(s.card.mac)},
+               {"eeprom",
+                {{"mac", macText(e.mac)},
+                 {"ip", fmt::format("{}.{}.{}.{}", e.ip[0], e.ip[1], e.ip[2], e.ip[3])},
+                 {"name", e.name}}}};
   j["lbp16"] = toJson(s.lbp16);
   j["server"] = toJson(s.server);
   j["watchdog"] = toJson(s.watchdog);

@@ -31,6 +31,10 @@ struct SimState {
   struct Clock {
     double speed = 1.0;
     bool paused = false;
+    // How far simulated time has fallen behind the wall clock in all, and
+    // how many times, because the card could not keep up.
+    lbp::SimTime behind{0};
+    std::uint64_t slips = 0;
   } clock;
   // Who the card says it is on the network, and where it listens.
   struct Card {
@@ -38,6 +42,9 @@ struct SimState {
     std::string address;
     std::uint16_t port = 0;
     std::array<std::uint8_t, 6> mac{};
+    // The Ethernet EEPROM as it now holds them (mesaflash writes them; the
+    // card goes by them after its next power-up).
+    Lbp16Card::Eeprom eeprom;
   } card;
   Lbp16Card::Counters lbp16;
   // The UDP server's own figures: server-side time per datagram.
@@ -47,6 +54,10 @@ struct SimState {
     double medianUs = 0;
     double p99Us = 0;
     double maxUs = 0;
+    // Of that, the time datagrams waited in the socket before being read.
+    double queueMedianUs = 0;
+    double queueP99Us = 0;
+    double queueMaxUs = 0;
   } server;
   hm2::Watchdog::State watchdog;
   hm2::Led::State cardLeds;

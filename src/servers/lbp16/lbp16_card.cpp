@@ -65,6 +65,17 @@ std::uint8_t Lbp16Card::infoByte(std::uint8_t space, std::uint32_t offset) const
   return 0;
 }
 
+Lbp16Card::Eeprom Lbp16Card::eeprom() const {
+  // Stored as hm2_eth and mesaflash read them: MAC and IP last byte first,
+  // the name NUL padded (lbp16::eeprom).
+  Eeprom e;
+  for (std::size_t i = 0; i < e.mac.size(); ++i) e.mac[i] = eeprom_[lbp16::eeprom::kMac + e.mac.size() - 1 - i];
+  for (std::size_t i = 0; i < e.ip.size(); ++i) e.ip[i] = eeprom_[lbp16::eeprom::kIp + e.ip.size() - 1 - i];
+  for (std::size_t i = lbp16::eeprom::kCardName; i < lbp16::eeprom::kCardName + 16U && eeprom_[i] != 0; ++i)
+    e.name.push_back(static_cast<char>(eeprom_[i]));
+  return e;
+}
+
 std::uint16_t Lbp16Card::readWord16(std::uint8_t space, std::uint32_t address, hm2::SimTime now) {
   const auto us = static_cast<std::uint64_t>(now.count() / 1000);
   switch (space) {

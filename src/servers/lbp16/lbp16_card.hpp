@@ -55,8 +55,18 @@ class Lbp16Card {
   // holds no reads.
   std::size_t handle(std::span<const std::uint8_t> request, std::span<std::uint8_t> reply, hm2::SimTime now);
 
+  // The Ethernet EEPROM's MAC, IP and name as it now holds them: what
+  // mesaflash wrote (with the write enable) shows here at once, while the
+  // card answers with identity() until it powers up again.
+  struct Eeprom {
+    std::array<std::uint8_t, 6> mac{};
+    std::array<std::uint8_t, 4> ip{};
+    std::string name;
+  };
+
   [[nodiscard]] const Counters& counters() const { return counters_; }
   [[nodiscard]] const Identity& identity() const { return identity_; }
+  [[nodiscard]] Eeprom eeprom() const;
   hm2::HostMot2Card& card() { return card_; }
 
  private:

@@ -1,0 +1,137 @@
+// A machine behind one 7I77's terminals (issue 10): axes with servo
+// amplifiers on the analog outputs and drive enables, encoders on the
+// card's muxed counters, switches on the field inputs, a spindle on AOUT5 +
+// ENA5, and field outputs that drive a coolant pump, a lube pump, a brake.
+// Built from a MachineDescription (machine_file.hpp) and wired to a
+// hm2::HostMot2Card, which must outlive it.
+//
+// advance(now) runs the plant in fixed steps (the description's `step`, 50 us
+// by default) in simulated time, up to the first step boundary at or after
+// `now`: each step reads the 7I77's outputs at its start, integrates the
+// axes and the spindle over it, and sets each encoder's velocity so its
+// signal reaches the shaft's position at the step's end. Call it after the
+// host's cycle, with the time of the next one, before the card is advanced
+// past this one: the encoders then follow the plant's motion exactly. Where
+// the card has already run ahead (the host's accesses advance it), each
+// encoder aims at the step's end from where the counter is, so the signal
+// catches up within a step or two and no error adds up.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hostmot2/card.hpp"
+#include "machine/axis.hpp"
+#include "machine/machine_file.hpp"
+#include "machine/quadrature_encoder.hpp"
+#include "machine/servo_amplifier.hpp"
+#include "machine/spindle.hpp"
+#include "machine/switches.hpp"
+
+namespace machine {
+
+class Machine {
+ public:
+  // What an observer sees of the machine (the API and tests compare these).
+  struct State {
+    struct Drive {
+      unsigned analogOutput = 0;
+      double commandVolts = 0.0;  // at AOUTn
+      bool enaOn = false;         // the ENAn switch
+      bool enabled = false;       // the amplifier, after its enable wiring
+      double torque = 0.0;        // Nm the motor gave over the last step
+      unsigned encoderInput = 0;
+      std::uint16_t encoderCount = 0;  // the card's count register
+      double trueCounts = 0.0;         // where a perfect counter would be (from shaft revolution 0)
+      bool operator==(const Drive&) const = default;
+    };
+    struct Axis {
+      std::string name;
+      double position = 0.0;  // machine units (mm)
+      double velocity = 0.0;  // machine units per second
+      bool brakeEngaged = false;
+      bool atHardStop = false;
+      std::vector<Drive> drives;
+      std::vector<Switches::State> switches;  // the switches on this axis
+      bool operator==(const Axis&) const = default;
+    };
+    struct Spindle {
+      double commandRpm = 0.0;
+      double rpm = 0.0;
+      double revolutions = 0.0;
+      bool running = false;  // the VFD's run input
+      std::optional<std::uint16_t> encoderCount;
+      bool operator==(const Spindle&) const = default;
+    };
+    struct Output {
+      std::string name;
+      unsigned output = 0;
+      bool on = false;
+      bool operator==(const Output&) const = default;
+    };
+    SimTime time{};  // the plant's own time (a step boundary at or after the last advance)
+    std::vector<Axis> axes;
+    std::optional<Spindle> spindle;
+    bool estopOk = true;  // the E-stop chain is closed
+    bool probe = false;   // the probe is tripped
+    std::vector<Switches::State> switches;  // every switch, in description order
+    std::vector<Output> outputs;
+    bool operator==(const State&) const = default;
+  };
+
+  // The machine on the 7I77 on `connector` of `card`, at `now`. Throws
+  // std::invalid_argument for wiring the 7I77 does not have.
+  Machine(MachineDescription description, hm2::HostMot2Card& card, SimTime now = SimTime{0}, unsigned connector = 0);
+  // One machine drives the card's encoders and inputs: no copies.
+  Machine(const Machine&) = delete;
+  Machine& operator=(const Machine&) = delete;
+
+  void advance(SimTime now);
+
+  // Trip or release a switch by name ("estop" pressed, "probe" touching, or
+  // any switch stuck); it holds until released. False if there is no such switch.
+  bool setSwitch(const std::string& name, bool tripped);
+
+  [[nodiscard]] State state() const;
+  [[nodiscard]] SimTime time() const { return time_; }
+  [[nodiscard]] const MachineDescription& description() const { return d_; }
+  [[nodiscard]] std::size_t axes() const { return axes_.size(); }
+  [[nodiscard]] const Axis& axis(std::size_t i) const { return axes_.at(i).axis; }
+  [[nodiscard]] const QuadratureEncoder& encoder(std::size_t axis, std::size_t drive = 0) const {
+    return axes_.at(axis).drives.at(drive).encoder;
+  }
+  [[nodiscard]] const Spindle* spindle() const { return spindle_ ? &*spindle_ : nullptr; }
+
+ private:
+  struct Drive {
+    DriveDescription d;
+    ServoAmplifier amplifier;
+    QuadratureEncoder encoder;
+    double torque = 0.0;
+  };
+  struct AxisPlant {
+    Axis axis;
+    std::vector<Drive> drives;
+    double inertiaShare;  // per drive, for the velocity loops
+    int brakeOutput;
+  };
+  void step();
+  [[nodiscard]] bool brakeEngaged(const AxisPlant& a) const;
+
+  MachineDescription d_;
+  hm2::HostMot2Card* card_;
+  hm2::SevenI77* board_;
+  hm2::MuxedEncoder* encoders_;
+  SimTime time_;
+  SimTime h_;
+  double hSeconds_;
+  std::vector<AxisPlant> axes_;
+  std::vector<double> positions_;  // per axis, for the switches
+  Switches switches_;
+  std::optional<Spindle> spindle_;
+  std::optional<QuadratureEncoder> spindleEncoder_;
+};
+
+}  // namespace machine

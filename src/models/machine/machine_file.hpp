@@ -1,0 +1,96 @@
+// A machine behind the 7I77's terminals, described as plain data: which
+// analog output, drive enable and encoder input each motor is wired to, the
+// amplifiers, motors, loads and screws, the switches on the field inputs
+// and the field outputs that drive things. Three built-ins: mill(),
+// lathe(), gantry() (docs/machine-mill.md has the mill's wiring as
+// LinuxCNC names the pins). A TOML loader for these comes later
+// (examples/machines/mill.toml documents the schema).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "lbp/sim_time.hpp"
+#include "machine/axis.hpp"
+#include "machine/quadrature_encoder.hpp"
+#include "machine/servo_amplifier.hpp"
+#include "machine/spindle.hpp"
+#include "machine/switches.hpp"
+
+namespace machine {
+
+// One motor on an axis: its amplifier on AOUTn/ENAn (manual: ANALOG SERVO
+// DRIVE INTERFACE, SERVO ENABLE OUTPUTS) and its encoder (ENCODER INTERFACE).
+struct DriveDescription {
+  unsigned analogOutput = 0;  // AOUT0..5
+  unsigned enable = 0;        // ENA0..5 (ENA0..4 follow AnalogEna, ENA5 SpinEna)
+  AmplifierParameters amplifier;
+  double motorInertia = 1.5e-4;  // kg m^2, the rotor
+  unsigned encoderInput = 0;     // the card's muxed encoder 0..5 (7I77 TB3/TB4)
+  EncoderParameters encoder;
+
+  bool operator==(const DriveDescription&) const = default;
+};
+
+struct AxisDescription {
+  std::string name;                     // "x"
+  std::vector<DriveDescription> drives;  // one, or two for a gantry (rigidly coupled)
+  double screwPitch = 5.0;              // mm per screw revolution (machine units are mm: the
+                                        // reflected mass and gravity are worked out in them)
+  double gearRatio = 1.0;               // motor revolutions per screw revolution
+  double massKg = 100.0;                // what the screw moves
+  double screwInertia = 1e-4;           // kg m^2 at the motor: screw, coupling, pulleys
+  double viscous = 1e-3;                // Nm per rad/s at the motor
+  double coulomb = 0.3;                 // Nm at the motor
+  bool vertical = false;                // gravity pulls the mass towards negative positions
+  double travelMin = 0.0;               // machine units: what the configuration may use
+  double travelMax = 100.0;
+  double overtravel = 5.0;              // past the travel (and the limit switches): the hard stops
+  double initialPosition = 0.0;
+  int brakeOutput = -1;                 // field output that releases the brake (off: holding), -1 none
+  double brakeTorque = 0.0;             // Nm at the motor
+
+  [[nodiscard]] double unitsPerMotorRev() const { return screwPitch / gearRatio; }
+  bool operator==(const AxisDescription&) const = default;
+};
+
+struct SpindleDescription {
+  unsigned analogOutput = 5;
+  unsigned enable = 5;  // ENA5 follows SpinEna
+  SpindleParameters vfd;
+  std::optional<unsigned> encoderInput = 5;
+  EncoderParameters encoder{1000, true, false};
+
+  bool operator==(const SpindleDescription&) const = default;
+};
+
+// A field output that drives something (a coolant pump contactor, a lube
+// pump, a brake): its name and the load it puts on the output.
+struct OutputDescription {
+  std::string name;
+  unsigned output = 0;     // field output 0..15
+  double loadOhms = 480;   // a 24 V relay coil: 50 mA
+
+  bool operator==(const OutputDescription&) const = default;
+};
+
+struct MachineDescription {
+  std::string name;
+  std::vector<AxisDescription> axes;
+  std::optional<SpindleDescription> spindle;
+  std::vector<SwitchParameters> switches;  // axis switches name their axis
+  std::vector<OutputDescription> outputs;
+  lbp::SimTime step = lbp::SimTime{50'000};  // the plant's fixed integration step
+
+  bool operator==(const MachineDescription&) const = default;
+};
+
+// X/Y/Z knee-less mill: docs/machine-mill.md.
+[[nodiscard]] MachineDescription mill();
+// X (cross slide) and Z (carriage) lathe with a spindle encoder for threading.
+[[nodiscard]] MachineDescription lathe();
+// A gantry router: Y driven by two motors (AOUT1/ENC1 and AOUT2/ENC2), X, Z.
+[[nodiscard]] MachineDescription gantry();
+
+}  // namespace machine

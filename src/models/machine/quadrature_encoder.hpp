@@ -1,0 +1,61 @@
+// A quadrature encoder on a motor (or spindle) shaft, wired to one of the
+// 7I77's encoder inputs (manual: ENCODER INTERFACE; TB3 encoders 0..2, TB4
+// 3..5). It feeds the card's muxed-encoder model, which counts edges
+// analytically from a velocity: each plant step sets the velocity that
+// brings the signal to the shaft's position at the end of the step, so the
+// count follows the shaft exactly (piecewise-constant velocity) while the
+// mux path keeps up, and loses counts exactly as that model does when it
+// cannot (manual: MAXIMUM ENCODER COUNT RATE).
+#pragma once
+
+#include <cstdint>
+
+#include "hostmot2/muxed_encoder.hpp"
+#include "lbp/sim_time.hpp"
+
+namespace machine {
+
+using lbp::SimTime;
+
+struct EncoderParameters {
+  std::uint32_t linesPerRev = 2000;  // quadrature cycles per revolution: 4x counts
+  bool index = true;                 // one index pulse per revolution
+  bool reversed = false;             // A and B swapped: counts down when the shaft turns forward
+
+  bool operator==(const EncoderParameters&) const = default;
+};
+
+class QuadratureEncoder {
+ public:
+  // On card input `input`, the shaft at `revs` now.
+  QuadratureEncoder(EncoderParameters parameters, hm2::MuxedEncoder& encoders, unsigned input, double revs);
+
+  // Move the signal to the shaft position `revs` at `until`, at constant
+  // velocity from `from`: the later of the plant step's start and the time
+  // the counter has already been advanced to (the card's time), so the
+  // velocity set applies over exactly the time that is left. With less than
+  // `minimum` left the signal keeps its velocity and the next step catches
+  // up: aiming at the target over a sliver of time would make a velocity
+  // spike the counter's filter could drop counts on.
+  void drive(double revs, SimTime from, SimTime until, SimTime minimum);
+
+  [[nodiscard]] std::uint32_t countsPerRev() const { return 4 * p_.linesPerRev; }
+  // Counts the shaft is at: what a perfect counter would show.
+  [[nodiscard]] double trueCounts(double revs) const;
+  // The same from the shaft's revolution 0 (the count a counter cleared there shows).
+  [[nodiscard]] double shaftCounts(double revs) const { return trueCounts(revs) - origin_; }
+  // The count register of the card's counter (16 bits, as the host reads it).
+  [[nodiscard]] std::uint16_t count() const { return encoders_->count(input_); }
+  // The signal's position (counts) as the counter's input sees it.
+  [[nodiscard]] double signalCounts() const { return encoders_->signal(input_).position; }
+  [[nodiscard]] unsigned input() const { return input_; }
+  [[nodiscard]] const EncoderParameters& parameters() const { return p_; }
+
+ private:
+  EncoderParameters p_;
+  hm2::MuxedEncoder* encoders_;
+  unsigned input_;
+  double origin_;  // signal counts at shaft revolution 0
+};
+
+}  // namespace machine

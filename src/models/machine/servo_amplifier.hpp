@@ -1,0 +1,62 @@
+// A servo amplifier behind one 7I77 analog output and one drive enable
+// (manual: ANALOG SERVO DRIVE INTERFACE, SERVO ENABLE OUTPUTS).
+//
+// The 7I77's AOUTn drives the amplifier's differential input, and ENAn (a
+// floating opto switch: ENA0..4 follow AnalogEna together, ENA5 follows
+// SpinEna) its enable input, wired active-high (ENAn+ to the supply, ENAn- to
+// the enable) or active-low (ENAn+ to the enable, ENAn- to ground). A
+// velocity-mode drive closes its own velocity loop around the motor; a
+// torque-mode drive turns volts into motor torque. Not a model of any one
+// drive: the few parameters a servo tuning sees.
+#pragma once
+
+#include "lbp/sim_time.hpp"
+
+namespace machine {
+
+using lbp::SimTime;
+
+enum class AmplifierMode { Velocity, Torque };
+// Which state of the ENA switch enables the drive (manual: SERVO ENABLE
+// OUTPUTS). With active-low wiring the drive runs when the 7I77 is
+// unpowered or its analog watchdog has bitten, as on a real machine so wired.
+enum class EnablePolarity { ActiveHigh, ActiveLow };
+
+struct AmplifierParameters {
+  AmplifierMode mode = AmplifierMode::Velocity;
+  double gain = 5.0;            // velocity mode: motor rev/s per volt; torque mode: Nm per volt
+  double limit = 55.0;          // saturation of the command: rev/s (velocity) or Nm (torque)
+  double deadbandVolts = 0.0;   // inputs closer to 0 V than this command nothing
+  double offsetVolts = 0.0;     // the drive's input offset, added to what the 7I77 puts out
+  double peakTorque = 7.0;      // velocity mode: Nm the drive's loop may ask of the motor
+  double bandwidthHz = 100.0;   // velocity mode: the drive's velocity loop (PI)
+  EnablePolarity enablePolarity = EnablePolarity::ActiveHigh;
+
+  bool operator==(const AmplifierParameters&) const = default;
+};
+
+class ServoAmplifier {
+ public:
+  explicit ServoAmplifier(AmplifierParameters parameters) : p_(parameters) {}
+
+  // Whether the drive is enabled, from the state of its ENA switch.
+  [[nodiscard]] bool enabled(bool enaOn) const {
+    return p_.enablePolarity == EnablePolarity::ActiveHigh ? enaOn : !enaOn;
+  }
+  // The command the drive makes of `volts` at its input: rev/s or Nm, after
+  // offset, deadband and saturation.
+  [[nodiscard]] double command(double volts) const;
+  // The motor torque (Nm) over the next `h` seconds: 0 when disabled (the
+  // velocity loop's integrator is cleared too, as a drive does when its
+  // enable drops); `inertia` is the share of the axis' inertia this motor
+  // moves (kg m^2), which scales the velocity loop to its bandwidth.
+  double torque(double volts, bool enaOn, double motorRevsPerSecond, double inertia, double h);
+
+  [[nodiscard]] const AmplifierParameters& parameters() const { return p_; }
+
+ private:
+  AmplifierParameters p_;
+  double integral_ = 0.0;  // Nm, the velocity loop's integrator
+};
+
+}  // namespace machine

@@ -1,0 +1,59 @@
+#include "machine/switches.hpp"
+
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace machine {
+
+Switches::Switches(std::vector<SwitchParameters> switches, std::vector<int> axisOf)
+    : switches_(std::move(switches)), axisOf_(std::move(axisOf)) {
+  if (axisOf_.size() != switches_.size()) throw std::invalid_argument("switches: one axis index per switch");
+  for (const auto& s : switches_)
+    if (s.input >= remote::FieldIoProcessor::kInputs)
+      throw std::invalid_argument("switch " + s.name + ": field input " + std::to_string(s.input) + " is not on the 7I77");
+  tripped_.assign(switches_.size(), 0);
+  forced_.assign(switches_.size(), 0);
+  applied_.assign(switches_.size(), 2);
+}
+
+bool Switches::setTripped(const std::string& name, bool tripped) {
+  bool found = false;
+  for (std::size_t i = 0; i < switches_.size(); ++i)
+    if (switches_[i].name == name) {
+      forced_[i] = tripped;
+      found = true;
+    }
+  return found;
+}
+
+bool Switches::on(std::size_t i) const {
+  // A closed contact gives the input field power: a tripped normally-open
+  // switch closes, a tripped normally-closed one opens.
+  const bool tripped = tripped_[i] || forced_[i];
+  return tripped != (switches_[i].contact == Contact::NormallyClosed);
+}
+
+void Switches::apply(const double* axisPositions, remote::FieldIoProcessor& io) {
+  const double field = io.fieldVoltage();
+  const bool fieldChanged = field != appliedField_;
+  appliedField_ = field;
+  for (std::size_t i = 0; i < switches_.size(); ++i) {
+    if (const int a = axisOf_[i]; a >= 0) {
+      const double pos = axisPositions[a];
+      const auto& s = switches_[i];
+      tripped_[i] = s.tripAbove ? pos >= s.position : pos <= s.position;
+    }
+    const std::uint8_t now = on(i) ? 1 : 0;
+    if (now == applied_[i] && !fieldChanged) continue;
+    applied_[i] = now;
+    io.setInputVoltage(switches_[i].input, now ? field : 0.0);
+  }
+}
+
+Switches::State Switches::state(std::size_t i) const {
+  const auto& s = switches_.at(i);
+  return State{s.name, s.kind, s.input, tripped_[i] || forced_[i], on(i)};
+}
+
+}  // namespace machine

@@ -1,0 +1,73 @@
+// The switches wired to the 7I77's field inputs (manual: FIELD
+// INPUT/OUTPUT CONNECTORS, FIELD INPUT CHARACTERISTICS, WHY SINKING INPUTS):
+// home and limit switches that trip at positions along an axis, the E-stop
+// chain, a probe. A closed contact puts field power on its input, an open
+// one leaves it at 0 V. Limits and the E-stop chain are normally closed, so
+// the input is on while all is well and a broken wire reads as tripped (the
+// manual's reason for sinking inputs: a grounded input is never "active").
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "remote/field_io.hpp"
+
+namespace machine {
+
+enum class SwitchKind { Home, MinLimit, MaxLimit, Estop, Probe, Other };
+enum class Contact { NormallyOpen, NormallyClosed };
+
+struct SwitchParameters {
+  std::string name;  // "x-home", "estop", ...
+  SwitchKind kind = SwitchKind::Other;
+  unsigned input = 0;  // field input 0..31
+  Contact contact = Contact::NormallyOpen;
+  // An axis switch trips when the axis is at or past `position` (machine
+  // units): at or above it with tripAbove, at or below it otherwise. A
+  // switch on no axis trips only when told (setTripped).
+  std::string axis;  // empty: on no axis
+  double position = 0.0;
+  bool tripAbove = true;
+
+  bool operator==(const SwitchParameters&) const = default;
+};
+
+class Switches {
+ public:
+  struct State {
+    std::string name;
+    SwitchKind kind = SwitchKind::Other;
+    unsigned input = 0;
+    bool tripped = false;  // the cam or the operator has it
+    bool inputOn = false;  // what the 7I77's terminal gets: field power or not
+    bool operator==(const State&) const = default;
+  };
+
+  // `axisOf` gives each switch's axis index (-1: none), resolved by the machine.
+  Switches(std::vector<SwitchParameters> switches, std::vector<int> axisOf);
+
+  // Trip or release a switch by hand (E-stop button, probe touch, a
+  // stuck switch); it stays so until released. False if no switch has that name.
+  bool setTripped(const std::string& name, bool tripped);
+  // Positions of every axis (machine units) -> input voltages at the field
+  // I/O processor; only inputs whose state changed (or whose field voltage
+  // did) are set again.
+  void apply(const double* axisPositions, remote::FieldIoProcessor& io);
+
+  [[nodiscard]] std::size_t size() const { return switches_.size(); }
+  [[nodiscard]] const SwitchParameters& parameters(std::size_t i) const { return switches_.at(i); }
+  [[nodiscard]] int axisOf(std::size_t i) const { return axisOf_.at(i); }
+  [[nodiscard]] State state(std::size_t i) const;
+
+ private:
+  [[nodiscard]] bool on(std::size_t i) const;
+  std::vector<SwitchParameters> switches_;
+  std::vector<int> axisOf_;
+  std::vector<std::uint8_t> tripped_;  // by position, from the last apply()
+  std::vector<std::uint8_t> forced_;   // by hand
+  std::vector<std::uint8_t> applied_;  // 0 off, 1 on, 2 never applied
+  double appliedField_ = -1.0;
+};
+
+}  // namespace machine

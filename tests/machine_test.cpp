@@ -1,0 +1,322 @@
+// The plant behind the 7I77 (issue 10): a machine on the in-process card,
+// driven through the host library at 1 kHz as LinuxCNC would drive it.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+#include "lbpkit/encoders.hpp"
+#include "machine/machine.hpp"
+#include "running_card.hpp"
+
+namespace {
+
+using namespace std::chrono_literals;
+using machine::Machine;
+
+constexpr double kCountsPerMm = 1600.0;  // mill: 2000 lines, 5 mm/rev
+constexpr double kOneCount = 1.0 / kCountsPerMm;
+
+// The in-process card, the host's view of it, and a machine behind it; one
+// cycle() is a 1 kHz servo period: outputs out, inputs and counts in, the
+// plant run to the next period, simulated time to the next period.
+struct Rig {
+  testing_host::RunningCard rc;
+  lbpkit::MuxedEncoders enc;
+  Machine m;
+  std::array<lbpkit::ElementRef, 6> aout;
+  lbpkit::ElementRef ena, spin, output, input;
+  std::array<std::int64_t, 6> countsAtStart{};
+
+  explicit Rig(machine::MachineDescription d = machine::mill())
+      : enc(rc.t, rc.info), m(std::move(d), rc.t.card(), hm2::SimTime{rc.t.now()}) {
+    enc.initialize();
+    for (unsigned i = 0; i < 6; ++i) aout[i] = rc.ss.find(1, "analogout" + std::to_string(i));
+    ena = rc.ss.find(1, "analogena");
+    spin = rc.ss.find(1, "spinena");
+    output = rc.ss.find(0, "output");
+    input = rc.ss.find(0, "input");
+    cycle();
+    for (unsigned i = 0; i < 6; ++i) countsAtStart[i] = enc.counts(i);
+  }
+  void cycle() {
+    auto& t = rc.t;
+    const auto start = t.now();
+    rc.ss.queueOutputs();
+    enc.queue();
+    t.flush();
+    ASSERT_TRUE(rc.ss.collectInputs().ok);
+    ASSERT_TRUE(enc.update());
+    m.advance(hm2::SimTime{start + 1ms});
+    t.sleep(start + 1ms - t.now());
+  }
+  // Counted position of an axis of the mill (its encoder n), in mm.
+  [[nodiscard]] double counted(unsigned n, double initial) const {
+    return initial + static_cast<double>(enc.counts(n) - countsAtStart[n]) / kCountsPerMm;
+  }
+  [[nodiscard]] bool in(unsigned i) const { return rc.ss.bit(input, i); }
+  void setVolts(unsigned ch, double v) { rc.ss.set(aout[ch], v); }
+  void setEnable(bool on) { rc.ss.setRaw(ena, on ? 1 : 0); }
+  void setOutputs(std::uint16_t bits) { rc.ss.setRaw(output, bits); }
+};
+
+double clampVolts(double v) { return std::clamp(v, -10.0, 10.0); }
+
+// A P position loop per axis on the counted positions, as a servo thread
+// closes it; the true positions settle within one encoder count.
+TEST(Machine, PLoopSettlesEveryAxisWithinOneCount) {
+  Rig r;
+  const std::array<double, 3> initial{200.0, 150.0, -75.0};
+  const std::array<double, 3> target{250.0, 120.5, -20.25};
+  constexpr double kp = 5.0;  // V per mm: 125 /s with 25 mm/s per volt
+  r.setEnable(true);
+  r.setOutputs(1U << 2);  // Z brake released
+  for (int i = 0; i < 3000; ++i) {
+    for (unsigned a = 0; a < 3; ++a) r.setVolts(a, clampVolts(kp * (target[a] - r.counted(a, initial[a]))));
+    r.cycle();
+  }
+  for (unsigned a = 0; a < 3; ++a) {
+    EXPECT_NEAR(r.m.axis(a).position(), target[a], kOneCount) << "axis " << a;
+    EXPECT_NEAR(r.counted(a, initial[a]), target[a], kOneCount) << "axis " << a;
+    EXPECT_NEAR(r.m.axis(a).velocity(), 0.0, 1e-9) << "axis " << a;
+  }
+  const auto s = r.m.state();
+  EXPECT_TRUE(s.axes[0].drives[0].enabled);
+  EXPECT_FALSE(s.axes[2].brakeEngaged);
+  EXPECT_TRUE(s.estopOk);
+}
+
+// Enables off: the amplifier gives no torque whatever the analog output
+// says, and the axis coasts to a stop on its friction.
+TEST(Machine, EnablesOffTheAxisCoastsToAStop) {
+  Rig r;
+  r.setEnable(true);
+  r.setVolts(0, 4.0);  // 100 mm/s
+  for (int i = 0; i < 300; ++i) r.cycle();
+  EXPECT_NEAR(r.m.axis(0).velocity(), 100.0, 0.5);
+  r.setEnable(false);
+  double last = r.m.axis(0).velocity(), where = r.m.axis(0).position();
+  int stoppedAt = -1;
+  for (int i = 0; i < 1000; ++i) {
+    r.cycle();
+    const double v = r.m.axis(0).velocity();
+    ASSERT_LE(v, last + 1e-12) << "cycle " << i;  // slowing down only
+    ASSERT_GE(v, 0.0);
+    if (v == 0.0 && stoppedAt < 0) stoppedAt = i;
+    last = v;
+  }
+  const auto s = r.m.state();
+  EXPECT_FALSE(s.axes[0].drives[0].enaOn);
+  EXPECT_FALSE(s.axes[0].drives[0].enabled);
+  EXPECT_EQ(s.axes[0].drives[0].torque, 0.0);
+  EXPECT_NEAR(s.axes[0].drives[0].commandVolts, 4.0, 0.01);  // the 7I77 still puts it out
+  EXPECT_GT(stoppedAt, 5);    // it coasted
+  EXPECT_LT(stoppedAt, 1000);  // and stopped
+  EXPECT_GT(r.m.axis(0).position(), where + 1.0);
+}
+
+// The host stops: 50 ms later both 7I77 watchdogs bite (manual: ANALOG
+// SECTION WATCHDOG, FIELD I/O WATCHDOG AND FAULTS); the drives lose their
+// enables, X coasts to a stop and Z's brake drops in with its output.
+TEST(Machine, WhenTheHostStopsTheWatchdogsStopTheMachine) {
+  Rig r;
+  r.setEnable(true);
+  r.setOutputs(1U << 2);
+  r.setVolts(0, 4.0);
+  for (int i = 0; i < 300; ++i) r.cycle();
+  EXPECT_GT(r.m.axis(0).velocity(), 90.0);
+  for (int i = 0; i < 40; ++i) {  // no host cycles: only time passes
+    r.m.advance(hm2::SimTime{r.rc.t.now() + 1ms});
+    r.rc.t.sleep(1ms);
+  }
+  EXPECT_TRUE(r.m.state().axes[0].drives[0].enabled);  // 40 ms: not yet
+  for (int i = 0; i < 1000; ++i) {
+    r.m.advance(hm2::SimTime{r.rc.t.now() + 1ms});
+    r.rc.t.sleep(1ms);
+  }
+  const auto s = r.m.state();
+  EXPECT_FALSE(s.axes[0].drives[0].enabled);
+  EXPECT_EQ(s.axes[0].drives[0].commandVolts, 0.0);
+  EXPECT_EQ(s.axes[0].velocity, 0.0);
+  EXPECT_TRUE(s.axes[2].brakeEngaged);
+  EXPECT_EQ(s.axes[2].velocity, 0.0);
+}
+
+// Limit and home switches change state as the axis passes them, and the
+// host sees it within a cycle or two; past the switches the axis meets its
+// hard stop.
+TEST(Machine, SwitchesTripWhereTheAxisPassesThem) {
+  auto d = machine::mill();
+  d.axes[0].initialPosition = 380.0;
+  Rig r(d);
+  EXPECT_FALSE(r.in(0));  // x-home: normally open, not yet on the cam
+  EXPECT_TRUE(r.in(1));   // x-min: normally closed, inside
+  EXPECT_TRUE(r.in(2));   // x-max
+  EXPECT_TRUE(r.in(9));   // E-stop chain closed
+  r.setEnable(true);
+  r.setVolts(0, 1.0);  // 25 mm/s
+  double homeAt = 0, maxAt = 0;
+  for (int i = 0; i < 2000 && maxAt == 0; ++i) {
+    r.cycle();
+    const double x = r.m.axis(0).position();
+    if (homeAt == 0 && r.in(0)) homeAt = x;
+    if (maxAt == 0 && !r.in(2)) maxAt = x;
+  }
+  // Seen by the host within two periods of passing (25 mm/s: 0.025 mm each).
+  EXPECT_GE(homeAt, 395.0);
+  EXPECT_LT(homeAt, 395.0 + 0.06);
+  EXPECT_GE(maxAt, 402.0);
+  EXPECT_LT(maxAt, 402.0 + 0.06);
+  const auto s = r.m.state();
+  EXPECT_TRUE(s.axes[0].switches[0].tripped);
+  EXPECT_FALSE(s.axes[0].switches[2].inputOn);
+  // On to the hard stop at 405, where the axis stops dead.
+  for (int i = 0; i < 500; ++i) r.cycle();
+  EXPECT_DOUBLE_EQ(r.m.axis(0).position(), 405.0);
+  EXPECT_TRUE(r.m.state().axes[0].atHardStop);
+  // The E-stop button opens the chain.
+  EXPECT_TRUE(r.m.setSwitch("estop", true));
+  r.cycle();
+  EXPECT_FALSE(r.in(9));
+  EXPECT_FALSE(r.m.state().estopOk);
+  EXPECT_FALSE(r.m.setSwitch("no-such-switch", true));
+}
+
+// Gravity pulls an unpowered Z down once its brake is released; the brake
+// (released only while output 2 is on) holds it.
+TEST(Machine, GravityPullsZDownAndTheBrakeHoldsIt) {
+  Rig r;
+  for (int i = 0; i < 1000; ++i) r.cycle();
+  EXPECT_DOUBLE_EQ(r.m.axis(2).position(), -75.0);  // brake holding, drives off
+  EXPECT_TRUE(r.m.state().axes[2].brakeEngaged);
+  r.setOutputs(1U << 2);  // release it
+  for (int i = 0; i < 200; ++i) r.cycle();
+  const double fell = r.m.axis(2).position();
+  EXPECT_LT(fell, -76.0);
+  EXPECT_LT(r.m.axis(2).velocity(), 0.0);
+  EXPECT_LT(r.counted(2, -75.0), -76.0);  // the encoder saw it
+  r.setOutputs(0);  // brake on again: it stops the fall and holds
+  for (int i = 0; i < 500; ++i) r.cycle();
+  const double held = r.m.axis(2).position();
+  EXPECT_EQ(r.m.axis(2).velocity(), 0.0);
+  for (int i = 0; i < 500; ++i) r.cycle();
+  EXPECT_DOUBLE_EQ(r.m.axis(2).position(), held);
+  // X and Y have no gravity and no brake: they stayed.
+  EXPECT_DOUBLE_EQ(r.m.axis(0).position(), 200.0);
+}
+
+// An axis whose count rate is past what the mux path resolves (about 2 MHz,
+// manual: MAXIMUM ENCODER COUNT RATE) loses counts; a slow one loses none.
+TEST(Machine, AnAxisFasterThanTheEncoderPathLosesCounts) {
+  auto d = machine::mill();
+  d.axes[0].drives[0].encoder.linesPerRev = 20000;  // 80000 counts/rev: 4 M counts/s at 10 V
+  Rig r(d);
+  r.setEnable(true);
+  r.setVolts(0, 10.0);
+  r.setVolts(1, -10.0);  // Y: 400 k counts/s
+  for (int i = 0; i < 100; ++i) r.cycle();
+  EXPECT_GT(std::abs(r.m.axis(0).velocity()), 200.0);
+  // Stop both (the drives' loops hold them), so the counts are read at rest.
+  r.setVolts(0, 0.0);
+  r.setVolts(1, 0.0);
+  for (int i = 0; i < 200; ++i) r.cycle();
+  const auto s = r.m.state();
+  const double trueX = s.axes[0].drives[0].trueCounts;
+  const double trueY = s.axes[1].drives[0].trueCounts - 150.0 * kCountsPerMm;
+  const auto countedX = static_cast<double>(r.enc.counts(0) - r.countsAtStart[0]) + 200.0 / 5.0 * 80000.0;
+  const auto countedY = static_cast<double>(r.enc.counts(1) - r.countsAtStart[1]);
+  EXPECT_GT(std::abs(countedX - trueX), 10000.0) << countedX << " vs " << trueX;
+  EXPECT_LT(trueY, -20000.0);
+  // The shaft between two counts: within one count of where it truly is.
+  EXPECT_NEAR(countedY, trueY, 1.0) << countedY << " vs " << trueY;
+}
+
+// The index comes once a motor revolution (every 5 mm on the mill), at the
+// same shaft angle each time: what index homing latches on.
+TEST(Machine, TheIndexComesOnceAMotorRevolution) {
+  Rig r;
+  r.setEnable(true);
+  r.setVolts(0, 0.2);  // 5 mm/s
+  std::array<double, 2> at{};
+  for (double& where : at) {
+    r.enc.enableIndex(0);
+    for (int i = 0; i < 1100 && r.enc.indexEnabled(0); ++i) r.cycle();
+    ASSERT_FALSE(r.enc.indexEnabled(0));
+    // The count was zeroed at the index: the true position less what has
+    // been counted since is where the index was.
+    where = r.m.axis(0).position() - static_cast<double>(r.enc.counts(0)) / kCountsPerMm;
+  }
+  EXPECT_NEAR(at[1] - at[0], 5.0, 2 * kOneCount);
+}
+
+// The spindle: SpinEna runs the VFD, which ramps to rpm-per-volt; its
+// encoder counts the turns.
+TEST(Machine, SpindleRampsToSpeedAndItsEncoderCounts) {
+  Rig r;
+  r.setVolts(5, 5.0);  // 12000 rpm
+  for (int i = 0; i < 100; ++i) r.cycle();
+  EXPECT_EQ(r.m.state().spindle->rpm, 0.0);  // SpinEna off
+  r.rc.ss.setRaw(r.spin, 1);
+  for (int i = 0; i < 2000; ++i) r.cycle();
+  const auto s = r.m.state();
+  EXPECT_TRUE(s.spindle->running);
+  EXPECT_NEAR(s.spindle->rpm, 12000.0, 10.0);  // DAC resolution
+  EXPECT_NEAR(r.enc.velocity(5), s.spindle->rpm / 60.0 * 1024.0, 1000.0);
+}
+
+// The same host inputs give the same machine, to the last bit.
+TEST(Machine, TwoRunsGiveIdenticalState) {
+  auto run = [] {
+    Rig r;
+    r.setEnable(true);
+    r.setOutputs(1U << 2);
+    r.rc.ss.setRaw(r.spin, 1);
+    r.setVolts(5, 3.0);
+    for (int i = 0; i < 700; ++i) {
+      r.setVolts(0, clampVolts(5.0 * (260.0 - r.counted(0, 200.0))));
+      r.setVolts(1, clampVolts(5.0 * (100.0 - r.counted(1, 150.0))));
+      r.setVolts(2, std::sin(i / 50.0));
+      r.cycle();
+    }
+    return r.m.state();
+  };
+  const auto a = run();
+  const auto b = run();
+  EXPECT_EQ(a, b);
+  EXPECT_GT(a.axes[0].position, 201.0);
+}
+
+TEST(Machine, WiringTheSevenI77DoesNotHaveIsAnError) {
+  hm2::HostMot2Card card;
+  auto d = machine::mill();
+  d.axes[0].drives[0].analogOutput = 6;
+  EXPECT_THROW(Machine(d, card), std::invalid_argument);
+  d = machine::mill();
+  d.switches[0].axis = "w";
+  EXPECT_THROW(Machine(d, card), std::invalid_argument);
+  d = machine::mill();
+  d.switches[0].input = 32;
+  EXPECT_THROW(Machine(d, card), std::invalid_argument);
+  for (const auto& good : {machine::mill(), machine::lathe(), machine::gantry()}) EXPECT_NO_THROW(Machine(good, card));
+}
+
+// The gantry: two motors on one beam, each with its own encoder.
+TEST(Machine, GantryDrivesOneAxisWithTwoMotors) {
+  Rig r(machine::gantry());
+  r.setEnable(true);
+  r.setVolts(1, 2.0);
+  r.setVolts(2, 2.0);
+  for (int i = 0; i < 500; ++i) r.cycle();
+  const auto s = r.m.state();
+  ASSERT_EQ(s.axes[1].drives.size(), 2U);
+  EXPECT_NEAR(s.axes[1].velocity, 2.0 * 5.0 * 10.0, 0.5);  // 10 mm/rev
+  EXPECT_EQ(r.enc.counts(1) - r.countsAtStart[1], r.enc.counts(2) - r.countsAtStart[2]);
+  EXPECT_GT(r.enc.counts(1) - r.countsAtStart[1], 10000);
+}
+
+}  // namespace
