@@ -312,7 +312,7 @@ struct Host {
     op("normal START 0x0903", t, regs(0x3));
 
     // Process data DOITs.
-    int bad = 0, diffs = 0;
+    int bad = 0;
     std::uint64_t sum = 0, mx = 0, mn = ~0ULL;
     std::uint32_t hash = 2166136261U;
     FILE* per = getenv("PERDOIT") ? fopen(getenv("PERDOIT"), "w") : nullptr;
@@ -334,7 +334,6 @@ struct Host {
       if (k == ndoits - 1) op("DOIT last", t, rg);
     }
     if (per) fclose(per);
-    (void)diffs;
     snprintf(buf, sizeof buf, "doits=%d failed=%d min=%.2fus mean=%.2fus max=%.2fus reghash=%08X", ndoits, bad,
              mn / 1000.0, sum / 1000.0 / ndoits, mx / 1000.0, hash);
     op("process data DOITs 0x1003", static_cast<long long>(sum), buf);
