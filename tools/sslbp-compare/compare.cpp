@@ -1,5 +1,6 @@
-// sslbp-compare: the same host sequences against Mesa's real SSLBP (version 43, Verilated by
-// /work/shared/tools/sslbp-oracle) with lbpkit's own 7I77 processors on channels 0 and 1, and
+// sslbp-compare: the same host sequences against Mesa's real SSLBP (version 43: the SSLBP sources
+// of LinuxCNC/hostmot2-firmware, sserialwa.vhd + the DumbAss8 CPU + sslbprom43.vhd, run under
+// Verilator by the external sslbp-oracle tool, not part of this repository) with lbpkit's own 7I77 processors on channels 0 and 1, and
 // against lbpkit's SSLBP model (hm2::HostMot2Card). Prints one line per host operation with the
 // registers at the command's completion and its duration; compare.py turns two such logs into
 // the table in docs/sslbp-vs-firmware.md.
@@ -39,13 +40,28 @@ struct Backend {
   virtual void idle(std::uint64_t ns) = 0;
   virtual std::uint64_t now() = 0;
   virtual void cable(int ch, bool connected) = 0;
+  virtual void fieldVoltage(double volts) = 0;  // the field I/O processor's field supply
   virtual int channels() = 0;
   virtual std::string remoteInfo() = 0;
 };
 
 // ---------------------------------------------------------------- lbpkit's model
+// Both sides: the field I/O processor's VIN from a separate 24 V supply (7I77 W1 right), so
+// dropping field power leaves it running and reporting LowVoltageFault.
+remote::FieldIoProcessor::Options fieldIoOptions() {
+  remote::FieldIoProcessor::Options o;
+  o.vinFromField = false;
+  o.vin = 24.0;
+  return o;
+}
+hm2::HostMot2Card::Options cardOptions() {
+  hm2::HostMot2Card::Options o;
+  o.first.fieldIo = fieldIoOptions();
+  return o;
+}
+
 struct LbpkitBackend : Backend {
-  hm2::HostMot2Card card;
+  hm2::HostMot2Card card{cardOptions()};
   std::int64_t t = 0;
   std::uint32_t rd(std::uint16_t a) override {
     t += 10;
@@ -64,6 +80,7 @@ struct LbpkitBackend : Backend {
   }
   std::uint64_t now() override { return static_cast<std::uint64_t>(t); }
   void cable(int ch, bool c) override { card.smartSerial().link(static_cast<unsigned>(ch)).setConnected(c); }
+  void fieldVoltage(double v) override { card.daughtercard(0).fieldIo.setFieldVoltage(v, lbp::SimTime{t}); }
   int channels() override { return static_cast<int>(card.smartSerial().channels()); }
   std::string remoteInfo() override {
     auto& d = card.daughtercard(0);
@@ -82,7 +99,7 @@ struct LbpkitBackend : Backend {
 // (SerialLink::kTurnaround, the same turnaround lbpkit's link uses).
 struct OracleBackend : Backend {
   SslbpSim s;
-  remote::FieldIoProcessor fio{remote::FieldIoProcessor::Options{}};
+  remote::FieldIoProcessor fio{fieldIoOptions()};
   remote::AnalogProcessor ana{remote::AnalogProcessor::Options{}};
   struct Pending {
     std::uint64_t due;
@@ -131,6 +148,7 @@ struct OracleBackend : Backend {
       s.tx[ch].q.clear();
     }
   }
+  void fieldVoltage(double v) override { fio.setFieldVoltage(v, lbp::SimTime{static_cast<std::int64_t>(s.now)}); }
   int channels() override { return s.ports; }
   std::string remoteInfo() override {
     char b[200];
@@ -192,9 +210,10 @@ struct Host {
     std::uint32_t hash = 2166136261U;
     std::string text;
   };
-  std::uint8_t getByte(int ch, std::uint16_t addr, Disc& d) {
+  // waitCs false: as mesaflash's sslbp_read_remote8 (CS write, DOIT at once).
+  std::uint8_t getByte(int ch, std::uint16_t addr, Disc& d, bool waitCs = true) {
     b.wr(csA(ch), 0x4C000000U | addr);
-    for (int i = 0; i < 100000 && (b.rd(csA(ch)) & 0xFF00U) != 0; ++i) b.idle(200);
+    for (int i = 0; waitCs && i < 100000 && (b.rd(csA(ch)) & 0xFF00U) != 0; ++i) b.idle(200);
     const long long t = command(0x1000U | (1U << ch));
     const auto data = b.rd(kData) & 0xFF;
     const auto v = static_cast<std::uint8_t>(b.rd(ifA(0, ch)));
@@ -207,6 +226,14 @@ struct Host {
   }
   // Walks a discovery table: 16-bit pointers up to 0, each record (type 0xA0: 14 header bytes
   // then unit and name strings; 0xB0: 4 header bytes then the name) (manual: PROCESS DATA DISCOVERY).
+  // Parameter records' names, sizes (bits) and addresses go to params.
+  struct Param {
+    std::string name;
+    int bits;
+    std::uint16_t addr;
+  };
+  std::vector<Param> params[2];
+  std::string names4C[2];  // "PTOC | GTOC" names from the first (0x4C) discovery
   void walk(int ch, std::uint16_t toc, Disc& d) {
     for (int i = 0; i < 64; ++i) {
       const std::uint16_t p = static_cast<std::uint16_t>(getByte(ch, static_cast<std::uint16_t>(toc + 2 * i), d) |
@@ -214,8 +241,9 @@ struct Host {
       if (p == 0) break;
       const std::uint8_t type = getByte(ch, p, d);
       int header = type == 0xA0 ? 14 : 4, strings = type == 0xA0 ? 2 : 1;
+      std::uint8_t h[14] = {type};
       std::uint16_t a = static_cast<std::uint16_t>(p + 1);
-      for (int k = 1; k < header; ++k) getByte(ch, a++, d);
+      for (int k = 1; k < header; ++k) h[k] = getByte(ch, a++, d);
       std::string name;
       for (int n = 0; n < 64 && strings > 0; ++n) {
         const auto c = getByte(ch, a++, d);
@@ -226,8 +254,187 @@ struct Host {
           name += static_cast<char>(c);
         }
       }
+      if (type == 0xA0 && ch < 2) params[ch].push_back({name, h[1], static_cast<std::uint16_t>(h[12] | (h[13] << 8))});
       if (!d.text.empty()) d.text += ",";
       d.text += name;
+    }
+  }
+  const Param* param(int ch, const char* name) {
+    for (const auto& p : params[ch])
+      if (p.name == name) return &p;
+    return nullptr;
+  }
+
+  // One LBP command through setup mode as lbpkit's SetupChannelAccess sends it: interface 0/1
+  // (writes), CS = header << 24 | address, DOIT, then COMMAND/DATA/CS/IF0/IF1 until COMMAND is 0.
+  struct Xfer {
+    long long t;
+    std::uint32_t data, cs;
+    std::uint64_t value;
+  };
+  Xfer lbpCmd(int ch, std::uint8_t header, std::uint16_t addr, std::uint64_t wdata = 0, bool write = false) {
+    if (write) {
+      b.wr(ifA(0, ch), static_cast<std::uint32_t>(wdata));
+      b.wr(ifA(1, ch), static_cast<std::uint32_t>(wdata >> 32));
+    }
+    b.wr(csA(ch), (static_cast<std::uint32_t>(header) << 24) | addr);
+    Xfer x{};
+    x.t = command(0x1000U | (1U << ch));
+    x.data = b.rd(kData) & 0xFF;
+    x.cs = b.rd(csA(ch));
+    x.value = b.rd(ifA(0, ch)) | (static_cast<std::uint64_t>(b.rd(ifA(1, ch))) << 32);
+    return x;
+  }
+  void xferOp(const char* name, const Xfer& x, bool showValue) {
+    char buf[256];
+    if (showValue)
+      snprintf(buf, sizeof buf, "DATA=%02X CS=%08X IF1:IF0=%016" PRIX64, x.data, x.cs, x.value);
+    else
+      snprintf(buf, sizeof buf, "DATA=%02X CS=%08X", x.data, x.cs);
+    op(name, x.t, buf);
+  }
+
+  // lbpkit's own discovery (src/host/discovery.cpp ChunkReader): aligned 8-byte reads, LBP 0x47
+  // (read, 2-byte address, 8 bytes), each chunk read once.
+  struct Chunks {
+    Host& h;
+    int ch;
+    std::vector<std::pair<std::uint16_t, std::uint64_t>> got;
+    int doits = 0, bad = 0;
+    std::uint64_t ns = 0, maxns = 0;
+    std::uint8_t byte(std::uint16_t a) {
+      const auto base = static_cast<std::uint16_t>(a & ~7U);
+      for (auto& [k, v] : got)
+        if (k == base) return static_cast<std::uint8_t>(v >> (8 * (a & 7U)));
+      const auto x = h.lbpCmd(ch, 0x47, base);
+      ++doits;
+      if (x.data != 0 || x.t < 0 || (x.cs & 0xFF) != 0) ++bad;
+      ns += static_cast<std::uint64_t>(x.t < 0 ? 0 : x.t);
+      maxns = std::max<std::uint64_t>(maxns, static_cast<std::uint64_t>(x.t));
+      got.emplace_back(base, x.value);
+      return static_cast<std::uint8_t>(x.value >> (8 * (a & 7U)));
+    }
+    std::string walk(std::uint16_t toc) {
+      std::string text;
+      for (int i = 0; i < 64; ++i) {
+        const std::uint16_t p = static_cast<std::uint16_t>(byte(static_cast<std::uint16_t>(toc + 2 * i)) |
+                                                           (byte(static_cast<std::uint16_t>(toc + 2 * i + 1)) << 8));
+        if (p == 0) break;
+        const std::uint8_t type = byte(p);
+        int strings = type == 0xA0 ? 2 : 1;
+        std::uint16_t a = static_cast<std::uint16_t>(p + (type == 0xA0 ? 14 : 4));
+        std::string name;
+        for (int n = 0; n < 64 && strings > 0; ++n) {
+          const auto c = byte(a++);
+          if (c == 0) {
+            if (--strings > 0) name.clear();
+          } else {
+            name += static_cast<char>(c);
+          }
+        }
+        if (!text.empty()) text += ",";
+        text += name;
+      }
+      return text;
+    }
+  };
+
+  // mesaflash --sserial (LinuxCNC/mesaflash sserial_module.c, sserial_module_init, not verbose):
+  // STOP ALL|RESET, STOP ALL, wait; local reads 0..7, the baud rate (4 bytes from local
+  // channel start + 42, high byte first) and the clock (0x230.., high first); then for every
+  // channel below local 1 ("width"): CS 0, setup START of that channel alone, skip it if DATA is
+  // not 0, read CS and interface 0..2, walk the PTOC (pointer and record type only) and the GTOC
+  // (record header, unit, name; SwRevision's value), one 0x4C byte read per DOIT without waiting
+  // for CS. mesaflash waits for COMMAND without a limit; here 100 ms ends the sequence.
+  // sslbp_read_remote16: the high byte first.
+  std::uint16_t remote16(int ch, std::uint16_t a, Disc& d) {
+    const std::uint8_t hi = getByte(ch, static_cast<std::uint16_t>(a + 1), d, false);
+    const std::uint8_t lo = getByte(ch, a, d, false);
+    return static_cast<std::uint16_t>(lo | (hi << 8));
+  }
+  void mesaflash() {
+    char buf[512];
+    b.wr(kCmd, 0x4800);
+    b.wr(kCmd, 0x0800);
+    const auto t0 = b.now() - 10;
+    long long t = waitcmd(t0);
+    snprintf(buf, sizeof buf, "DATA=%02X", b.rd(kData) & 0xFF);
+    op("mesaflash STOPALL|RESET,STOPALL", t, buf);
+    std::string s;
+    std::uint8_t loc[8];
+    for (int a = 0; a < 8; ++a) {
+      loc[a] = local(static_cast<std::uint16_t>(a));
+      snprintf(buf, sizeof buf, "%s%02X", a ? " " : "", loc[a]);
+      s += buf;
+    }
+    std::uint32_t baud = 0, clock = 0;
+    for (int k = 3; k >= 0; --k) baud = (baud << 8) | local(static_cast<std::uint16_t>(loc[4] + 42 + k));
+    for (int k = 3; k >= 0; --k) clock = (clock << 8) | local(static_cast<std::uint16_t>(0x230 + k));
+    snprintf(buf, sizeof buf, " | baud=%u clock=%u", baud, clock);
+    op("mesaflash local reads", -1, s + buf);
+    for (int ch = 0; ch < loc[1]; ++ch) {
+      b.wr(csA(ch), 0);
+      b.wr(kCmd, 0x0F00U | (1U << ch));
+      const auto ts = b.now() - 10;
+      t = waitcmd(ts, 100'000'000ULL);
+      const auto data = b.rd(kData) & 0xFF;
+      snprintf(buf, sizeof buf, "mesaflash setup START ch%d", ch);
+      if (t < 0) {
+        char r[128];
+        snprintf(r, sizeof r, "COMMAND still %04X after 100 ms (mesaflash waits forever)", b.rd(kCmd));
+        op(buf, t, r);
+        return;
+      }
+      const auto cs = b.rd(csA(ch));
+      const auto if0 = b.rd(ifA(0, ch)), if1 = b.rd(ifA(1, ch)), if2 = b.rd(ifA(2, ch));
+      char r[256];
+      snprintf(r, sizeof r, "DATA=%02X CS=%08X IF=%08X,%08X,%08X", data, cs, if0, if1, if2);
+      op(buf, t, r);
+      if (data != 0) continue;
+      Disc d;
+      int entries = 0;
+      for (std::uint16_t a = static_cast<std::uint16_t>(if2 & 0xFFFF);; a = static_cast<std::uint16_t>(a + 2)) {
+        const std::uint16_t p = remote16(ch, a, d);
+        if (p == 0 || ++entries > 64) break;
+        getByte(ch, p, d, false);
+      }
+      std::string names;
+      std::uint32_t swrev = 0;
+      entries = 0;
+      for (std::uint16_t a = static_cast<std::uint16_t>(if2 >> 16);; a = static_cast<std::uint16_t>(a + 2)) {
+        const std::uint16_t p = remote16(ch, a, d);
+        if (p == 0 || ++entries > 64) break;
+        const auto type = getByte(ch, p, d, false);
+        const int hdr = type == 0xA0 ? 14 : type == 0xB0 ? 4 : 0;
+        if (hdr == 0) continue;
+        std::uint8_t h[14];
+        for (int k = 0; k < hdr; ++k) h[k] = getByte(ch, static_cast<std::uint16_t>(p + k), d, false);
+        std::uint16_t q = static_cast<std::uint16_t>(p + hdr);
+        std::string unit, name;
+        if (type == 0xA0)
+          for (int n = 0; n < 48; ++n) {
+            const auto c = getByte(ch, q++, d, false);
+            if (c == 0) break;
+            unit += static_cast<char>(c);
+          }
+        for (int n = 0; n < 48; ++n) {
+          const auto c = getByte(ch, q++, d, false);
+          if (c == 0) break;
+          name += static_cast<char>(c);
+        }
+        if (type == 0xA0 && name.rfind("SwRevision", 0) == 0) {
+          const std::uint16_t pa = static_cast<std::uint16_t>(h[12] | (h[13] << 8));
+          swrev = 0;
+          for (int k = 0; k < h[1] / 8; ++k) swrev |= static_cast<std::uint32_t>(getByte(ch, static_cast<std::uint16_t>(pa + k), d, false)) << (8 * k);
+        }
+        if (!names.empty()) names += ",";
+        names += name;
+      }
+      snprintf(buf, sizeof buf, "mesaflash ch%d discovery", ch);
+      char rr[2048];
+      snprintf(rr, sizeof rr, "doits=%d failed=%d mean=%.2fus max=%.2fus hash=%08X swrev=%u | PTOC - | GTOC %s", d.doits,
+               d.bad, d.ns / 1000.0 / d.doits, d.maxns / 1000.0, d.hash, swrev, names.c_str());
+      op(buf, static_cast<long long>(d.ns), rr);
     }
   }
 
@@ -295,6 +502,7 @@ struct Host {
       const std::string ptoc = d.text;
       d.text.clear();
       walk(ch, static_cast<std::uint16_t>(if2 >> 16), d);
+      names4C[ch] = ptoc + " | GTOC " + d.text;
       snprintf(buf, sizeof buf, "ch%d discovery DOITs", ch);
       char r[2048];
       snprintf(r, sizeof r, "doits=%d failed=%d mean=%.2fus max=%.2fus hash=%08X | PTOC %s | GTOC %s", d.doits, d.bad,
@@ -347,6 +555,25 @@ struct Host {
     snprintf(buf, sizeof buf, " tx=%02X", b.rd(kData) & 0xFF);
     op("local read ch0 RX/TX size", t, s + buf + " | " + regs(0x3));
 
+    // Field power dropped: the field I/O processor raises LowVoltageFault (its fault byte in
+    // the process data); then power back.
+    b.fieldVoltage(0.0);
+    for (int k = 0; k < 3; ++k) {
+      b.wr(ifA(0, 0), 0x00FF);
+      t = command(0x1003);
+      snprintf(buf, sizeof buf, "DOIT %d field power off", k + 1);
+      op(buf, t, regs(0x3));
+    }
+    op("remotes, field power off", -1, b.remoteInfo());
+    b.fieldVoltage(24.0);
+    for (int k = 0; k < 2; ++k) {
+      b.wr(ifA(0, 0), 0x00FF);
+      t = command(0x1003);
+      snprintf(buf, sizeof buf, "DOIT %d field power back", k + 1);
+      op(buf, t, regs(0x3));
+    }
+    op("remotes, field power back", -1, b.remoteInfo());
+
     // The field I/O cable pulled mid-run.
     b.cable(0, false);
     for (int k = 0; k < 3; ++k) {
@@ -358,6 +585,48 @@ struct Host {
     t = command(0x0803);
     op("STOP 0x0803", t, regs(0x3));
     op("remotes at end", -1, b.remoteInfo());
+
+    // Parameter writes in setup mode, as lbpkit's writeElement (src/host/parameters.cpp): status
+    // read (local 0xC1), write (0x65: write, 2-byte address, 2 bytes), status read, read back (0x45).
+    b.cable(0, true);
+    b.wr(csA(0), 0);
+    b.wr(csA(1), 0);
+    t = command(0x0F03);
+    op("setup START 0x0F03 (again)", t, regs(0x3));
+    const std::uint32_t toc[2] = {b.rd(ifA(2, 0)), b.rd(ifA(2, 1))};
+    const Param* wd = param(0, "WatchDogTime");
+    const Param* sw = param(0, "SwRevision");
+    if (wd == nullptr || sw == nullptr) {
+      op("ch0 WatchDogTime/SwRevision not discovered", -1, "");
+    } else {
+      snprintf(buf, sizeof buf, "ch0 read WatchDogTime@%04X 0x45", wd->addr);
+      xferOp(buf, lbpCmd(0, 0x45, wd->addr), true);
+      xferOp("ch0 local read status 0xC1", lbpCmd(0, 0xC1, 0), true);
+      xferOp("ch0 write WatchDogTime=500 0x65", lbpCmd(0, 0x65, wd->addr, 500, true), false);
+      xferOp("ch0 local read status 0xC1", lbpCmd(0, 0xC1, 0), true);
+      xferOp("ch0 read back WatchDogTime", lbpCmd(0, 0x45, wd->addr), true);
+      xferOp("ch0 write SwRevision (read only)", lbpCmd(0, 0x65, sw->addr, 0x1234, true), false);
+      xferOp("ch0 local read status 0xC1", lbpCmd(0, 0xC1, 0), true);
+      xferOp("ch0 read back SwRevision", lbpCmd(0, 0x45, sw->addr), true);
+      xferOp("ch0 local write status 0 0xE1", lbpCmd(0, 0xE1, 0, 0, true), false);
+      xferOp("ch0 local read status 0xC1", lbpCmd(0, 0xC1, 0), true);
+    }
+
+    // lbpkit's own discovery: 8-byte reads (LBP 0x47), each aligned chunk once.
+    for (int ch = 0; ch < 2; ++ch) {
+      Chunks c{*this, ch};
+      const std::string ptoc = c.walk(static_cast<std::uint16_t>(toc[ch] & 0xFFFF));
+      const std::string names = ptoc + " | GTOC " + c.walk(static_cast<std::uint16_t>(toc[ch] >> 16));
+      snprintf(buf, sizeof buf, "ch%d lbpkit discovery 0x47", ch);
+      char r[2048];
+      snprintf(r, sizeof r, "doits=%d failed=%d mean=%.2fus max=%.2fus same-as-0x4C=%s | PTOC %s", c.doits, c.bad,
+               c.ns / 1000.0 / c.doits, c.maxns / 1000.0, names == names4C[ch] ? "yes" : "NO", names.c_str());
+      op(buf, static_cast<long long>(c.ns), r);
+    }
+    op("after lbpkit discovery", -1, regs(0x3));
+
+    mesaflash();
+    op("remotes after mesaflash", -1, b.remoteInfo());
   }
 };
 
