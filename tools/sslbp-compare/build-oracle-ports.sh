@@ -1,15 +1,17 @@
 #!/bin/bash
-# Adds a build of the real SSLBP with another channel count to an oracle build directory made by
-# /work/shared/tools/sslbp-oracle/reproduce.sh (which builds 6 channels): a 7I92 with one 7I77
-# has 3 SSerial channels, and local parameter 7 and local 0x234 report the hardware's count.
-#   tools/sslbp-compare/build-oracle-ports.sh ORACLE_BUILD_DIR [PORTS=3]
-# Verilator only (GHDL synthesis -> Verilog -> Verilator), about 1-2 minutes; result in
-# ORACLE_BUILD_DIR/vl/obj_pPORTS. Uses the oracle's own scripts and unmodified sources.
+# Adds a build of the real SSLBP with another channel count to ORACLE_DIR, a build of the external
+# sslbp-oracle tool (Mesa's SSLBP sources from LinuxCNC/hostmot2-firmware — sserialwa.vhd, the
+# DumbAss8 CPU, sslbprom43.vhd — under Verilator; not part of this repository), which builds 6
+# channels: a 7I92 with one 7I77 has 3 SSerial channels, and local parameter 7 and local 0x234
+# report the hardware's count.
+#   tools/sslbp-compare/build-oracle-ports.sh ORACLE_DIR [PORTS=3]
+# GHDL synthesis -> Verilog -> Verilator, about 1-2 minutes; result in ORACLE_DIR/vl/obj_pPORTS.
+# Uses the oracle's own scripts (prep_synth.py, fix_pmux.py) and its unmodified sources.
 set -euo pipefail
-ORACLE=$(cd "${1:?usage: build-oracle-ports.sh ORACLE_BUILD_DIR [PORTS]}" && pwd)
+ORACLE=$(cd "${1:?usage: build-oracle-ports.sh ORACLE_DIR [PORTS]}" && pwd)
 PORTS=${2:-3}
 cd "$ORACLE"
-[ -s src/sslbprom43.vhd ] || { echo "$ORACLE is not an oracle build directory (no src/sslbprom43.vhd)"; exit 1; }
+[ -s src/sslbprom43.vhd ] || { echo "$ORACLE is not an sslbp-oracle build (no src/sslbprom43.vhd)"; exit 1; }
 S=synth_p$PORTS
 python3 prep_synth.py src "$S"
 cp tb/srl16e_sim.vhd "$S"/

@@ -1,16 +1,18 @@
 #!/bin/bash
-# Builds sslbp_compare: lbpkit's 7I77 processors against Mesa's real SSLBP 43 (Verilated by
-# /work/shared/tools/sslbp-oracle) and against lbpkit's own SSLBP model.
-#   tools/sslbp-compare/build.sh ORACLE_BUILD_DIR [LBPKIT_BUILD_DIR] [OUT_DIR]
-# ORACLE_BUILD_DIR: where `reproduce.sh ORACLE_BUILD_DIR` built the oracle (vl/obj_p6), or where
-# build-oracle-ports.sh built a variant with another channel count (vl/obj_pN); PORTS=N picks it
-# (default: 3 if vl/obj_p3 exists, else 6).
+# Builds sslbp_compare: lbpkit's 7I77 processors against Mesa's real SSLBP 43 (Verilated by the
+# external sslbp-oracle tool) and against lbpkit's own SSLBP model.
+#   tools/sslbp-compare/build.sh ORACLE_DIR [LBPKIT_BUILD_DIR] [OUT_DIR]
+# ORACLE_DIR: a build of the sslbp-oracle tool — Mesa's SSLBP sources from LinuxCNC/hostmot2-firmware
+# (sserialwa.vhd, the DumbAss8 CPU, sslbprom43.vhd) run under Verilator; not part of this repository.
+# It holds vl/sslbp_vsim.h and the Verilated model vl/obj_p6 (6 channels), and vl/obj_pN once
+# build-oracle-ports.sh made another channel count; PORTS=N picks it (default: 3 if vl/obj_p3
+# exists, else 6).
 # LBPKIT_BUILD_DIR: a product build dir with liblbpkit_models.a (default build/hH).
 # Not part of the product's build: nothing here is built by CMakeLists.txt or scripts/test.
 set -euo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/../.." && pwd)
-ORACLE=${1:?usage: build.sh ORACLE_BUILD_DIR [LBPKIT_BUILD_DIR] [OUT_DIR]}
+ORACLE=${1:?usage: build.sh ORACLE_DIR [LBPKIT_BUILD_DIR] [OUT_DIR]}
 LBP=${2:-$ROOT/build/hH}
 OUT=${3:-$ORACLE}
 if [ -z "${PORTS:-}" ]; then if [ -d "$ORACLE/vl/obj_p3" ]; then PORTS=3; else PORTS=6; fi; fi

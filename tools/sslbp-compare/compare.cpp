@@ -359,7 +359,7 @@ struct Host {
     const auto t0 = b.now() - 10;
     long long t = waitcmd(t0);
     snprintf(buf, sizeof buf, "DATA=%02X", b.rd(kData) & 0xFF);
-    op("mesaflash STOPALL|RESET,STOPALL", t, buf);
+    op("mesaflash STOPALL+RESET, STOPALL", t, buf);
     std::string s;
     std::uint8_t loc[8];
     for (int a = 0; a < 8; ++a) {
@@ -624,6 +624,11 @@ struct Host {
       op(buf, static_cast<long long>(c.ns), r);
     }
     op("after lbpkit discovery", -1, regs(0x3));
+    // Does STOP ALL (no reset) clear the fault byte left in CS byte 3?
+    t = command(0x0800);
+    op("STOP ALL", t, regs(0x3));
+    b.idle(100000);
+    op("100 us after STOP ALL", -1, regs(0x3));
 
     mesaflash();
     op("remotes after mesaflash", -1, b.remoteInfo());

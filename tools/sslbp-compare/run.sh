@@ -1,12 +1,13 @@
 #!/bin/bash
 # Regenerates the comparison in docs/sslbp-vs-firmware.md:
-#   /work/shared/tools/sslbp-oracle/reproduce.sh /tmp/sslbp-oracle     # the oracle, 6 channels (2-5 min)
-#   tools/sslbp-compare/build-oracle-ports.sh /tmp/sslbp-oracle 3      # + 3 channels, as on a 7I92 with one 7I77
-#   tools/sslbp-compare/run.sh /tmp/sslbp-oracle [LBPKIT_BUILD_DIR]    # builds, runs (about 30 s), prints the table
-# Logs go to ORACLE_BUILD_DIR/compare/.
+#   tools/sslbp-compare/build-oracle-ports.sh ORACLE_DIR 3       # + 3 channels, as on a 7I92 with one 7I77
+#   tools/sslbp-compare/run.sh ORACLE_DIR [LBPKIT_BUILD_DIR]     # builds, runs (about 3 min), prints the table
+# ORACLE_DIR: a build of the external sslbp-oracle tool (Mesa's SSLBP 43 sources from
+# LinuxCNC/hostmot2-firmware under Verilator; not part of this repository; see README.md).
+# Logs go to ORACLE_DIR/compare/.
 set -euo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd)
-ORACLE=$(cd "${1:?usage: run.sh ORACLE_BUILD_DIR [LBPKIT_BUILD_DIR]}" && pwd)
+ORACLE=$(cd "${1:?usage: run.sh ORACLE_DIR [LBPKIT_BUILD_DIR]}" && pwd)
 LBP=${2:-$HERE/../../build/hH}
 OUT=$ORACLE/compare
 mkdir -p "$OUT"
