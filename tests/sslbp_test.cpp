@@ -583,4 +583,70 @@ TEST(Sslbp, BothProcessorsStartAndRunAsWithFirmware43) {
   EXPECT_EQ(h.read(CardHost::cs(kAnalog)), 0x00420000U);
 }
 
+// The remote's fault byte in CS byte 3 (manual: CS REGISTER AFTER DOIT) is left by SSLBP 43's stop
+// and channel init, which rewrite CS bytes 2..0 only; only the reset clears it.
+TEST(Sslbp, RemoteFaultByteSurvivesStopAndStartAsInFirmware43) {
+  hm2::HostMot2Card::Options o;
+  o.first.fieldIo.vinFromField = false;  // VIN from a separate 24 V supply, as in the comparison
+  o.first.fieldIo.vin = 24;
+  hm2::HostMot2Card card(o);
+  CardHost h{card};
+  h.accessTime = SimTime{20};
+  auto& io = card.daughtercard(0).fieldIo;
+  h.command(cmd::kStop);
+  h.write(CardHost::cs(kFieldIo), 0);
+  h.write(CardHost::cs(kAnalog), 0);
+  ASSERT_EQ(h.command(cmd::kStart | 0x03), 0);
+  ASSERT_EQ(h.command(cmd::kDoit | 0x03), 0);
+  // Field power dropped: LowVoltageFault, CS 0x20422140 with DATA 0 (firmware and lbpkit).
+  io.setFieldVoltage(2.0, h.now);
+  for (int k = 0; k < 100 && (h.read(CardHost::cs(kFieldIo)) >> 24) == 0; ++k) {
+    h.wait(1ms);
+    ASSERT_EQ(h.command(cmd::kDoit | 0x03), 0);
+  }
+  ASSERT_EQ(h.read(CardHost::cs(kFieldIo)), 0x20422140U);
+  io.setFieldVoltage(24.0, h.now);  // power back; the remote keeps the fault latched
+  // STOP 0x0803: firmware CS 0x2000C100.
+  EXPECT_EQ(h.command(cmd::kStop | 0x03), 0U);
+  EXPECT_EQ(h.read(CardHost::cs(kFieldIo)), 0x2000C100U);
+  // SETUP START 0x0F03 and every setup-mode LBP command after it: firmware CS 0x20400000.
+  h.write(CardHost::cs(kFieldIo), 0);
+  h.write(CardHost::cs(kAnalog), 0);
+  ASSERT_EQ(h.command(cmd::kSetupStart | 0x03), 0);
+  EXPECT_EQ(h.read(CardHost::cs(kFieldIo)), 0x20400000U);
+  h.remote(kFieldIo, 0x4C, 0x0694);  // one-byte read of the PTOC, as LinuxCNC's discovery does
+  EXPECT_EQ(h.read(CardHost::cs(kFieldIo)), 0x20400000U);
+  h.remote(kFieldIo, 0x47, 0x0694);  // lbpkit's 8-byte read
+  EXPECT_EQ(h.read(CardHost::cs(kFieldIo)), 0x20400000U);
+  // STOP ALL 0x0800, 100 us later: firmware CS 0x2000C100.
+  h.command(cmd::kStop);
+  h.wait(100us);
+  EXPECT_EQ(h.read(CardHost::cs(kFieldIo)), 0x2000C100U);
+  // mesaflash's reset (0x4800, then STOP ALL) clears it: SETUP START of channel 0, CS 0x00400000.
+  h.write(SmartSerial::kCommand, cmd::kReset | cmd::kStop);
+  h.write(SmartSerial::kCommand, cmd::kStop);
+  ASSERT_GE(waitPolled(h).count(), 0);
+  h.write(CardHost::cs(kFieldIo), 0);
+  ASSERT_EQ(h.command(cmd::kSetupStart | 0x01), 0);
+  EXPECT_EQ(h.read(CardHost::cs(kFieldIo)), 0x00400000U);
+}
+
+// START of channels the hardware does not have (mesaflash starts channels 0..7 on a 3-channel
+// SSLBP): DATA is the channel's bit, after the divisor computation the firmware runs before its
+// channel check (SSLBP 43: 18.3-18.5 us).
+TEST(Sslbp, StartOfAMissingChannelTakesAsLongAsFirmware43) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  h.accessTime = SimTime{20};
+  h.command(cmd::kStop);
+  for (unsigned ch = 3; ch < 8; ++ch) {
+    for (const auto start : {cmd::kSetupStart, cmd::kStart}) {
+      h.write(SmartSerial::kCommand, start | (1U << ch));
+      const SimTime t = waitPolled(h);
+      EXPECT_NEAR(us(t), 18.4, 0.15) << "us, channel " << ch;
+      EXPECT_EQ(h.read(SmartSerial::kData), 1U << ch);
+    }
+  }
+}
+
 }  // namespace

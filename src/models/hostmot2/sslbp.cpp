@@ -25,6 +25,11 @@ constexpr unsigned kSetupStartTicks = 6;
 // timer divisor first (measured on SSLBP 43: first request 1.42 ms after a
 // SETUP START).
 constexpr SimTime kStartLatency = SimTime{18'000};
+// A START that starts no channel (e.g. channels 3..7 on a 3-channel SSLBP, as
+// mesaflash's loop to local 1 asks for) still runs that divisor computation
+// before the firmware's channel check: SSLBP 43 completes it 18.3-18.5 us after
+// the command (18.29 us as the comparison's host polls).
+constexpr SimTime kNoChannelStart = SimTime{18'400};
 // STOP ALL: the global init's time, per channel and fixed (measured on SSLBP 43).
 constexpr SimTime kUartInit = SimTime{15'180};
 constexpr SimTime kStopAllBase = SimTime{1'350};
@@ -175,7 +180,14 @@ WriteResult SmartSerial::write(std::uint16_t address, std::uint32_t value, SimTi
       inReset_ = true;
       command_ = cmd;
       busy_ = Busy::Idle;
-      for (unsigned i = 0; i < channelCount_; ++i) initChannel(channels_[i]);
+      // The reset (LinuxCNC's 0x4000, mesaflash's 0x4800) reruns initmem,
+      // which clears the firmware's RAM: the only thing that clears the
+      // remote's fault byte in CS byte 3 (SSLBP 43: CS 0x00400000 at the next
+      // setup START after a LowVoltageFault; see initChannel).
+      for (unsigned i = 0; i < channelCount_; ++i) {
+        initChannel(channels_[i]);
+        channels_[i].remoteFault = 0;
+      }
       return WriteResult::Accepted;
     }
     if (inReset_) {
@@ -281,7 +293,10 @@ void SmartSerial::initChannel(Channel& c) {
   c.status = 0xC1;
   c.errorLog = 0;
   c.state = 0;
-  c.remoteFault = 0;
+  // CS byte 3, the remote's fault byte, is left alone: the firmware's stop and
+  // channel init rewrite CS bytes 2..0 only (SSLBP 43 after a LowVoltageFault:
+  // CS 0x2000C100 after STOP 0x0803 and after STOP ALL, 0x20400000 after the
+  // next SETUP START). Only the reset clears it (write(), command::kReset).
   c.errorCounts.fill(0);
   c.ready = c.startPending = c.requested = c.invalid = c.doitSeen = c.leftover = false;
   c.scheduled = false;
@@ -313,6 +328,8 @@ void SmartSerial::startChannels(std::uint8_t mask, Mode mode, SimTime now) {
     schedule(c, loaded + kPass);
   }
   checkCommandDone(now);
+  // Nothing to start: the command still took the divisor computation.
+  if (busy_ == Busy::Immediate) immediateDone_ = now + kNoChannelStart;
 }
 
 void SmartSerial::doit(std::uint8_t mask, SimTime now) {
@@ -686,9 +703,13 @@ void SmartSerial::startSequence(unsigned index, SimTime now) {
       if (c.reply[0] != 0) return sendStartRow(c, row, now);
       break;
     case OnReply::FaultsClear:
+      // The fault byte read here goes to CS byte 3, replacing one left from
+      // before the STOP (STOP no longer clears it), so a normal START whose
+      // remote reads no fault shows 0 there as before. Not covered by the
+      // SSLBP 43 comparison rows (docs/sslbp-vs-firmware.md).
+      c.remoteFault = c.reply[0];
       if (c.reply[0] != 0) {
         // Faults that do not clear: report them and keep asking until too many.
-        c.remoteFault = c.reply[0];
         setError(c, cs::kRemoteFault, kRemFault);
         if (c.errorLog & cs::kTooManyErrors) return restart(c, now);
         return sendStartRow(c, row, now);
