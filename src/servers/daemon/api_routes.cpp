@@ -103,7 +103,7 @@ constexpr std::uint64_t kMaxCountsPerRev = std::uint64_t{1} << 31;
 constexpr double kMaxSpeed = 10000;
 constexpr double kMaxStepMs = 60000;
 
-using Route = std::function<SimState(const json&)>;
+using Route = std::function<std::string(const json&)>;
 
 void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner& run) {
   auto handle = [run](Route route) {
@@ -111,7 +111,7 @@ void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner
       try {
         // The job owns what it needs: if it outlives this request (a timeout),
         // nothing it touches has gone away.
-        res.set_content(stateJson(run([route, j = body(req)] { return route(j); })), "application/json");
+        res.set_content(run([route, j = body(req)] { return route(j); }), "application/json");
       } catch (const std::invalid_argument& e) {
         res.status = 400;
         res.set_content(json{{"error", e.what()}}.dump(), "application/json");
@@ -124,14 +124,14 @@ void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner
   // Each route holds a copy of the target (references and the state
   // function), so a job stays valid whichever request it came from. Changes
   // happen at the card's own time (it may lag the clock while it catches up).
-  http.Get("/api/state", handle([t](const json&) { return t.state(); }));
+  http.Get("/api/state", handle([t](const json&) { return t.stateJson(); }));
   http.Post("/api/input", handle([t](const json& j) {
               auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
               const auto n = index(j, "input", remote::FieldIoProcessor::kInputs);
               const double v = j.contains("volts") ? number(j, "volts", 0, kMaxVolts, kVoltsRange)
                                                    : (flag(j, "on") ? io.fieldVoltage() : 0.0);
               io.setInputVoltage(n, v);
-              return t.state();
+              return t.stateJson();
             }));
   http.Post("/api/field", handle([t](const json& j) {
               auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
@@ -141,7 +141,7 @@ void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner
               const double w = vin ? number(j, "vin", 0, kMaxVolts, kVoltsRange) : 0;
               if (volts) io.setFieldVoltage(v, t.card.now());
               if (vin) io.setVin(w, t.card.now());
-              return t.state();
+              return t.stateJson();
             }));
   http.Post("/api/encoder", handle([t](const json& j) {
               const auto d = connector(j, t.card);
@@ -158,12 +158,12 @@ void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner
               auto& enc = t.card.encoders();
               if (cpr) enc.setIndexPeriod(n, static_cast<std::uint32_t>(c));
               if (vel) enc.setVelocity(n, v, t.card.now());
-              return t.state();
+              return t.stateJson();
             }));
   http.Post("/api/cable", handle([t](const json& j) {
               const auto ch = index(j, "channel", t.card.smartSerial().channels());
               t.card.smartSerial().link(ch).setConnected(flag(j, "connected"));
-              return t.state();
+              return t.stateJson();
             }));
   http.Post("/api/output", handle([t](const json& j) {
               auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
@@ -177,12 +177,12 @@ void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner
                                           "for a short)",
                                           kMaxOhms));
               io.setOutputLoad(n, ohms);
-              return t.state();
+              return t.stateJson();
             }));
   http.Post("/api/overtemp", handle([t](const json& j) {
               auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
               io.setDriverOverTemperature(index(j, "chip", remote::FieldIoProcessor::kChips), flag(j, "hot"));
-              return t.state();
+              return t.stateJson();
             }));
   http.Post("/api/time", handle([t](const json& j) {
               const double speed =
@@ -193,7 +193,7 @@ void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner
               const double step = j.contains("step_ms") ? number(j, "step_ms", 0, kMaxStepMs, "from 0 to 60000") : 0;
               t.clock.set(speed, flag(j, "paused", t.clock.paused()));
               if (step > 0) t.clock.advanceBy(lbp::SimTime{static_cast<std::int64_t>(step * 1e6)});
-              return t.state();
+              return t.stateJson();
             }));
 }
 

@@ -15,7 +15,6 @@
 #include <string>
 
 #include "daemon/sim_clock.hpp"
-#include "daemon/state_json.hpp"
 #include "hostmot2/card.hpp"
 
 namespace net {
@@ -45,18 +44,15 @@ struct ApiOptions {
 struct ApiTarget {
   hm2::HostMot2Card& card;  // card.now(): the simulated time everything happens at
   SimClock& clock;
-  // The answer to every successful call: a snapshot of the whole state,
-  // taken on the card thread; it becomes JSON on the API's own thread, so
-  // the card thread is never held up serialising it (a host's next
-  // datagram waits for nothing but the card).
-  std::function<SimState()> state;
+  // The answer to every successful call: the whole state as JSON.
+  std::function<std::string()> stateJson;
 };
 
 // Runs a job on the card thread and returns its result. What the job throws
 // comes back as is (std::invalid_argument: a bad request); it throws
 // std::runtime_error when the card thread does not get to it in time or the
 // sim is stopping.
-using CardThreadRunner = std::function<SimState(std::function<SimState()>)>;
+using CardThreadRunner = std::function<std::string(std::function<std::string()>)>;
 
 class ControlApi {
  public:

@@ -46,8 +46,8 @@ SimDaemon::SimDaemon(SimOptions options)
   api.address = options_.apiAddress;
   api.port = options_.apiPort;
   api.token = options_.apiToken;
-  api_ = std::make_unique<ControlApi>(api, ApiTarget{card_, clock_, [this] { return state(); }},
-                                      [this](std::function<SimState()> job) { return runJob(std::move(job)); });
+  api_ = std::make_unique<ControlApi>(api, ApiTarget{card_, clock_, [this] { return stateJson(); }},
+                                      [this](std::function<std::string()> job) { return runJob(std::move(job)); });
   apiPort_ = api_->port();
 }
 
@@ -131,8 +131,8 @@ std::string SimDaemon::banner() const {
   return s;
 }
 
-SimState SimDaemon::runJob(std::function<SimState()> job) {
-  std::packaged_task<SimState()> task(std::move(job));
+std::string SimDaemon::runJob(std::function<std::string()> job) {
+  std::packaged_task<std::string()> task(std::move(job));
   auto result = task.get_future();
   {
     std::lock_guard<std::mutex> lock(jobsMutex_);
@@ -147,7 +147,7 @@ SimState SimDaemon::runJob(std::function<SimState()> job) {
 void SimDaemon::drainJobs() {
   // Never wait for the API threads: if they hold the lock, try next time.
   // The jobs run with the lock released, so API threads never wait on them.
-  std::deque<std::packaged_task<SimState()>> ready;
+  std::deque<std::packaged_task<std::string()>> ready;
   {
     std::unique_lock<std::mutex> lock(jobsMutex_, std::try_to_lock);
     if (!lock.owns_lock() || jobs_.empty()) return;
@@ -252,7 +252,7 @@ void SimDaemon::run(const std::atomic<bool>& stop) {
   // No job is taken after this one last round: the API's threads get their
   // answers (or "stopping") at once instead of waiting for a thread that is
   // gone.
-  std::deque<std::packaged_task<SimState()>> last;
+  std::deque<std::packaged_task<std::string()>> last;
   {
     std::lock_guard<std::mutex> lock(jobsMutex_);
     jobsClosed_ = true;

@@ -71,7 +71,7 @@ class SimDaemon {
   [[nodiscard]] std::string latencySummary() const;
 
  private:
-  SimState runJob(std::function<SimState()> job);
+  std::string runJob(std::function<std::string()> job);
   void drainJobs();
   // Brings the card up to the clock, with bounded work (SimClock::catchUp);
   // returns the card's time, the time everything happens at.
@@ -87,7 +87,7 @@ class SimDaemon {
   std::string schedule_ = "normal scheduling";
   bool macFromInterface_ = false;
   std::mutex jobsMutex_;
-  std::deque<std::packaged_task<SimState()>> jobs_;
+  std::deque<std::packaged_task<std::string()>> jobs_;
   bool jobsClosed_ = false;  // the card thread has stopped: no job would run
   // Server-side time per datagram: from the kernel's receive
   // timestamp to the reply sent (latency_), and of that the time it queued
