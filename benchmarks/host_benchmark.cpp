@@ -2,6 +2,7 @@
 // through the in-process card, and how many DOITs a full discovery takes.
 #include <benchmark/benchmark.h>
 
+#include "running_card.hpp"
 #include "sim_card/sim_transport.hpp"
 #include "lbpkit/sserial.hpp"
 
@@ -13,13 +14,9 @@ using namespace std::chrono_literals;
 // does for the 7I77 per period. The time includes the simulated card and
 // remotes answering in process (no wire, no kernel).
 void BM_FullCycle(benchmark::State& state) {
-  lbpkit::SimTransport t;
-  const auto info = lbpkit::readCardInfo(t);
-  lbpkit::SmartSerial::Options o;
-  o.channelMask = 0x03;
-  lbpkit::SmartSerial ss(t, info, o);
-  ss.discover(0x03);
-  ss.startNormal();
+  testing_host::RunningCard rc;  // both 7I77 channels discovered and started
+  auto& t = rc.t;
+  auto& ss = rc.ss;
   const auto output = ss.find(0, "output");
   const auto input = ss.find(0, "input");
   std::array<lbpkit::ElementRef, 6> aout;

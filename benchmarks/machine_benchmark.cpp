@@ -15,7 +15,7 @@
 #include "lbpkit/encoders.hpp"
 #include "lbpkit/sserial.hpp"
 #include "machine/machine.hpp"
-#include "sim_card/sim_transport.hpp"
+#include "running_card.hpp"
 
 namespace {
 
@@ -24,14 +24,10 @@ using namespace std::chrono_literals;
 void BM_MillClosedLoop(benchmark::State& state) {
   auto d = machine::mill();
   d.step = std::chrono::microseconds(state.range(0));
-  lbpkit::SimTransport t;
-  const auto info = lbpkit::readCardInfo(t);
-  lbpkit::SmartSerial::Options o;
-  o.channelMask = 0x03;
-  lbpkit::SmartSerial ss(t, info, o);
-  ss.discover(0x03);
-  ss.startNormal();
-  lbpkit::MuxedEncoders enc(t, info);
+  testing_host::RunningCard rc;  // both 7I77 channels discovered and started
+  auto& t = rc.t;
+  auto& ss = rc.ss;
+  lbpkit::MuxedEncoders enc(t, rc.info);
   enc.initialize();
   machine::Machine m(d, t.card(), hm2::SimTime{t.now()});
   std::array<lbpkit::ElementRef, 6> aout;
