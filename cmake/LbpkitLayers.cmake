@@ -9,7 +9,8 @@
 #   lbpkit_wire          nothing of ours
 #   lbpkit_host          lbpkit_wire                 (fmt PRIVATE; its public headers use neither)
 #   lbpkit_models        lbpkit_wire                 (never lbpkit_host)
-#   lbpkit_servers       lbpkit_models (+ wire through it; never lbpkit_host or the adapters)
+#   lbpkit_config        lbpkit_models (+ wire)      (toml++ PUBLIC; never host, servers or adapters)
+#   lbpkit_servers       lbpkit_models (+ wire through it; never lbpkit_host, config or the adapters)
 #   lbpkit_sim_adapter   lbpkit_host, lbpkit_models
 # This function fails the configure step when a target links another
 # lbpkit_* library outside that list, or names an include folder under src/
@@ -19,11 +20,12 @@ function(lbpkit_check_layer_links)
   set(allowed_lbpkit_wire "")
   set(allowed_lbpkit_host lbpkit_wire)
   set(allowed_lbpkit_models lbpkit_wire)
+  set(allowed_lbpkit_config lbpkit_models lbpkit_wire)
   set(allowed_lbpkit_servers lbpkit_models lbpkit_wire)
   set(allowed_lbpkit_sim_adapter lbpkit_host lbpkit_models lbpkit_wire)
   set(src_root ${PROJECT_SOURCE_DIR}/src)
   set(apps_root ${PROJECT_SOURCE_DIR}/apps)
-  foreach(target lbpkit_wire lbpkit_host lbpkit_models lbpkit_servers lbpkit_sim_adapter)
+  foreach(target lbpkit_wire lbpkit_host lbpkit_models lbpkit_config lbpkit_servers lbpkit_sim_adapter)
     if(NOT TARGET ${target})
       message(FATAL_ERROR "layer rules: target ${target} is gone; update cmake/LbpkitLayers.cmake")
     endif()

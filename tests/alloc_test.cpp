@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cstdlib>
 #include <new>
+#include <vector>
 
 #include "hostmot2/card.hpp"
 #include "lbpkit/encoders.hpp"
@@ -12,7 +13,9 @@
 #include "lbpkit/sserial.hpp"
 #include "lbp16/lbp16_card.hpp"
 #include "lbpkit/lbp16_transport.hpp"
+#include "daemon/trace_ring.hpp"
 #include "lossy_udp_card.hpp"
+#include "machine/machine.hpp"
 #include "running_card.hpp"
 
 namespace {
@@ -111,6 +114,39 @@ TEST(RealTime, TheUdpCycleThatLosesItsReplyDoesNotAllocate) {
   EXPECT_GE(t.linkCounters().lostReplies, 6U);
   EXPECT_GE(t.linkCounters().discarded, 1U);
   ss.stopAll();
+}
+
+// The machine is stepped on the card thread, a trace row taken at every
+// host cycle (lbpkit sim --machine): neither allocates, axes moving,
+// encoders counting, the spindle turning, a push under way.
+TEST(RealTime, TheMachineAndItsTraceDoNotAllocate) {
+  testing_host::RunningCard rc;
+  auto& t = rc.t;
+  auto& ss = rc.ss;
+  machine::Machine m(machine::mill(), t.card(), hm2::SimTime{t.now()});
+  net::TraceRing ring(m.traceColumns(), 100);
+  std::vector<double> row(ring.width());
+  ss.setRaw(ss.find(1, "analogena"), 1);
+  ss.setRaw(ss.find(1, "spinena"), 1);
+  ss.setRaw(ss.find(0, "output"), 1U << 2);  // Z's brake released
+  const auto a0 = ss.find(1, "analogout0");
+  ss.set(ss.find(1, "analogout5"), 3.0);
+  m.push(1, 50.0, 20.0);  // 2.5 s
+  auto cycle = [&](int i) {
+    ss.set(a0, (i % 400) < 200 ? 2.0 : -2.0);
+    ASSERT_TRUE(ss.cycle().ok);
+    m.advance(hm2::SimTime{t.now() + 1ms});
+    m.traceRow(row);
+    ring.push(row);
+    t.sleep(1ms);
+  };
+  for (int i = 0; i < 10; ++i) cycle(i);  // warm up
+  const auto before = gAllocations.load();
+  for (int i = 0; i < 1000; ++i) cycle(i);
+  EXPECT_EQ(gAllocations.load() - before, 0U);
+  EXPECT_TRUE(m.axis(1).pushing());
+  EXPECT_GT(m.state().spindle->rpm, 1000.0);
+  EXPECT_NE(m.axis(0).position(), 200.0);
 }
 
 TEST(RealTime, TheLbp16DatagramPathDoesNotAllocate) {

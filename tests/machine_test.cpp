@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "lbpkit/encoders.hpp"
 #include "machine/machine.hpp"
@@ -317,6 +318,195 @@ TEST(Machine, GantryDrivesOneAxisWithTwoMotors) {
   EXPECT_NEAR(s.axes[1].velocity, 2.0 * 5.0 * 10.0, 0.5);  // 10 mm/rev
   EXPECT_EQ(r.enc.counts(1) - r.countsAtStart[1], r.enc.counts(2) - r.countsAtStart[2]);
   EXPECT_GT(r.enc.counts(1) - r.countsAtStart[1], 10000);
+}
+
+// An outside force pushes the axis whatever its motor does: the encoder
+// counts the motion, and the amplifier's following error shows it.
+TEST(MachineFaults, APushMovesTheAxisWhateverTheMotorDoes) {
+  Rig r;
+  r.setEnable(true);  // X held at zero speed by its drive's velocity loop
+  for (int i = 0; i < 50; ++i) r.cycle();
+  EXPECT_EQ(r.m.followingError(0), 0.0);
+  r.m.push(0, 3.0, 20.0);  // 150 ms
+  for (int i = 0; i < 100; ++i) r.cycle();
+  auto s = r.m.state();
+  EXPECT_TRUE(s.axes[0].pushing);
+  EXPECT_NEAR(s.axes[0].velocity, 20.0, 1e-9);
+  EXPECT_NEAR(r.m.axis(0).position(), 202.0, 0.001);
+  for (int i = 0; i < 51; ++i) r.cycle();
+  s = r.m.state();
+  EXPECT_FALSE(s.axes[0].pushing);
+  // Let go, the drive (its loop wound up against the push) pulls back a little.
+  EXPECT_NEAR(s.axes[0].position, 203.0, 0.01);
+  // It was asked for zero speed all along: it is 3 mm off where it was told to be.
+  EXPECT_NEAR(s.axes[0].followingError, 200.0 - s.axes[0].position, 1e-9);
+  EXPECT_LT(s.axes[0].followingError, -2.99);
+  r.setEnable(false);  // coasts to rest: counted where it is
+  for (int i = 0; i < 100; ++i) r.cycle();
+  EXPECT_EQ(r.m.axis(0).velocity(), 0.0);
+  EXPECT_NEAR(r.counted(0, 200.0), r.m.axis(0).position(), kOneCount);
+  EXPECT_THROW(r.m.push(0, 1.0, 0.0), std::invalid_argument);
+  EXPECT_THROW(r.m.push(3, 1.0, 1.0), std::out_of_range);
+}
+
+// Pushed past its limit switch the host sees the limit open; the hard stop
+// ends the push.
+TEST(MachineFaults, APushedAxisTripsItsLimitAndStopsAtTheHardStop) {
+  auto d = machine::mill();
+  d.axes[0].initialPosition = 395.5;
+  Rig r(d);
+  EXPECT_TRUE(r.in(2));
+  r.m.push(0, 20.0, 50.0);
+  bool opened = false;
+  for (int i = 0; i < 400; ++i) {
+    r.cycle();
+    if (!r.in(2) && !opened) {
+      opened = true;
+      EXPECT_NEAR(r.m.axis(0).position(), 402.0, 0.11);  // seen within two 50 um cycles
+    }
+  }
+  EXPECT_TRUE(opened);
+  const auto s = r.m.state();
+  EXPECT_DOUBLE_EQ(s.axes[0].position, 405.0);
+  EXPECT_TRUE(s.axes[0].atHardStop);
+  EXPECT_FALSE(s.axes[0].pushing);
+  EXPECT_EQ(s.axes[0].velocity, 0.0);
+}
+
+// A jammed axis stays put whatever its drive does, and moves again when freed.
+TEST(MachineFaults, AJammedAxisDoesNotMoveUntilFreed) {
+  Rig r;
+  r.setEnable(true);
+  r.setVolts(0, 4.0);  // 100 mm/s
+  for (int i = 0; i < 100; ++i) r.cycle();
+  r.m.setJammed(0, true);
+  for (int i = 0; i < 2; ++i) r.cycle();  // the host has read the last counts
+  const double at = r.m.axis(0).position();
+  const auto counts = r.enc.counts(0);
+  const double error = r.m.followingError(0);
+  r.m.push(0, 5.0, 20.0);  // waits while jammed
+  for (int i = 0; i < 500; ++i) r.cycle();
+  auto s = r.m.state();
+  EXPECT_TRUE(s.axes[0].jammed);
+  EXPECT_TRUE(s.axes[0].pushing);
+  EXPECT_EQ(s.axes[0].position, at);
+  EXPECT_EQ(s.axes[0].velocity, 0.0);
+  EXPECT_EQ(r.enc.counts(0), counts);
+  EXPECT_GT(s.axes[0].drives[0].torque, 1.0);          // the drive strains against it
+  EXPECT_NEAR(r.m.followingError(0), error + 50.0, 0.1);  // 0.5 s at 100 mm/s asked for
+  r.m.setJammed(0, false);
+  for (int i = 0; i < 300; ++i) r.cycle();  // the push, 250 ms, then the drive again
+  s = r.m.state();
+  EXPECT_FALSE(s.axes[0].jammed);
+  EXPECT_FALSE(s.axes[0].pushing);
+  EXPECT_GT(s.axes[0].position, at + 5.0 + 1.0);
+}
+
+// A broken A (or B) channel: the count stops following the shaft; mended,
+// it counts again from where it stopped, the motion in between lost.
+TEST(MachineFaults, ABrokenEncoderChannelStopsTheCount) {
+  for (const auto channel : {machine::EncoderChannel::A, machine::EncoderChannel::B}) {
+    Rig r;
+    r.setEnable(true);
+    r.setVolts(0, 0.4);  // 10 mm/s
+    for (int i = 0; i < 100; ++i) r.cycle();
+    r.m.setEncoderBroken(0, 0, channel, true);
+    for (int i = 0; i < 2; ++i) r.cycle();  // the host has read the last counts
+    const auto stuck = r.enc.counts(0);
+    const double from = r.m.axis(0).position();
+    for (int i = 0; i < 200; ++i) r.cycle();
+    EXPECT_NEAR(r.m.axis(0).position(), from + 2.0, 0.02);  // it moved 2 mm
+    EXPECT_EQ(r.enc.counts(0), stuck);                       // uncounted
+    auto s = r.m.state();
+    ASSERT_EQ(s.axes[0].drives[0].encoderBroken.size(), 1U);
+    EXPECT_EQ(s.axes[0].drives[0].encoderBroken[0], channel);
+    r.m.setEncoderBroken(0, 0, channel, false);
+    r.cycle();  // the host reads counts of a cycle before the position: from here on, always
+    const auto mended = r.enc.counts(0);
+    const double at = r.m.axis(0).position();
+    for (int i = 0; i < 200; ++i) r.cycle();
+    EXPECT_NEAR(static_cast<double>(r.enc.counts(0) - mended) / kCountsPerMm, r.m.axis(0).position() - at, 2 * kOneCount);
+    EXPECT_TRUE(r.m.state().axes[0].drives[0].encoderBroken.empty());
+  }
+}
+
+// A broken index channel: no index comes, so index homing waits; mended, it comes.
+TEST(MachineFaults, ABrokenIndexGivesNoIndexPulse) {
+  Rig r;
+  r.setEnable(true);
+  r.setVolts(0, 0.4);  // 10 mm/s: a motor revolution every 0.5 s
+  r.m.setEncoderBroken(0, 0, machine::EncoderChannel::Index, true);
+  r.enc.enableIndex(0);
+  for (int i = 0; i < 1200; ++i) r.cycle();
+  EXPECT_TRUE(r.enc.indexEnabled(0));  // 12 mm, two revolutions: nothing
+  const auto s = r.m.state();
+  ASSERT_EQ(s.axes[0].drives[0].encoderBroken.size(), 1U);
+  EXPECT_EQ(s.axes[0].drives[0].encoderBroken[0], machine::EncoderChannel::Index);
+  r.m.setEncoderBroken(0, 0, machine::EncoderChannel::Index, false);
+  for (int i = 0; i < 600 && r.enc.indexEnabled(0); ++i) r.cycle();
+  EXPECT_FALSE(r.enc.indexEnabled(0));
+  // The spindle's encoder too.
+  EXPECT_TRUE(r.m.setSpindleEncoderBroken(machine::EncoderChannel::Index, true));
+  ASSERT_EQ(r.m.state().spindle->encoderBroken.size(), 1U);
+  EXPECT_THROW(r.m.setEncoderBroken(0, 1, machine::EncoderChannel::A, true), std::out_of_range);
+}
+
+// The E-stop button opens the chain's normally closed input; the probe closes its own.
+TEST(MachineFaults, EstopAndProbeByKind) {
+  Rig r;
+  EXPECT_TRUE(r.in(9));
+  EXPECT_FALSE(r.in(10));
+  EXPECT_EQ(r.m.setSwitches(machine::SwitchKind::Estop, true), 1U);
+  EXPECT_EQ(r.m.setSwitches(machine::SwitchKind::Probe, true), 1U);
+  r.cycle();
+  EXPECT_FALSE(r.in(9));
+  EXPECT_TRUE(r.in(10));
+  auto s = r.m.state();
+  EXPECT_FALSE(s.estopOk);
+  EXPECT_TRUE(s.probe);
+  r.m.setSwitches(machine::SwitchKind::Estop, false);
+  r.m.setSwitches(machine::SwitchKind::Probe, false);
+  r.cycle();
+  EXPECT_TRUE(r.in(9));
+  EXPECT_FALSE(r.in(10));
+  EXPECT_EQ(r.m.setSwitches(machine::SwitchKind::Other, true), 0U);
+  EXPECT_TRUE(r.m.setSwitch("x-max", true));  // stuck tripped
+  r.cycle();
+  EXPECT_FALSE(r.in(2));
+}
+
+// The trace row: what the amplifiers are told and what the axes do.
+TEST(MachineTrace, ARowHoldsEveryAxisCommandPositionAndFollowingError) {
+  Rig r;
+  const auto columns = r.m.traceColumns();
+  ASSERT_EQ(columns.size(), 1U + 3U * 5U + 1U);
+  EXPECT_EQ(columns[0], "time_s");
+  EXPECT_EQ(columns[1], "x_command_volts");
+  EXPECT_EQ(columns[2], "x_command_velocity");
+  EXPECT_EQ(columns[3], "x_position");
+  EXPECT_EQ(columns[4], "x_velocity");
+  EXPECT_EQ(columns[5], "x_following_error");
+  EXPECT_EQ(columns[15], "z_following_error");
+  EXPECT_EQ(columns[16], "spindle_rpm");
+  r.setEnable(true);
+  r.setVolts(0, 2.0);  // 50 mm/s
+  for (int i = 0; i < 300; ++i) r.cycle();
+  std::vector<double> row(columns.size());
+  r.m.traceRow(row);
+  EXPECT_NEAR(row[0], std::chrono::duration<double>(r.m.time()).count(), 1e-12);
+  EXPECT_NEAR(row[1], 2.0, 0.01);
+  EXPECT_NEAR(row[2], 50.0, 0.2);
+  EXPECT_EQ(row[3], r.m.axis(0).position());
+  EXPECT_NEAR(row[4], 50.0, 0.2);
+  // The drive lags its command while it accelerates, then keeps pace.
+  EXPECT_LT(row[5], 0.5);
+  EXPECT_GT(row[5], 0.0);
+  EXPECT_EQ(row[10], 0.0);  // Y: enabled, told 0 V, holding: no error
+  r.setEnable(false);
+  r.cycle();
+  r.m.traceRow(row);
+  EXPECT_EQ(row[2], 0.0);
+  EXPECT_EQ(row[5], 0.0);  // disabled: nothing asked
 }
 
 }  // namespace

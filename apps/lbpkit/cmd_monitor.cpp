@@ -1,11 +1,14 @@
 // lbpkit monitor: a live terminal view of a running 7I77: inputs, outputs,
-// analog values, encoders and faults, cycling at the servo rate.
+// analog values, encoders and faults, cycling at the servo rate; and, when
+// the card is an `lbpkit sim --machine`, the machine behind it (axes,
+// switches, spindle) from the sim's control API.
 #include <fmt/core.h>
 
 #include <chrono>
 #include <cmath>
 #include <exception>
 #include <functional>
+#include <memory>
 #include <string>
 #include <thread>
 
@@ -14,6 +17,7 @@
 #include "lbpkit/error.hpp"
 #include "lbpkit/faults.hpp"
 #include "lbpkit/lbp16_transport.hpp"
+#include "machine_view.hpp"
 
 namespace app {
 extern std::function<int()> gRun;
@@ -30,7 +34,36 @@ struct MonitorOptions {
       std::chrono::duration<double, std::milli>(lbpkit::Lbp16Transport::kDefaultCycleTimeout).count();
   bool demo = false;
   bool plain = false;  // no screen clearing (logs, tests)
+  std::string api;     // [ADDR:]PORT of a sim's control API; "": the card's address, port 27182
+  bool noApi = false;
+  std::string apiToken;
 };
+
+constexpr int kApiPort = 27182;  // `lbpkit sim --api`'s default
+
+// Where to ask for the machine: --api [ADDR:]PORT, else the card's address
+// on the sim's default API port. The in-process card (--sim) has no sim
+// behind it: asked only when --api names one.
+std::unique_ptr<app::MachineWatcher> machineWatcher(const MonitorOptions& o) {
+  if (o.noApi) return nullptr;
+  std::string host = o.card.addr.substr(0, o.card.addr.find(':'));
+  int port = kApiPort;
+  if (!o.api.empty()) {
+    const auto colon = o.api.rfind(':');
+    const auto portText = colon == std::string::npos ? o.api : o.api.substr(colon + 1);
+    if (colon != std::string::npos) host = o.api.substr(0, colon);
+    if (host.empty()) host = "127.0.0.1";
+    if (portText.empty() || portText.size() > 5 || portText.find_first_not_of("0123456789") != std::string::npos ||
+        std::stoul(portText) < 1 || std::stoul(portText) > 65535)
+      throw lbpkit::Error(fmt::format("--api: \"{}\" is not [ADDR:]PORT (a port is 1..65535)", o.api));
+    port = static_cast<int>(std::stoul(portText));
+  }
+  if (host.empty()) return nullptr;
+  // Once per screen, at most 20 times a second.
+  const auto period = std::max(std::chrono::milliseconds(50),
+                               std::chrono::milliseconds(static_cast<std::int64_t>(1000.0 / o.displayHz)));
+  return std::make_unique<app::MachineWatcher>(host, port, o.apiToken, period);
+}
 
 // The ranges the options must be in, and why, for CLI11 to check before
 // anything runs (a --rate of 1e9 once made a "frame" of 10^8 cycles that ran
@@ -75,6 +108,9 @@ std::string bitsText(std::uint64_t v, unsigned n) {
 }
 
 int runMonitor(const MonitorOptions& o) {
+  // Before the card: its first answer is fetched here, before any servo
+  // cycle runs (the 7I77's watchdog must not wait for it).
+  const auto watcher = machineWatcher(o);
   auto card = app::openCard(o.card);
   auto& t = *card.transport;
   if (auto* net = dynamic_cast<lbpkit::Lbp16Transport*>(&t))
@@ -172,6 +208,7 @@ int runMonitor(const MonitorOptions& o) {
       screen += fmt::format("LEDs: CR3 {} CR15 {} CR16 {}  field {:.1f} V\n", io.fieldVoltageLed() ? "on" : "off",
                             io.activityLed() ? "on" : "off", io.faultLed() ? "on" : "off", io.fieldVoltage());
     }
+    if (watcher) screen += watcher->section();
     fmt::print("{}", screen);
     std::fflush(stdout);
   }
@@ -184,7 +221,7 @@ int runMonitor(const MonitorOptions& o) {
 void addMonitorCommand(CLI::App& app) {
   auto o = std::make_shared<MonitorOptions>();
   auto* cmd = app.add_subcommand("monitor", "Run the 7I77 and show its inputs, outputs, analog values, encoders and "
-                                            "faults live");
+                                            "faults live (and an `lbpkit sim --machine`'s axes, switches and spindle)");
   o->card.add(*cmd);
   cmd->add_option("--rate", o->servoHz, "Servo cycle rate in Hz")
       ->capture_default_str()
@@ -204,5 +241,11 @@ void addMonitorCommand(CLI::App& app) {
   cmd->add_flag("--demo", o->demo, "Drive a walking output bit and a sine on analog 0 (with --sim also wire the "
                                    "outputs to the inputs and turn an encoder)");
   cmd->add_flag("--plain", o->plain, "Print screens one after another instead of redrawing");
+  cmd->add_option("--api", o->api,
+                  "[ADDR:]PORT of an `lbpkit sim` control API to show its machine from (default: the card's "
+                  "address, port 27182; with --sim none)");
+  cmd->add_flag("--no-api", o->noApi, "Do not ask a control API for the machine")->excludes("--api");
+  cmd->add_option("--api-token", o->apiToken, "The control API's token, if the sim has one (or LBPKIT_API_TOKEN)")
+      ->envname("LBPKIT_API_TOKEN");
   cmd->callback([o] { app::gRun = [o] { return runMonitor(*o); }; });
 }

@@ -11,9 +11,10 @@
 #include <memory>
 #include <string>
 #include <vector>
-#include <toml++/toml.h>
 
 #include "common.hpp"
+#include "config/card_toml.hpp"
+#include "config/machine_toml.hpp"
 #include "lbpkit/error.hpp"
 #include "lbpkit/wire/seven_i77.hpp"
 #include "daemon/sim_daemon.hpp"
@@ -38,7 +39,17 @@ struct SimCommandOptions {
   bool paused = false;
   bool noRealtime = false;
   bool demo = false;
+  std::string machine;
+  std::string record;
 };
+
+// --machine NAME|FILE: a built-in machine (mill, lathe, gantry) or a TOML
+// machine file (config::loadMachine says what is wrong with one), and where
+// it came from, for the banner.
+std::pair<machine::MachineDescription, std::string> loadMachineOption(const std::string& nameOrPath) {
+  const bool builtIn = nameOrPath == "mill" || nameOrPath == "lathe" || nameOrPath == "gantry";
+  return {config::loadMachine(nameOrPath), builtIn ? "built-in " + nameOrPath : nameOrPath};
+}
 
 int portNumber(const std::string& text, const char* what) {
   if (text.empty() || text.size() > 5 || text.find_first_not_of("0123456789") != std::string::npos ||
@@ -55,193 +66,6 @@ std::pair<std::string, int> hostPort(const std::string& text, int defaultPort, c
     return {text, defaultPort};
   }
   return {text.substr(0, colon), portNumber(text.substr(colon + 1), what)};
-}
-
-// The TOML configuration (README: `--config`; examples/sim.toml): which
-// daughtercards, field voltage, 7I77 or 7I77D, jumpers, unit numbers. Every
-// mistake is an error naming the file, line and key: a misspelt key that
-// was silently ignored would leave the user testing a board they did not
-// describe.
-class ConfigReader {
- public:
-  explicit ConfigReader(std::string path) : path_(std::move(path)) {}
-
-  [[noreturn]] void fail(const toml::node* node, const std::string& key, const std::string& what) const {
-    if (node != nullptr && node->source().begin)
-      throw lbpkit::Error(fmt::format("{}:{}:{}: {}: {}", path_, node->source().begin.line,
-                                      node->source().begin.column, key, what));
-    throw lbpkit::Error(fmt::format("{}: {}: {}", path_, key, what));
-  }
-
-  // Refuses keys the table may not have, suggesting the nearest known one.
-  void onlyKeys(const toml::table& t, const std::string& prefix, std::initializer_list<std::string_view> known) const {
-    for (const auto& [k, v] : t) {
-      const std::string_view key = k.str();
-      if (std::find(known.begin(), known.end(), key) != known.end()) continue;
-      std::string_view best;
-      std::size_t bestDistance = 3;  // suggest only near misses
-      for (auto candidate : known) {
-        const auto d = distance(key, candidate);
-        if (d < bestDistance) bestDistance = d, best = candidate;
-      }
-      std::string known_list;
-      for (auto candidate : known) known_list += (known_list.empty() ? "" : ", ") + std::string(candidate);
-      fail(&v, prefix + std::string(key),
-           best.empty() ? fmt::format("unknown key (known here: {})", known_list)
-                        : fmt::format("unknown key; did you mean {}?", best));
-    }
-  }
-
-  double number(const toml::table& t, const std::string& prefix, std::string_view key, double fallback, double min,
-                double max, std::string_view unit) const {
-    const toml::node* n = t.get(key);
-    if (n == nullptr) return fallback;
-    const auto name = prefix + std::string(key);
-    double v = 0;
-    if (auto f = n->value_exact<double>()) v = *f;
-    else if (auto i = n->value_exact<std::int64_t>()) v = static_cast<double>(*i);
-    else fail(n, name, fmt::format("expected a number ({}), not {}", unit, typeName(*n)));
-    if (!std::isfinite(v) || v < min || v > max)
-      fail(n, name, fmt::format("{} is out of range: {} to {} {}", v, min, max, unit));
-    return v;
-  }
-
-  std::int64_t integer(const toml::table& t, const std::string& prefix, std::string_view key, std::int64_t fallback,
-                       std::int64_t min, std::int64_t max) const {
-    const toml::node* n = t.get(key);
-    if (n == nullptr) return fallback;
-    const auto name = prefix + std::string(key);
-    const auto i = n->value_exact<std::int64_t>();
-    if (!i) fail(n, name, fmt::format("expected an integer, not {}", typeName(*n)));
-    if (*i < min || *i > max) fail(n, name, fmt::format("0x{:X} is out of range: 0x{:X} to 0x{:X}", *i, min, max));
-    return *i;
-  }
-
-  bool boolean(const toml::table& t, const std::string& prefix, std::string_view key, bool fallback) const {
-    const toml::node* n = t.get(key);
-    if (n == nullptr) return fallback;
-    const auto b = n->value_exact<bool>();
-    if (!b) fail(n, prefix + std::string(key), fmt::format("expected true or false, not {}", typeName(*n)));
-    return *b;
-  }
-
-  std::string text(const toml::table& t, const std::string& prefix, std::string_view key, std::string fallback,
-                   std::initializer_list<std::string_view> allowed) const {
-    const toml::node* n = t.get(key);
-    if (n == nullptr) return fallback;
-    const auto s = n->value_exact<std::string>();
-    const auto name = prefix + std::string(key);
-    std::string list;
-    for (auto a : allowed) list += (list.empty() ? "\"" : ", \"") + std::string(a) + "\"";
-    if (!s) fail(n, name, fmt::format("expected a string ({}), not {}", list, typeName(*n)));
-    if (std::find(allowed.begin(), allowed.end(), *s) == allowed.end())
-      fail(n, name, fmt::format("\"{}\" is not one of {}", *s, list));
-    return *s;
-  }
-
-  const std::string& path() const { return path_; }
-
- private:
-  static std::string typeName(const toml::node& n) {
-    switch (n.type()) {
-      case toml::node_type::string: return "a string";
-      case toml::node_type::integer: return "an integer";
-      case toml::node_type::floating_point: return "a number";
-      case toml::node_type::boolean: return "a boolean";
-      case toml::node_type::table: return "a table";
-      case toml::node_type::array: return "an array";
-      default: return "a date or time";
-    }
-  }
-  // Edit distance, for "did you mean".
-  static std::size_t distance(std::string_view a, std::string_view b) {
-    std::vector<std::size_t> row(b.size() + 1);
-    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-    for (std::size_t i = 1; i <= a.size(); ++i) {
-      std::size_t diagonal = row[0];
-      row[0] = i;
-      for (std::size_t j = 1; j <= b.size(); ++j) {
-        const std::size_t up = row[j];
-        row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0U : 1U)});
-        diagonal = up;
-      }
-    }
-    return row[b.size()];
-  }
-
-  std::string path_;
-};
-
-void loadConfig(const std::string& path, hm2::HostMot2Card::Options& card) {
-  std::error_code ec;
-  const auto status = std::filesystem::status(path, ec);
-  if (ec || !std::filesystem::exists(status)) throw lbpkit::Error(fmt::format("{}: no such file", path));
-  if (!std::filesystem::is_regular_file(status))
-    throw lbpkit::Error(fmt::format("{}: is not a regular file (a TOML configuration file is expected)", path));
-  toml::table t;
-  try {
-    t = toml::parse_file(path);
-  } catch (const toml::parse_error& e) {
-    throw lbpkit::Error(fmt::format("{}:{}:{}: {}", path, e.source().begin.line, e.source().begin.column,
-                                    e.description()));
-  }
-  const ConfigReader r(path);
-  r.onlyKeys(t, "", {"card", "daughtercard"});
-  if (const toml::node* c = t.get("card")) {
-    const auto* cardTable = c->as_table();
-    if (cardTable == nullptr) r.fail(c, "card", "expected a table ([card])");
-    r.onlyKeys(*cardTable, "card.", {"name"});
-    r.text(*cardTable, "card.", "name", "7I92", {"7I92"});  // the only card modelled
-  }
-  const toml::node* boardsNode = t.get("daughtercard");
-  if (boardsNode == nullptr) return;
-  const auto* boards = boardsNode->as_array();
-  if (boards == nullptr) r.fail(boardsNode, "daughtercard", "expected an array of tables ([[daughtercard]])");
-  if (boards->size() > 2) r.fail(boardsNode, "daughtercard", fmt::format("a 7I92 has two connectors, not {}", boards->size()));
-  for (std::size_t i = 0; i < boards->size(); ++i) {
-    const auto* b = boards->get(i)->as_table();
-    const auto prefix = fmt::format("daughtercard[{}].", i);
-    if (b == nullptr) r.fail(boards->get(i), prefix.substr(0, prefix.size() - 1), "expected a table");
-    r.onlyKeys(*b, prefix,
-               {"type", "field_voltage", "w1", "vin", "w12_setup", "w4_setup", "field_io_unit", "analog_unit"});
-    const auto type = r.text(*b, prefix, "type", "7I77", {"7I77", "7I77D", "none"});
-    if (type == "none") {
-      if (i == 0) r.fail(b->get("type"), prefix + "type", "the first connector must carry a 7I77");
-      continue;
-    }
-    hm2::HostMot2Card::DaughterOptions d;
-    if (i == 1 && !card.first.fieldIo.nvFile.empty()) {
-      d.fieldIo.nvFile = card.first.fieldIo.nvFile.string() + ".2";
-      d.analog.nvFile = card.first.analog.nvFile.string() + ".2";
-    }
-    d.fieldIo.outputs = type == "7I77D" ? remote::OutputType::Sinking : remote::OutputType::Sourcing;
-    // Rated 5..28 V field power and 10..32 V VIN (manual: SPECIFICATIONS);
-    // lower values model a failing supply, above 36 V nothing survives.
-    d.fieldIo.fieldVoltage = r.number(*b, prefix, "field_voltage", 24.0, 0.0, 36.0, "V");
-    d.fieldIo.vinFromField = r.text(*b, prefix, "w1", "field", {"field", "separate"}) == "field";
-    d.fieldIo.vin = r.number(*b, prefix, "vin", 24.0, 0.0, 36.0, "V");
-    d.fieldIo.setupMode = r.boolean(*b, prefix, "w12_setup", false);
-    d.analog.setupMode = r.boolean(*b, prefix, "w4_setup", false);
-    // Each board has its own serial number (the low 24 bits of both units);
-    // the top byte says which processor it is.
-    namespace unit = lbpkit::wire::i7i77::unit_type;
-    const std::int64_t serial = 0x000AEE + static_cast<std::int64_t>(i);
-    const auto unitRange = [](std::uint8_t top) {
-      return std::pair<std::int64_t, std::int64_t>{std::int64_t{top} << unit::kShift,
-                                                   (std::int64_t{top} << unit::kShift) | 0xFFFFFF};
-    };
-    const auto [ioMin, ioMax] = unitRange(unit::kFieldIo);
-    const auto [anMin, anMax] = unitRange(unit::kAnalog);
-    d.fieldIo.unitNumber = static_cast<std::uint32_t>(r.integer(*b, prefix, "field_io_unit", ioMin + serial, ioMin, ioMax));
-    d.analog.unitNumber = static_cast<std::uint32_t>(r.integer(*b, prefix, "analog_unit", anMin + serial, anMin, anMax));
-    if (i == 0) {
-      d.fieldIo.nvFile = card.first.fieldIo.nvFile;
-      d.analog.nvFile = card.first.analog.nvFile;
-      card.first = d;
-    } else {
-      card.second = d;
-    }
-  }
 }
 
 // The default EEPROM file: one per bind address, so that sims side by side
@@ -300,6 +124,14 @@ int runSim(const SimCommandOptions& o) {
   s.paused = o.paused;
   s.realtime = !o.noRealtime;
   s.demo = o.demo;
+  if (!o.machine.empty()) {
+    if (o.demo) throw lbpkit::Error("--machine and --demo exclude each other: both wire the 7I77's terminals");
+    auto [description, source] = loadMachineOption(o.machine);
+    s.machine = std::move(description);
+    s.machineSource = std::move(source);
+  }
+  if (!o.record.empty() && o.machine.empty()) throw lbpkit::Error("--record needs --machine: it records the machine's axes");
+  s.recordFile = o.record;
   // Simulated time is 64-bit nanoseconds: at 10000x it lasts 10 days.
   if (!(o.speed > 0) || !std::isfinite(o.speed) || o.speed > 10000)
     throw lbpkit::Error("--speed must be above 0 and at most 10000 (simulated seconds per wall-clock second)");
@@ -313,7 +145,7 @@ int runSim(const SimCommandOptions& o) {
   s.card.first.fieldIo.nvFile = state;
   s.card.first.analog.nvFile = state.string() + ".analog";
   if (!o.config.empty()) {
-    loadConfig(o.config, s.card);
+    config::loadConfig(o.config, s.card);
     s.configDescription = o.config;
   } else {
     s.configDescription = "built-in default: a 7I92 with one 7I77, 24 V field power";
@@ -360,6 +192,7 @@ int runSim(const SimCommandOptions& o) {
   daemon.run(app::gStop);
   fmt::print("lbpkit sim: stopped; server time per datagram: {}\n", daemon.latencySummary());
   fmt::print("lbpkit sim: the 7I77's EEPROM state is in {}\n", state.string());
+  if (!o.record.empty()) fmt::print("lbpkit sim: the servo-cycle trace is in {}\n", o.record);
   return 0;
 }
 
@@ -382,6 +215,11 @@ void addSimCommand(CLI::App& app) {
       ->check(CLI::Range(0.0, 10000.0))
       ->capture_default_str();
   cmd->add_flag("--demo", o->demo, "Demo world: field outputs 0..15 wired back to inputs 0..15, encoder 0 turning");
+  cmd->add_option("--machine", o->machine,
+                  "A machine behind the 7I77 on connector 0: mill, lathe, gantry (built-in) or a TOML machine file")
+      ->excludes("--demo");
+  cmd->add_option("--record", o->record,
+                  "CSV file: each axis' command, position and following error at every servo cycle (needs --machine)");
   cmd->add_flag("--no-realtime", o->noRealtime, "Do not ask for real-time (SCHED_FIFO) scheduling of the card thread");
   cmd->add_flag("--paused", o->paused, "Start with simulated time stopped (the API can run or step it)");
   cmd->callback([o] { app::gRun = [o] { return runSim(*o); }; });

@@ -19,6 +19,7 @@ MuxedEncoder::MuxedEncoder(unsigned counters, std::uint32_t clockLow)
 }
 
 void MuxedEncoder::reset() {
+  settle();
   // Power-up mux rate: about 8 MHz ticks (10 at 100 MHz, the value LinuxCNC
   // also writes for its default 8 MHz muxed-sample-frequency;
   // docs/protocol-facts.md#muxed-encoders).
@@ -45,12 +46,17 @@ std::uint16_t MuxedEncoder::timestampAt(SimTime t) const {
 
 void MuxedEncoder::setVelocity(unsigned n, double countsPerSecond, SimTime now) {
   advance(now);
+  settle(n);
   signals_.at(n).velocity = countsPerSecond;
 }
 
-void MuxedEncoder::setIndexPeriod(unsigned n, std::uint32_t countsPerRev) { signals_.at(n).countsPerRev = countsPerRev; }
+void MuxedEncoder::setIndexPeriod(unsigned n, std::uint32_t countsPerRev) {
+  settle(n);
+  signals_.at(n).countsPerRev = countsPerRev;
+}
 
 MuxedEncoder::State MuxedEncoder::state() const {
+  settle();
   State s;
   s.counters = counters_;
   for (unsigned n = 0; n < counters_; ++n) s.counter[n] = {count(n), control(n), signals_[n]};
@@ -58,9 +64,17 @@ MuxedEncoder::State MuxedEncoder::state() const {
 }
 
 void MuxedEncoder::advance(SimTime now) {
-  if (now <= now_) return;
-  for (unsigned n = 0; n < counters_; ++n) run(n, now_, now);
-  now_ = now;
+  if (now > pending_) pending_ = now;
+}
+
+void MuxedEncoder::settle(unsigned n) const {
+  if (n >= kMaxCounters || settled_[n] >= pending_) return;
+  if (n < counters_) run(n, settled_[n], pending_);
+  settled_[n] = pending_;
+}
+
+void MuxedEncoder::settle() const {
+  for (unsigned n = 0; n < kMaxCounters; ++n) settle(n);
 }
 
 void MuxedEncoder::index(Counter& c, std::int64_t countAtIndex) {
@@ -71,7 +85,7 @@ void MuxedEncoder::index(Counter& c, std::int64_t countAtIndex) {
   if (c.ccr & kJustOnce) c.ccr &= ~(kClearOnIndex | kLatchOnIndex | kJustOnce);
 }
 
-void MuxedEncoder::run(unsigned n, SimTime from, SimTime to) {
+void MuxedEncoder::run(unsigned n, SimTime from, SimTime to) const {
   EncoderSignal& s = signals_[n];
   Counter& c = state_[n];
   const double dt = std::chrono::duration<double>(to - from).count();
@@ -127,14 +141,18 @@ void MuxedEncoder::run(unsigned n, SimTime from, SimTime to) {
     return;
   }
 
-  // Too fast for the filter: sample by sample, as the hardware does.
-  const std::int64_t samples = (to - from) / sample;
-  if (samples > kMaxSimulatedSamples) {
+  // Too fast for the filter: sample by sample, as the hardware does. The
+  // samples fall on the free-running mux clock (multiples of the sample
+  // period), not relative to `from`: what is counted does not depend on how
+  // the time was split into runs.
+  const std::int64_t firstSample = from / sample + 1;
+  const std::int64_t lastSample = to / sample;
+  if (lastSample - firstSample >= kMaxSimulatedSamples) {
     c.filtered = c.candidate = stateOf(p1);  // nothing counted
     return;
   }
-  for (std::int64_t k = 1; k <= samples; ++k) {
-    const double pos = p0 + s.velocity * std::chrono::duration<double>(sample * k).count();
+  for (std::int64_t k = firstSample; k <= lastSample; ++k) {
+    const double pos = p0 + s.velocity * std::chrono::duration<double>(sample * k - from).count();
     const std::int64_t raw = stateOf(pos);
     if ((raw & 3) == (c.candidate & 3)) {
       ++c.stable;
@@ -146,10 +164,10 @@ void MuxedEncoder::run(unsigned n, SimTime from, SimTime to) {
     const auto diff = (c.candidate - c.filtered) & 3;
     if (diff == 1) {
       ++c.count;
-      c.countTimestamp = timestampAt(from + sample * k);
+      c.countTimestamp = timestampAt(sample * k);
     } else if (diff == 3) {
       --c.count;
-      c.countTimestamp = timestampAt(from + sample * k);
+      c.countTimestamp = timestampAt(sample * k);
     } else {
       c.ccr |= kQuadError;  // A and B changed together: the count is lost
     }
@@ -160,6 +178,7 @@ void MuxedEncoder::run(unsigned n, SimTime from, SimTime to) {
 std::uint32_t MuxedEncoder::read(std::uint16_t address, SimTime now) {
   advance(now);
   const unsigned n = (address & 0xFFU) / 4;
+  settle(n);  // a counter's registers show only it (the others wait until looked at)
   switch (address & 0xFF00U) {
     case kCount:
       if (n >= counters_) return 0;
@@ -185,6 +204,12 @@ std::uint32_t MuxedEncoder::read(std::uint16_t address, SimTime now) {
 WriteResult MuxedEncoder::write(std::uint16_t address, std::uint32_t value, SimTime now) {
   advance(now);
   const unsigned n = (address & 0xFFU) / 4;
+  // A new mux rate or timestamp divisor changes every counter from now on:
+  // each is settled under the old one first.
+  if ((address & 0xFF00U) == kRate || (address & 0xFF00U) == kTimestampDiv)
+    settle();
+  else
+    settle(n);
   switch (address & 0xFF00U) {
     case kCount:
       if (n >= counters_) return WriteResult::Unmapped;

@@ -77,16 +77,30 @@ class MuxedEncoder final : public Module {
   [[nodiscard]] bool decodes(std::uint16_t a) const override { return a >= kCount && a < kRate + 4; }
   std::uint32_t read(std::uint16_t address, SimTime now) override;
   WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) override;
+  // Cheap: it only notes the time. The counters catch up (settle) when
+  // anything looks at them or changes their inputs: the card advances every
+  // module at each host access, tens of times a servo cycle, and counting
+  // is exact over any span (run() computes edges, it does not walk time),
+  // so working only when someone looks gives the same counts for less.
   void advance(SimTime now) override;
   void reset() override;  // counts, CCRs and divisors at power-up; the encoders stay where they are
 
   // The world: what the encoder on input `n` does from `now` on.
   void setVelocity(unsigned n, double countsPerSecond, SimTime now);
   void setIndexPeriod(unsigned n, std::uint32_t countsPerRev);
-  [[nodiscard]] const EncoderSignal& signal(unsigned n) const { return signals_.at(n); }
+  [[nodiscard]] const EncoderSignal& signal(unsigned n) const {
+    settle(n);
+    return signals_.at(n);
+  }
 
-  [[nodiscard]] std::uint16_t count(unsigned n) const { return static_cast<std::uint16_t>(state_.at(n).count); }
-  [[nodiscard]] std::uint32_t control(unsigned n) const { return state_.at(n).ccr; }
+  [[nodiscard]] std::uint16_t count(unsigned n) const {
+    settle(n);
+    return static_cast<std::uint16_t>(state_.at(n).count);
+  }
+  [[nodiscard]] std::uint32_t control(unsigned n) const {
+    settle(n);
+    return state_.at(n).ccr;
+  }
   [[nodiscard]] SimTime samplePeriod() const;
   [[nodiscard]] unsigned counters() const { return counters_; }
   [[nodiscard]] State state() const;
@@ -101,8 +115,13 @@ class MuxedEncoder final : public Module {
     std::int64_t candidate = 0;
     unsigned stable = 0;
   };
-  void run(unsigned n, SimTime from, SimTime to);
-  void index(Counter& c, std::int64_t countAtIndex);
+  // Brings counter n (or every counter) to pending_, the card's time
+  // (const: a look at a counter settles it; what it is at a time does not
+  // depend on when it was last looked at).
+  void settle(unsigned n) const;
+  void settle() const;
+  void run(unsigned n, SimTime from, SimTime to) const;
+  static void index(Counter& c, std::int64_t countAtIndex);
   [[nodiscard]] std::uint16_t timestampAt(SimTime t) const;
   [[nodiscard]] unsigned filterSamples(const Counter& c) const { return (c.ccr & kFilter) ? 8 : 2; }
 
@@ -110,9 +129,10 @@ class MuxedEncoder final : public Module {
   std::uint32_t clockLow_;
   std::uint32_t rateDivisor_;
   std::uint32_t tsDivisor_ = 0;
-  std::array<EncoderSignal, kMaxCounters> signals_{};
-  std::array<Counter, kMaxCounters> state_{};
-  SimTime now_{};
+  mutable std::array<EncoderSignal, kMaxCounters> signals_{};
+  mutable std::array<Counter, kMaxCounters> state_{};
+  mutable std::array<SimTime, kMaxCounters> settled_{};  // each counter is settled up to here
+  SimTime pending_{};  // the card's time: settle() brings them here
 };
 
 }  // namespace hm2

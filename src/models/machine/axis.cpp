@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <stdexcept>
 
 namespace machine {
 
@@ -25,7 +26,40 @@ Axis::Axis(AxisParameters parameters, double position)
   if (p_.unitsPerMotorRev == 0) p_.unitsPerMotorRev = 1.0;
 }
 
+void Axis::push(double distance, double speed) {
+  if (!std::isfinite(distance) || !(speed > 0) || !std::isfinite(speed))
+    throw std::invalid_argument("a push needs a finite distance and a speed above 0");
+  pushLeft_ = distance;
+  pushSpeed_ = speed;
+}
+
+void Axis::setJammed(bool jammed) {
+  jammed_ = jammed;
+  if (jammed_) speed_ = 0.0;
+}
+
 void Axis::step(double driveTorque, bool brakeEngaged, double h) {
+  if (jammed_) {
+    // Held whatever the torques: no motion, none stored for later.
+    speed_ = 0.0;
+    return;
+  }
+  if (pushLeft_ != 0.0) {
+    // Kinematic: the outside force wins over the motors, friction and the
+    // brake; what it moves, the encoders and switches see as usual.
+    const double move = std::copysign(std::min(std::abs(pushLeft_), pushSpeed_ * h), pushLeft_);
+    pushLeft_ = std::abs(pushLeft_) <= std::abs(move) ? 0.0 : pushLeft_ - move;
+    revs_ += move / p_.unitsPerMotorRev;
+    speed_ = pushLeft_ != 0.0 ? move / h / p_.unitsPerMotorRev : 0.0;  // let go: at rest
+    const double pos = position();
+    stopped_ = pos <= p_.hardStopMin || pos >= p_.hardStopMax;
+    if (stopped_) {
+      revs_ = std::clamp(pos, p_.hardStopMin, p_.hardStopMax) / p_.unitsPerMotorRev;
+      speed_ = 0.0;
+      pushLeft_ = 0.0;
+    }
+    return;
+  }
   // Semi-implicit Euler in rad/s. Static and Coulomb friction (and an
   // engaged brake, which is more of the same) hold a standing axis until the
   // other torques exceed them, and stop a moving one dead rather than push

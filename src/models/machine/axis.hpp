@@ -36,6 +36,19 @@ class Axis {
   // over motors) and the brake engaged or not.
   void step(double driveTorque, bool brakeEngaged, double h);
 
+  // Faults a commissioning user rehearses (issue 10). An outside force (a
+  // hand on the table, a collision) moves the axis by `distance` machine
+  // units at `speed` units per second (above 0; else invalid_argument),
+  // whatever the motors do; then it lets go, leaving the axis at rest. A
+  // new push replaces one under way. The hard stops still stop it (and end
+  // the push).
+  void push(double distance, double speed);
+  // A crash or a seized screw: the axis cannot move (a push waits) until
+  // released.
+  void setJammed(bool jammed);
+  [[nodiscard]] bool jammed() const { return jammed_; }
+  [[nodiscard]] bool pushing() const { return pushLeft_ != 0.0; }
+
   [[nodiscard]] double position() const { return revs_ * p_.unitsPerMotorRev; }  // machine units
   [[nodiscard]] double velocity() const { return speed_ * p_.unitsPerMotorRev; }  // machine units per second
   [[nodiscard]] double motorRevs() const { return revs_; }
@@ -48,6 +61,9 @@ class Axis {
   double revs_;
   double speed_ = 0.0;  // rev/s
   bool stopped_ = false;
+  bool jammed_ = false;
+  double pushLeft_ = 0.0;   // machine units still to push (signed)
+  double pushSpeed_ = 0.0;  // machine units per second
 };
 
 }  // namespace machine

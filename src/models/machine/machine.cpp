@@ -14,6 +14,13 @@ constexpr unsigned kEncodersPer7I77 = 6;  // manual: ENCODER INTERFACE
 
 [[noreturn]] void bad(const std::string& what) { throw std::invalid_argument("machine: " + what); }
 
+std::vector<EncoderChannel> brokenChannels(const QuadratureEncoder& e) {
+  std::vector<EncoderChannel> out;
+  for (const auto ch : {EncoderChannel::A, EncoderChannel::B, EncoderChannel::Index})
+    if (e.broken(ch)) out.push_back(ch);
+  return out;
+}
+
 std::vector<int> axisIndices(const MachineDescription& d) {
   std::vector<int> out;
   for (const auto& s : d.switches) {
@@ -68,7 +75,8 @@ Machine::Machine(MachineDescription description, hm2::HostMot2Card& card, SimTim
     if (a.drives.empty()) bad("axis " + a.name + " has no drive");
     if (a.screwPitch == 0 || a.gearRatio == 0) bad("axis " + a.name + " needs a screw pitch and gear ratio");
     if (a.brakeOutput >= static_cast<int>(remote::FieldIoProcessor::kOutputs)) bad("axis " + a.name + ": no such brake output");
-    AxisPlant plant{Axis(axisParameters(a), a.initialPosition), {}, 0.0, a.brakeOutput};
+    AxisPlant plant{Axis(axisParameters(a), a.initialPosition), {}, 0.0, a.brakeOutput, 0.0};
+    plant.commanded = plant.axis.position();
     plant.inertiaShare = plant.axis.parameters().inertia / static_cast<double>(a.drives.size());
     for (const auto& drive : a.drives) {
       checkChannel(drive.analogOutput, "axis " + a.name + ": analog output");
@@ -101,6 +109,84 @@ bool Machine::setSwitch(const std::string& name, bool tripped) {
   const bool found = switches_.setTripped(name, tripped);
   if (found) switches_.apply(positions_.data(), board_->fieldIo);
   return found;
+}
+
+std::size_t Machine::setSwitches(SwitchKind kind, bool tripped) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < switches_.size(); ++i)
+    if (switches_.parameters(i).kind == kind) {
+      switches_.setTripped(switches_.parameters(i).name, tripped);
+      ++n;
+    }
+  if (n > 0) switches_.apply(positions_.data(), board_->fieldIo);
+  return n;
+}
+
+std::optional<std::size_t> Machine::axisIndex(std::string_view name) const {
+  for (std::size_t i = 0; i < d_.axes.size(); ++i)
+    if (d_.axes[i].name == name) return i;
+  return std::nullopt;
+}
+
+void Machine::push(std::size_t axis, double distance, double speed) { axes_.at(axis).axis.push(distance, speed); }
+
+void Machine::setJammed(std::size_t axis, bool jammed) { axes_.at(axis).axis.setJammed(jammed); }
+
+void Machine::setEncoderBroken(std::size_t axis, std::size_t drive, EncoderChannel channel, bool broken) {
+  AxisPlant& a = axes_.at(axis);
+  a.drives.at(drive).encoder.setBroken(channel, broken, a.axis.motorRevs(), card_->now());
+}
+
+bool Machine::setSpindleEncoderBroken(EncoderChannel channel, bool broken) {
+  if (!spindleEncoder_) return false;
+  spindleEncoder_->setBroken(channel, broken, spindle_->revolutions(), card_->now());
+  return true;
+}
+
+bool Machine::commandsVelocity(const AxisPlant& a) const {
+  const Drive& first = a.drives.front();
+  return first.amplifier.parameters().mode == AmplifierMode::Velocity &&
+         first.amplifier.enabled(board_->analog.enable(first.d.enable));
+}
+
+double Machine::commandVelocity(std::size_t axis) const {
+  const AxisPlant& a = axes_.at(axis);
+  if (!commandsVelocity(a)) return 0.0;
+  const Drive& first = a.drives.front();
+  return first.amplifier.command(board_->analog.outputVoltage(first.d.analogOutput)) *
+         a.axis.parameters().unitsPerMotorRev;
+}
+
+double Machine::followingError(std::size_t axis) const {
+  const AxisPlant& a = axes_.at(axis);
+  return a.commanded - a.axis.position();
+}
+
+std::vector<std::string> Machine::traceColumns() const {
+  std::vector<std::string> c{"time_s"};
+  for (const auto& a : d_.axes)
+    for (const char* what : {"command_volts", "command_velocity", "position", "velocity", "following_error"})
+      c.push_back(a.name + "_" + what);
+  if (spindle_) c.emplace_back("spindle_rpm");
+  return c;
+}
+
+void Machine::traceRow(std::span<double> row) const {
+  std::size_t k = 0;
+  auto put = [&](double v) {
+    if (k < row.size()) row[k] = v;
+    ++k;
+  };
+  put(std::chrono::duration<double>(time_).count());
+  for (std::size_t i = 0; i < axes_.size(); ++i) {
+    const AxisPlant& a = axes_[i];
+    put(board_->analog.outputVoltage(a.drives.front().d.analogOutput));
+    put(commandVelocity(i));
+    put(a.axis.position());
+    put(a.axis.velocity());
+    put(followingError(i));
+  }
+  if (spindle_) put(spindle_->rpm());
 }
 
 bool Machine::brakeEngaged(const AxisPlant& a) const {
@@ -136,7 +222,12 @@ void Machine::step() {
                                             a.axis.motorRevsPerSecond(), a.inertiaShare, hSeconds_);
       torque += drive.torque;
     }
+    // The first drive's velocity command, integrated while it is enabled:
+    // the position it asked for (followingError).
+    const bool commanding = commandsVelocity(a);
+    const double commanded = commandVelocity(i);
     a.axis.step(torque, brakeEngaged(a), hSeconds_);
+    a.commanded = commanding ? a.commanded + commanded * hSeconds_ : a.axis.position();
     for (Drive& drive : a.drives) drive.encoder.drive(a.axis.motorRevs(), from, t1, h_ / 2);
     positions_[i] = a.axis.position();
   }
@@ -149,6 +240,7 @@ void Machine::step() {
 
 Machine::State Machine::state() const {
   State s;
+  s.name = d_.name;
   s.time = time_;
   const remote::AnalogProcessor& analog = board_->analog;
   for (std::size_t i = 0; i < switches_.size(); ++i) {
@@ -165,12 +257,17 @@ Machine::State Machine::state() const {
     out.velocity = a.axis.velocity();
     out.brakeEngaged = brakeEngaged(a);
     out.atHardStop = a.axis.atHardStop();
+    out.jammed = a.axis.jammed();
+    out.pushing = a.axis.pushing();
+    out.commandVelocity = commandVelocity(i);
+    out.followingError = followingError(i);
     for (const Drive& drive : a.drives) {
       const bool ena = analog.enable(drive.d.enable);
       out.drives.push_back(State::Drive{drive.d.analogOutput, analog.outputVoltage(drive.d.analogOutput), ena,
                                         drive.amplifier.enabled(ena), drive.torque, drive.d.encoderInput,
                                         drive.encoder.count(),
-                                        drive.encoder.shaftCounts(a.axis.motorRevs())});
+                                        drive.encoder.shaftCounts(a.axis.motorRevs()),
+                                        brokenChannels(drive.encoder)});
     }
     for (std::size_t k = 0; k < switches_.size(); ++k)
       if (switches_.axisOf(k) == static_cast<int>(i)) out.switches.push_back(s.switches[k]);
@@ -182,7 +279,10 @@ Machine::State Machine::state() const {
     sp.rpm = spindle_->rpm();
     sp.revolutions = spindle_->revolutions();
     sp.running = spindle_->running(analog.enable(d_.spindle->enable));
-    if (spindleEncoder_) sp.encoderCount = spindleEncoder_->count();
+    if (spindleEncoder_) {
+      sp.encoderCount = spindleEncoder_->count();
+      sp.encoderBroken = brokenChannels(*spindleEncoder_);
+    }
     s.spindle = sp;
   }
   for (const auto& o : d_.outputs) s.outputs.push_back({o.name, o.output, board_->fieldIo.outputOn(o.output)});

@@ -19,7 +19,9 @@
 
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "hostmot2/card.hpp"
@@ -45,6 +47,7 @@ class Machine {
       unsigned encoderInput = 0;
       std::uint16_t encoderCount = 0;  // the card's count register
       double trueCounts = 0.0;         // where a perfect counter would be (from shaft revolution 0)
+      std::vector<EncoderChannel> encoderBroken;  // channels cut (setEncoderBroken)
       bool operator==(const Drive&) const = default;
     };
     struct Axis {
@@ -53,6 +56,10 @@ class Machine {
       double velocity = 0.0;  // machine units per second
       bool brakeEngaged = false;
       bool atHardStop = false;
+      bool jammed = false;
+      bool pushing = false;
+      double commandVelocity = 0.0;  // what drive 0's amplifier asks for, machine units per second
+      double followingError = 0.0;   // followingError(axis)
       std::vector<Drive> drives;
       std::vector<Switches::State> switches;  // the switches on this axis
       bool operator==(const Axis&) const = default;
@@ -63,6 +70,7 @@ class Machine {
       double revolutions = 0.0;
       bool running = false;  // the VFD's run input
       std::optional<std::uint16_t> encoderCount;
+      std::vector<EncoderChannel> encoderBroken;
       bool operator==(const Spindle&) const = default;
     };
     struct Output {
@@ -71,7 +79,8 @@ class Machine {
       bool on = false;
       bool operator==(const Output&) const = default;
     };
-    SimTime time{};  // the plant's own time (a step boundary at or after the last advance)
+    std::string name;  // the description's
+    SimTime time{};    // the plant's own time (a step boundary at or after the last advance)
     std::vector<Axis> axes;
     std::optional<Spindle> spindle;
     bool estopOk = true;  // the E-stop chain is closed
@@ -93,6 +102,37 @@ class Machine {
   // Trip or release a switch by name ("estop" pressed, "probe" touching, or
   // any switch stuck); it holds until released. False if there is no such switch.
   bool setSwitch(const std::string& name, bool tripped);
+  // The same for every switch of a kind (the E-stop chain's buttons, the
+  // probes); how many there are.
+  std::size_t setSwitches(SwitchKind kind, bool tripped);
+
+  // Faults to rehearse (issue 10), on axis `axis` (an index; see axisIndex):
+  // an outside force pushing it (Axis::push), a jam (Axis::setJammed), a
+  // broken encoder channel of drive `drive` (QuadratureEncoder::setBroken).
+  // The card's time is now. Out of range: std::out_of_range.
+  void push(std::size_t axis, double distance, double speed);
+  void setJammed(std::size_t axis, bool jammed);
+  void setEncoderBroken(std::size_t axis, std::size_t drive, EncoderChannel channel, bool broken);
+  // The spindle's encoder; false when there is none.
+  bool setSpindleEncoderBroken(EncoderChannel channel, bool broken);
+  [[nodiscard]] std::optional<std::size_t> axisIndex(std::string_view name) const;
+  [[nodiscard]] std::size_t drives(std::size_t axis) const { return axes_.at(axis).drives.size(); }
+
+  // What the amplifier of the axis' first drive asks of it: its velocity
+  // command in machine units per second (0 while disabled, or in torque
+  // mode), and the following error, the position that command asked for
+  // (integrated over the plant's steps since the drive was enabled) less
+  // where the axis is (0 while disabled).
+  [[nodiscard]] double commandVelocity(std::size_t axis) const;
+  [[nodiscard]] double followingError(std::size_t axis) const;
+
+  // One row of the servo-cycle trace (issue 10): time_s, then per axis
+  // <a>_command_volts, <a>_command_velocity, <a>_position, <a>_velocity,
+  // <a>_following_error (drive 0's amplifier), then spindle_rpm with a
+  // spindle. traceRow fills `row` (traceColumns().size() values) without
+  // allocating: it is taken on the card thread at every host cycle.
+  [[nodiscard]] std::vector<std::string> traceColumns() const;
+  void traceRow(std::span<double> row) const;
 
   [[nodiscard]] State state() const;
   [[nodiscard]] SimTime time() const { return time_; }
@@ -116,9 +156,12 @@ class Machine {
     std::vector<Drive> drives;
     double inertiaShare;  // per drive, for the velocity loops
     int brakeOutput;
+    double commanded = 0.0;  // machine units: drive 0's velocity command integrated since enabled
   };
   void step();
   [[nodiscard]] bool brakeEngaged(const AxisPlant& a) const;
+  // Its first drive is a velocity-mode amplifier, enabled.
+  [[nodiscard]] bool commandsVelocity(const AxisPlant& a) const;
 
   MachineDescription d_;
   hm2::HostMot2Card* card_;

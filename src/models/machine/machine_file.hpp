@@ -3,8 +3,11 @@
 // amplifiers, motors, loads and screws, the switches on the field inputs
 // and the field outputs that drive things. Three built-ins: mill(),
 // lathe(), gantry() (docs/machine-mill.md has the mill's wiring as
-// LinuxCNC names the pins). A TOML loader for these comes later
-// (examples/machines/mill.toml documents the schema).
+// LinuxCNC names the pins). Machine files are these in TOML:
+// config::loadMachine (src/config/config/machine_toml.hpp) reads them, and
+// examples/machines/mill.toml documents the schema; mill.toml, lathe.toml
+// and gantry.toml there load to exactly these built-ins (tests hold them
+// equal, so a change here goes there too).
 #pragma once
 
 #include <optional>

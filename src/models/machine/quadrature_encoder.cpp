@@ -23,7 +23,24 @@ double QuadratureEncoder::trueCounts(double revs) const {
   return origin_ + (p_.reversed ? -1.0 : 1.0) * revs * static_cast<double>(countsPerRev());
 }
 
+void QuadratureEncoder::setBroken(EncoderChannel channel, bool broken, double revs, SimTime now) {
+  constexpr std::uint8_t kCounting = (1U << static_cast<unsigned>(EncoderChannel::A)) |
+                                     (1U << static_cast<unsigned>(EncoderChannel::B));
+  const bool wasCounting = (broken_ & kCounting) == 0;
+  const auto bit = static_cast<std::uint8_t>(1U << static_cast<unsigned>(channel));
+  broken_ = static_cast<std::uint8_t>(broken ? broken_ | bit : broken_ & ~bit);
+  const bool counting = (broken_ & kCounting) == 0;
+  if (wasCounting && !counting) encoders_->setVelocity(input_, 0.0, now);  // stops where it is
+  if (!wasCounting && counting) {
+    // The counts missed stay missed: the signal goes on from where it stopped.
+    encoders_->advance(now);
+    origin_ += encoders_->signal(input_).position - trueCounts(revs);
+  }
+  encoders_->setIndexPeriod(input_, p_.index && !this->broken(EncoderChannel::Index) ? countsPerRev() : 0);
+}
+
 void QuadratureEncoder::drive(double revs, SimTime from, SimTime until, SimTime minimum) {
+  if (broken(EncoderChannel::A) || broken(EncoderChannel::B)) return;
   // Within this of the shaft, a standing signal stays put: a shaft at rest
   // costs the counters nothing.
   constexpr double kAtRest = 1e-6;  // counts
@@ -33,7 +50,8 @@ void QuadratureEncoder::drive(double revs, SimTime from, SimTime until, SimTime 
   if (until - from < minimum) return;
   encoders_->advance(from);
   const double seconds = std::chrono::duration<double>(until - from).count();
-  const double error = target - signal.position;
+  // The signal where the counter is at `from` (signal() settles the counters).
+  const double error = target - encoders_->signal(input_).position;
   encoders_->setVelocity(input_, std::abs(error) < kAtRest ? 0.0 : error / seconds, from);
 }
 

@@ -25,6 +25,10 @@ struct EncoderParameters {
   bool operator==(const EncoderParameters&) const = default;
 };
 
+// The encoder's channels, each a differential pair on the 7I77 (manual:
+// ENCODER INTERFACE) that a broken wire or connector can take away.
+enum class EncoderChannel : std::uint8_t { A, B, Index };
+
 class QuadratureEncoder {
  public:
   // On card input `input`, the shaft at `revs` now.
@@ -38,6 +42,18 @@ class QuadratureEncoder {
   // up: aiming at the target over a sliver of time would make a velocity
   // spike the counter's filter could drop counts on.
   void drive(double revs, SimTime from, SimTime until, SimTime minimum);
+
+  // A broken channel (issue 10: a fault to rehearse). With A or B gone the
+  // counter sees one channel toggle alone, up one count and back, and no
+  // longer follows the shaft: the signal stays where it is. Mended, it goes
+  // on from there; the motion in between is lost, as on the machine (the
+  // model's index moves with the count: home again after a repair). With
+  // the index gone no index pulse comes. `revs`: the shaft now; `now`: the
+  // card's time.
+  void setBroken(EncoderChannel channel, bool broken, double revs, SimTime now);
+  [[nodiscard]] bool broken(EncoderChannel channel) const {
+    return (broken_ >> static_cast<unsigned>(channel)) & 1U;
+  }
 
   [[nodiscard]] std::uint32_t countsPerRev() const { return 4 * p_.linesPerRev; }
   // Counts the shaft is at: what a perfect counter would show.
@@ -56,6 +72,7 @@ class QuadratureEncoder {
   hm2::MuxedEncoder* encoders_;
   unsigned input_;
   double origin_;  // signal counts at shaft revolution 0
+  std::uint8_t broken_ = 0;  // bit per EncoderChannel
 };
 
 }  // namespace machine

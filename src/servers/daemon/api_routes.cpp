@@ -105,6 +105,177 @@ constexpr double kMaxStepMs = 60000;
 
 using Route = std::function<std::string(const json&)>;
 
+// --- The machine (issue 10): GET /api/machine, POST /api/machine actions,
+// GET /api/machine/trace.
+
+// A route about a machine the sim does not have.
+struct NoMachine : std::runtime_error {
+  NoMachine() : std::runtime_error("no machine is loaded (start the sim with --machine mill, lathe, gantry or FILE)") {}
+};
+
+std::string text(const json& j, const char* key) {
+  if (!j.contains(key)) throw std::invalid_argument(fmt::format("missing \"{}\"", key));
+  if (!j.at(key).is_string()) throw std::invalid_argument(fmt::format("\"{}\" must be a string", key));
+  return j.at(key).get<std::string>();
+}
+
+template <typename Names>
+std::string listed(const Names& names) {
+  std::string out;
+  for (const auto& n : names) out += (out.empty() ? "" : ", ") + std::string(n);
+  return out.empty() ? "none" : out;
+}
+
+std::string axisNames(const machine::Machine& m) {
+  std::vector<std::string> names;
+  for (const auto& a : m.description().axes) names.push_back(a.name);
+  return listed(names);
+}
+
+// The outside world's reach: a push as far as any machine travels, as fast
+// as any axis could be shoved.
+constexpr double kMaxPush = 1e6;
+constexpr double kMaxPushSpeed = 1e5;
+constexpr double kDefaultPushSpeed = 20.0;
+
+void machineAction(machine::Machine& m, const json& j) {
+  const std::string action = text(j, "action");
+  auto axis = [&]() {
+    const std::string name = text(j, "axis");
+    if (const auto i = m.axisIndex(name)) return *i;
+    throw std::invalid_argument(
+        fmt::format("\"axis\": this machine has no axis \"{}\" (it has {})", name, axisNames(m)));
+  };
+  // Everything is checked before anything changes.
+  if (action == "push") {
+    const auto a = axis();
+    const double distance = number(j, "distance", -kMaxPush, kMaxPush,
+                                   fmt::format("from {:g} to {:g} (machine units)", -kMaxPush, kMaxPush));
+    const double speed = j.contains("speed") ? number(j, "speed", std::numeric_limits<double>::min(), kMaxPushSpeed,
+                                                      fmt::format("above 0 and at most {:g} (machine units per second)",
+                                                                  kMaxPushSpeed))
+                                             : kDefaultPushSpeed;
+    m.push(a, distance, speed);
+  } else if (action == "jam") {
+    const auto a = axis();
+    m.setJammed(a, flag(j, "jammed"));
+  } else if (action == "encoder") {
+    const std::string name = text(j, "axis");
+    const auto a = m.axisIndex(name);
+    if (!a && name != "spindle")
+      throw std::invalid_argument(fmt::format("\"axis\": this machine has no axis \"{}\" (it has {}, and \"spindle\" "
+                                              "for the spindle's encoder)",
+                                              name, axisNames(m)));
+    const unsigned drives = a ? static_cast<unsigned>(m.drives(*a)) : 1U;
+    const unsigned drive = j.contains("drive") ? index(j, "drive", drives) : 0U;
+    const std::string channelName = text(j, "channel");
+    machine::EncoderChannel channel{};
+    if (channelName == "A")
+      channel = machine::EncoderChannel::A;
+    else if (channelName == "B")
+      channel = machine::EncoderChannel::B;
+    else if (channelName == "index")
+      channel = machine::EncoderChannel::Index;
+    else
+      throw std::invalid_argument("\"channel\" must be \"A\", \"B\" or \"index\"");
+    const bool broken = flag(j, "broken");
+    if (a)
+      m.setEncoderBroken(*a, drive, channel, broken);
+    else if (!m.setSpindleEncoderBroken(channel, broken))
+      throw std::invalid_argument(m.spindle() ? "\"axis\": this machine's spindle has no encoder"
+                                              : "\"axis\": this machine has no spindle");
+  } else if (action == "estop") {
+    const bool pressed = flag(j, "pressed");
+    if (m.setSwitches(machine::SwitchKind::Estop, pressed) == 0)
+      throw std::invalid_argument("\"action\": this machine has no E-stop switch");
+  } else if (action == "probe") {
+    const bool touching = flag(j, "touching");
+    if (m.setSwitches(machine::SwitchKind::Probe, touching) == 0)
+      throw std::invalid_argument("\"action\": this machine has no probe");
+  } else if (action == "switch") {
+    const std::string name = text(j, "name");
+    const bool tripped = flag(j, "tripped");
+    if (!m.setSwitch(name, tripped)) {
+      std::vector<std::string> names;
+      for (const auto& sw : m.description().switches) names.push_back(sw.name);
+      throw std::invalid_argument(
+          fmt::format("\"name\": this machine has no switch \"{}\" (it has {})", name, listed(names)));
+    }
+  } else {
+    throw std::invalid_argument("\"action\" must be one of push, jam, encoder, estop, probe, switch");
+  }
+}
+
+// GET /api/machine/trace?since=SECONDS: the rows after `since` (all the
+// ring holds without it), written straight to text: up to 60 s of rows.
+std::string traceJson(const TraceRing& trace, const httplib::Request& req) {
+  double since = -std::numeric_limits<double>::infinity();
+  if (req.has_param("since")) {
+    const std::string v = req.get_param_value("since");
+    std::size_t used = 0;
+    bool ok = !v.empty();
+    try {
+      since = ok ? std::stod(v, &used) : 0.0;
+    } catch (const std::exception&) {
+      ok = false;
+    }
+    if (!ok || used != v.size() || !std::isfinite(since))
+      throw std::invalid_argument(fmt::format("\"since\" must be a number of seconds (simulated time), not \"{}\"", v));
+  }
+  std::string out = "{\"columns\":" + json(trace.columns()).dump() + ",\"rows\":[";
+  std::vector<double> row(trace.width());
+  const std::uint64_t end = trace.pushed();
+  bool first = true;
+  for (std::uint64_t n = trace.firstAfter(since); n < end; ++n) {
+    if (!trace.read(n, row)) continue;  // overwritten meanwhile: older than what follows
+    out += first ? "[" : ",[";
+    first = false;
+    for (std::size_t i = 0; i < row.size(); ++i) {
+      if (i > 0) out += ',';
+      out += std::isfinite(row[i]) ? fmt::format("{:.12g}", row[i]) : std::string("null");
+    }
+    out += ']';
+  }
+  out += "]}";
+  return out;
+}
+
+void addMachineRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner& run) {
+  // Whether there is a machine never changes: said at once, without the card thread.
+  auto answer = [](httplib::Response& res, int status, const std::string& content) {
+    res.status = status;
+    res.set_content(content, "application/json");
+  };
+  auto guarded = [answer](auto&& work) {
+    return [answer, work](const httplib::Request& req, httplib::Response& res) {
+      try {
+        answer(res, 200, work(req));
+      } catch (const NoMachine& e) {
+        answer(res, 404, json{{"error", e.what()}}.dump());
+      } catch (const std::invalid_argument& e) {
+        answer(res, 400, json{{"error", e.what()}}.dump());
+      } catch (const std::exception& e) {
+        answer(res, 503, json{{"error", e.what()}}.dump());  // the card thread is busy, or the sim is stopping
+      }
+    };
+  };
+  http.Get("/api/machine", guarded([t, run](const httplib::Request&) {
+             if (t.machine == nullptr) throw NoMachine();
+             return run([t] { return t.machineJson(); });
+           }));
+  http.Post("/api/machine", guarded([t, run](const httplib::Request& req) {
+              if (t.machine == nullptr) throw NoMachine();
+              return run([t, j = body(req)] {
+                machineAction(*t.machine, j);
+                return t.machineJson();
+              });
+            }));
+  http.Get("/api/machine/trace", guarded([t](const httplib::Request& req) {
+             if (t.trace == nullptr) throw NoMachine();
+             return traceJson(*t.trace, req);
+           }));
+}
+
 void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner& run) {
   auto handle = [run](Route route) {
     return [run, route](const httplib::Request& req, httplib::Response& res) {
@@ -125,6 +296,7 @@ void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner
   // function), so a job stays valid whichever request it came from. Changes
   // happen at the card's own time (it may lag the clock while it catches up).
   http.Get("/api/state", handle([t](const json&) { return t.stateJson(); }));
+  addMachineRoutes(http, t, run);
   http.Post("/api/input", handle([t](const json& j) {
               auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
               const auto n = index(j, "input", remote::FieldIoProcessor::kInputs);

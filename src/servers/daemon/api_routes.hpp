@@ -15,7 +15,9 @@
 #include <string>
 
 #include "daemon/sim_clock.hpp"
+#include "daemon/trace_ring.hpp"
 #include "hostmot2/card.hpp"
+#include "machine/machine.hpp"
 
 namespace net {
 
@@ -40,12 +42,18 @@ struct ApiOptions {
   unsigned maxRequestsPerConnection = 100;
 };
 
-// What the routes act on: touched only inside jobs, on the card thread.
+// What the routes act on: touched only inside jobs, on the card thread
+// (but for the trace, made to be read by any thread).
 struct ApiTarget {
   hm2::HostMot2Card& card;  // card.now(): the simulated time everything happens at
   SimClock& clock;
   // The answer to every successful call: the whole state as JSON.
   std::function<std::string()> stateJson;
+  // The machine behind connector 0 (`lbpkit sim --machine`), or none: then
+  // the /api/machine routes answer 404.
+  machine::Machine* machine = nullptr;
+  std::function<std::string()> machineJson;  // GET /api/machine's answer
+  const TraceRing* trace = nullptr;          // GET /api/machine/trace reads it on the API's threads
 };
 
 // Runs a job on the card thread and returns its result. What the job throws

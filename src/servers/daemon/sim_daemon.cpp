@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
 
 #include "daemon/api_routes.hpp"
 #include "daemon/state_json.hpp"
@@ -15,6 +17,15 @@ namespace net {
 
 SimDaemon::SimDaemon(SimOptions options)
     : options_(std::move(options)), card_(options_.card), clock_(options_.speed, options_.paused) {
+  if (options_.machine) {
+    if (options_.demo) throw std::invalid_argument("a machine and the demo world both want the 7I77's terminals");
+    machine_ = std::make_unique<machine::Machine>(*options_.machine, card_, card_.now(), 0);
+    trace_ = std::make_unique<TraceRing>(machine_->traceColumns(), std::max<std::size_t>(options_.traceRows, 1));
+    traceRow_.assign(trace_->width(), 0.0);
+    analogExchanges_ = card_.daughtercard(0).analog.processDataCount();
+  } else if (!options_.recordFile.empty()) {
+    throw std::invalid_argument("a trace needs a machine to record");
+  }
   udp_ = std::make_unique<UdpServer>(options_.bindAddress, options_.port);
   Lbp16Card::Identity id;
   std::array<std::uint8_t, 6> mac{};
@@ -41,14 +52,21 @@ SimDaemon::SimDaemon(SimOptions options)
         },
         this);
 
-  if (options_.apiPort < 0) return;
-  ApiOptions api;
-  api.address = options_.apiAddress;
-  api.port = options_.apiPort;
-  api.token = options_.apiToken;
-  api_ = std::make_unique<ControlApi>(api, ApiTarget{card_, clock_, [this] { return stateJson(); }},
-                                      [this](std::function<std::string()> job) { return runJob(std::move(job)); });
-  apiPort_ = api_->port();
+  if (options_.apiPort >= 0) {
+    ApiOptions api;
+    api.address = options_.apiAddress;
+    api.port = options_.apiPort;
+    api.token = options_.apiToken;
+    api_ = std::make_unique<ControlApi>(api,
+                                        ApiTarget{card_, clock_, [this] { return stateJson(); }, machine_.get(),
+                                                  [this] { return machineJson(); }, trace_.get()},
+                                        [this](std::function<std::string()> job) { return runJob(std::move(job)); });
+    apiPort_ = api_->port();
+  }
+  // Last, so a sim that cannot start leaves no file behind it.
+  if (!options_.recordFile.empty())
+    traceFile_ = std::make_unique<TraceFile>(*trace_, options_.recordFile,
+                                             [this](const std::string& text) { log(LogLevel::Warn, text); });
 }
 
 SimDaemon::~SimDaemon() {
@@ -67,7 +85,29 @@ SimDaemon::~SimDaemon() {
 std::uint16_t SimDaemon::port() const { return udp_->port(); }
 
 lbp::SimTime SimDaemon::catchUp(std::chrono::microseconds budget) {
-  return clock_.catchUp(card_.now(), [this](lbp::SimTime t) { card_.advance(t); }, budget);
+  // The machine first: each plant step sets its encoders' velocities to
+  // reach the shaft at the step's end, so the counters then follow the
+  // plant over the card's advance (machine/machine.hpp). It may be up to one
+  // step ahead of the card.
+  return clock_.catchUp(
+      card_.now(),
+      [this](lbp::SimTime t) {
+        if (machine_) machine_->advance(t);
+        card_.advance(t);
+      },
+      budget);
+}
+
+void SimDaemon::record() {
+  // The host's servo thread exchanges the analog processor's process data
+  // once a period (hm2_eth: one DOIT per read/write cycle); a count that
+  // moved is a cycle. Polled after each datagram and catch-up: no callback
+  // into the models, no allocation.
+  const std::uint32_t n = card_.daughtercard(0).analog.processDataCount();
+  if (n == analogExchanges_) return;
+  analogExchanges_ = n;
+  machine_->traceRow(traceRow_);
+  trace_->push(traceRow_);
 }
 
 SimState SimDaemon::state() {
@@ -101,7 +141,13 @@ SimState SimDaemon::state() {
       board.encoders[n] = encoders.counter.at(SimState::kEncodersPerDaughtercard * d + n);
     s.daughtercards.push_back(board);
   }
+  if (machine_) s.machine = machine_->state();
   return s;
+}
+
+std::string SimDaemon::machineJson() {
+  catchUp(clock_.paused() ? std::chrono::microseconds(200'000) : SimClock::kBudget);
+  return net::toJson(machine_->state()).dump();
 }
 
 std::string SimDaemon::stateJson() { return net::stateJson(state()); }
@@ -123,6 +169,18 @@ std::string SimDaemon::banner() const {
                      b.fieldIo.nvStore().file().empty() ? "" : ", EEPROM " + b.fieldIo.nvStore().file().string());
   }
   s += fmt::format("  configuration: {}\n", options_.configDescription);
+  if (machine_) {
+    const auto& d = machine_->description();
+    std::string axes;
+    for (const auto& a : d.axes) axes += (axes.empty() ? "" : ", ") + a.name;
+    s += fmt::format("  machine: {} ({}) on connector 0: axes {}{}, {} switches, {} outputs\n", d.name,
+                     options_.machineSource.empty() ? "given" : options_.machineSource, axes,
+                     d.spindle ? ", spindle" : "", d.switches.size(), d.outputs.size());
+    if (apiPort_ >= 0)
+      s += fmt::format("  machine API: http://{}:{}/api/machine (trace: /api/machine/trace)\n", options_.apiAddress,
+                       apiPort_);
+    if (traceFile_) s += fmt::format("  recording: every servo cycle to {}\n", traceFile_->path());
+  }
   if (apiPort_ >= 0)
     s += fmt::format("  control API: http://{}:{}/api/state{}\n", options_.apiAddress, apiPort_,
                      options_.apiToken.empty() ? "" : " (with its token: Authorization: Bearer TOKEN)");
@@ -215,6 +273,7 @@ void SimDaemon::run(const std::atomic<bool>& stop) {
       queueing_.add(udp_->lastQueueing());
     }
     catchUp();
+    if (machine_) record();
     if (options_.demo) {
       auto& io = card_.daughtercard(0).fieldIo;
       for (unsigned i = 0; i < remote::FieldIoProcessor::kOutputs; ++i) {

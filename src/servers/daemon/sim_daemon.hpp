@@ -17,11 +17,16 @@
 #include <future>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "daemon/sim_clock.hpp"
+#include "daemon/trace_file.hpp"
+#include "daemon/trace_ring.hpp"
 #include "hostmot2/card.hpp"
 #include "lbp16/lbp16_card.hpp"
+#include "machine/machine.hpp"
 
 namespace net {
 
@@ -42,6 +47,14 @@ struct SimOptions {
   // A little world for demonstrations: the 7I77's field outputs wired back
   // to its inputs 0..15, and encoder 0 turning at 10 000 counts/s.
   bool demo = false;
+  // A machine behind the 7I77 on connector 0 (issue 10): servo axes,
+  // switches, spindle (machine/machine.hpp). Excludes `demo`.
+  std::optional<machine::MachineDescription> machine;
+  std::string machineSource;  // where it came from, for the banner ("built-in mill", a file)
+  // With a machine: its servo-cycle trace also goes to this CSV file.
+  std::string recordFile;
+  // How many servo cycles the trace keeps for GET /api/machine/trace (60 s at 1 kHz).
+  std::size_t traceRows = 60'000;
   hm2::HostMot2Card::Options card;
   std::string configDescription = "built-in default";
 };
@@ -67,6 +80,8 @@ class SimDaemon {
   // The whole board now, and as JSON (for the API; call on the card thread).
   [[nodiscard]] SimState state();
   std::string stateJson();
+  // GET /api/machine (call on the card thread, with a machine).
+  std::string machineJson();
   // "median 3 us, 99th percentile 9 us, max 40 us over N datagrams".
   [[nodiscard]] std::string latencySummary() const;
 
@@ -76,10 +91,20 @@ class SimDaemon {
   // Brings the card up to the clock, with bounded work (SimClock::catchUp);
   // returns the card's time, the time everything happens at.
   lbp::SimTime catchUp(std::chrono::microseconds budget = SimClock::kBudget);
+  // A trace row when the host has run a servo cycle since the last look.
+  void record();
   void log(LogLevel level, const std::string& text) const;
 
   SimOptions options_;
   hm2::HostMot2Card card_;
+  // Stepped on the card thread, before the card (catchUp).
+  std::unique_ptr<machine::Machine> machine_;
+  // Its trace: a row per host cycle, seen as a new process data exchange
+  // of the analog processor (one DOIT of its channel per servo period).
+  std::unique_ptr<TraceRing> trace_;
+  std::vector<double> traceRow_;  // allocated once
+  std::uint32_t analogExchanges_ = 0;
+  std::unique_ptr<TraceFile> traceFile_;  // after trace_: it reads it until it goes
   std::unique_ptr<Lbp16Card> lbp16_;
   std::unique_ptr<UdpServer> udp_;
   SimClock clock_;

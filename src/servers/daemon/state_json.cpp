@@ -140,6 +140,87 @@ json toJson(const SimState::Daughtercard& s, unsigned connector) {
           {"encoders", enc}};
 }
 
+namespace {
+
+const char* kindName(machine::SwitchKind k) {
+  using K = machine::SwitchKind;
+  switch (k) {
+    case K::Home: return "home";
+    case K::MinLimit: return "min_limit";
+    case K::MaxLimit: return "max_limit";
+    case K::Estop: return "estop";
+    case K::Probe: return "probe";
+    case K::Other: break;
+  }
+  return "other";
+}
+
+json channelNames(const std::vector<machine::EncoderChannel>& channels) {
+  json a = json::array();
+  for (const auto c : channels)
+    a.push_back(c == machine::EncoderChannel::A ? "A" : c == machine::EncoderChannel::B ? "B" : "index");
+  return a;
+}
+
+}  // namespace
+
+json toJson(const machine::Switches::State& s) {
+  return {{"name", s.name}, {"kind", kindName(s.kind)}, {"input", s.input}, {"tripped", s.tripped}, {"input_on", s.inputOn}};
+}
+
+json toJson(const machine::Machine::State& s) {
+  auto switches = [](const std::vector<machine::Switches::State>& list) {
+    json a = json::array();
+    for (const auto& sw : list) a.push_back(toJson(sw));
+    return a;
+  };
+  json axes = json::array();
+  for (const auto& a : s.axes) {
+    json drives = json::array();
+    for (const auto& d : a.drives)
+      drives.push_back({{"analog_output", d.analogOutput},
+                        {"command_volts", d.commandVolts},
+                        {"ena", d.enaOn},
+                        {"enabled", d.enabled},
+                        {"torque", d.torque},
+                        {"encoder_input", d.encoderInput},
+                        {"encoder_count", d.encoderCount},
+                        {"true_counts", d.trueCounts},
+                        {"encoder_broken", channelNames(d.encoderBroken)}});
+    axes.push_back({{"name", a.name},
+                    {"position", a.position},
+                    {"velocity", a.velocity},
+                    {"command_velocity", a.commandVelocity},
+                    {"following_error", a.followingError},
+                    {"brake_engaged", a.brakeEngaged},
+                    {"at_hard_stop", a.atHardStop},
+                    {"jammed", a.jammed},
+                    {"pushing", a.pushing},
+                    {"drives", drives},
+                    {"switches", switches(a.switches)}});
+  }
+  json spindle = nullptr;
+  if (s.spindle) {
+    const auto& sp = *s.spindle;
+    spindle = {{"command_rpm", sp.commandRpm},
+               {"rpm", sp.rpm},
+               {"revolutions", sp.revolutions},
+               {"running", sp.running},
+               {"encoder_count", sp.encoderCount ? json(*sp.encoderCount) : json(nullptr)},
+               {"encoder_broken", channelNames(sp.encoderBroken)}};
+  }
+  json outputs = json::array();
+  for (const auto& o : s.outputs) outputs.push_back({{"name", o.name}, {"output", o.output}, {"on", o.on}});
+  return {{"name", s.name},
+          {"time_s", std::chrono::duration<double>(s.time).count()},
+          {"axes", axes},
+          {"spindle", spindle},
+          {"estop_ok", s.estopOk},
+          {"probe", s.probe},
+          {"switches", switches(s.switches)},
+          {"outputs", outputs}};
+}
+
 json toJson(const SimState& s) {
   json j;
   j["time_s"] = std::chrono::duration<double>(s.time).count();
@@ -165,6 +246,7 @@ json toJson(const SimState& s) {
   json boards = json::array();
   for (unsigned d = 0; d < s.daughtercards.size(); ++d) boards.push_back(toJson(s.daughtercards[d], d));
   j["daughtercards"] = boards;
+  j["machine"] = s.machine ? toJson(*s.machine) : json(nullptr);
   return j;
 }
 

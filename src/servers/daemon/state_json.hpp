@@ -9,6 +9,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,7 @@
 #include "hostmot2/sslbp.hpp"
 #include "hostmot2/watchdog.hpp"
 #include "lbp16/lbp16_card.hpp"
+#include "machine/machine.hpp"
 #include "remote/analog.hpp"
 #include "remote/field_io.hpp"
 
@@ -73,6 +75,8 @@ struct SimState {
     std::array<hm2::MuxedEncoder::State::Counter, kEncodersPerDaughtercard> encoders{};
   };
   std::vector<Daughtercard> daughtercards;
+  // The machine behind connector 0's 7I77 (`lbpkit sim --machine`), if any.
+  std::optional<machine::Machine::State> machine;
 };
 
 // Each part as it appears under its key in GET /api/state.
@@ -88,6 +92,10 @@ nlohmann::json toJson(const SimState::Server& s);
 nlohmann::json toJson(const SimState::Daughtercard& s, unsigned connector);
 // The remote fault byte as the names of its set bits, lowest bit first.
 nlohmann::json faultNames(std::uint8_t faults);
+// GET /api/machine (and "machine" in GET /api/state): axes with their
+// drives and switches, spindle, E-stop chain, probe, switches, outputs.
+nlohmann::json toJson(const machine::Machine::State& s);
+nlohmann::json toJson(const machine::Switches::State& s);
 
 // The whole document.
 nlohmann::json toJson(const SimState& s);

@@ -1,0 +1,51 @@
+// `lbpkit sim --record FILE.csv`: the machine's servo-cycle trace
+// (trace_ring.hpp) written to a CSV file, header first, by a thread of its
+// own. The card thread only fills the ring; this thread drains it a few
+// times a second, so the card thread never waits on the disk.
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <cstdio>
+#include <functional>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "daemon/trace_ring.hpp"
+
+namespace net {
+
+class TraceFile {
+ public:
+  using Report = std::function<void(const std::string&)>;
+  // Creates (or truncates) `path` and writes the header: throws
+  // std::runtime_error naming the file and why when it cannot. `warn` hears
+  // of rows lost (the writer a whole ring behind) and of write errors, once
+  // each; it runs on the writer's thread.
+  TraceFile(const TraceRing& ring, std::string path, Report warn);
+  // Writes what is left and closes the file.
+  ~TraceFile();
+  TraceFile(const TraceFile&) = delete;
+  TraceFile& operator=(const TraceFile&) = delete;
+
+  [[nodiscard]] const std::string& path() const { return path_; }
+
+ private:
+  void run();
+  void drain();
+
+  const TraceRing& ring_;
+  std::string path_;
+  Report warn_;
+  std::FILE* file_ = nullptr;
+  std::uint64_t next_ = 0;  // the next row to write
+  bool lostSaid_ = false;
+  bool errorSaid_ = false;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  bool stopping_ = false;
+  std::thread thread_;
+};
+
+}  // namespace net

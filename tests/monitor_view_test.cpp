@@ -1,0 +1,238 @@
+// `lbpkit monitor` shows the machine behind an `lbpkit sim --machine` (issue
+// 10, item 5): the section formatted from GET /api/machine, and the monitor
+// asking a control API for it: shown on 200, nothing extra (and no error) on
+// 404, without an API, or from an API that never answers.
+#include <gtest/gtest.h>
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <filesystem>
+#include <httplib.h>
+#include <stdexcept>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+
+#include "machine_view.hpp"
+#include "process.hpp"
+
+namespace {
+
+using nlohmann::json;
+using testing_process::run;
+
+// What `lbpkit sim --machine mill` answers (notes: the API's contract), with
+// X at its max limit, the E-stop pressed and the spindle running.
+json cannedMill() {
+  auto sw = [](const char* name, const char* kind, int input, bool tripped) {
+    return json{{"name", name}, {"kind", kind}, {"input", input}, {"tripped", tripped}, {"input_on", !tripped}};
+  };
+  auto drive = [](int n, double volts, bool ena, int count) {
+    return json{{"analog_output", n}, {"command_volts", volts}, {"ena", ena},         {"enabled", ena},
+                {"torque", 0.5},      {"encoder_input", n},     {"encoder_count", count}, {"true_counts", 1.0 * count},
+                {"encoder_broken", json::array()}};
+  };
+  json x = {{"name", "x"},
+            {"position", 402.12345},
+            {"velocity", -1.5},
+            {"brake_engaged", false},
+            {"at_hard_stop", false},
+            {"jammed", false},
+            {"pushing", true},
+            {"drives", {drive(0, -0.25, true, 1234)}},
+            {"switches", {sw("x-home", "home", 0, true), sw("x-min", "min_limit", 1, false), sw("x-max", "max_limit", 2, true)}}};
+  json z = {{"name", "z"},
+            {"position", -75.0},
+            {"velocity", 0.0},
+            {"brake_engaged", true},
+            {"at_hard_stop", false},
+            {"jammed", true},
+            {"pushing", false},
+            {"drives", {drive(2, 0.0, false, 7)}},
+            {"switches", {sw("z-home", "home", 6, false)}}};
+  z["drives"][0]["encoder_broken"] = {"A", "index"};
+  json m = {{"name", "mill"},
+            {"time_s", 12.3456},
+            {"axes", {x, z}},
+            {"spindle", {{"command_rpm", 12000.0}, {"rpm", 11990.4}, {"revolutions", 10.0}, {"running", true}, {"encoder_count", 4321}}},
+            {"estop_ok", false},
+            {"probe", true},
+            {"outputs", {{{"name", "coolant"}, {"output", 0}, {"on", true}}, {{"name", "lube"}, {"output", 1}, {"on", false}}}}};
+  m["switches"] = json::array();
+  for (const auto& a : m["axes"])
+    for (const auto& s : a["switches"]) m["switches"].push_back(s);
+  m["switches"].push_back(sw("estop", "estop", 9, true));
+  return m;
+}
+
+// A TCP socket on a free loopback port (listening or not); `port` says which.
+int loopbackSocket(bool listening, std::string& port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in sa{};
+  sa.sin_family = AF_INET;
+  sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof sa;
+  if (::bind(fd, reinterpret_cast<sockaddr*>(&sa), len) != 0 || (listening && ::listen(fd, 4) != 0) ||
+      ::getsockname(fd, reinterpret_cast<sockaddr*>(&sa), &len) != 0)
+    throw std::runtime_error("no loopback socket");
+  port = std::to_string(ntohs(sa.sin_port));
+  return fd;
+}
+
+bool has(const std::string& text, const std::string& what) { return text.find(what) != std::string::npos; }
+
+TEST(MonitorView, ShowsAxesSwitchesSpindleAndTheEstopChain) {
+  const auto s = app::machineSection(cannedMill());
+  EXPECT_TRUE(has(s, "machine: mill at 12.346 s")) << s;
+  EXPECT_TRUE(has(s, "E-stop chain: OPEN (E-stop)")) << s;
+  EXPECT_TRUE(has(s, "probe: TOUCHING")) << s;
+  // Per axis: name, position (3 decimals), velocity, drive volts and enable.
+  EXPECT_TRUE(has(s, "  x         402.123     -1.500  AOUT0  -0.250 V  ENA on  enabled   enc0  1234  pushed\n")) << s;
+  EXPECT_TRUE(has(s, "  z         -75.000      0.000  AOUT2  +0.000 V  ENA off disabled  enc2     7 broken: A,index"
+                     "  brake on  JAMMED\n"))
+      << s;
+  EXPECT_TRUE(has(s, "switches: x-home TRIPPED  x-min -  x-max TRIPPED\n")) << s;
+  EXPECT_TRUE(has(s, "switches: z-home -\n")) << s;
+  EXPECT_TRUE(has(s, "other switches: estop TRIPPED\n")) << s;  // on no axis, shown once
+  EXPECT_FALSE(has(s, "other switches: x-home")) << s;
+  EXPECT_TRUE(has(s, "spindle: command 12000 rpm, actual 11990 rpm, running, encoder 4321\n")) << s;
+  EXPECT_TRUE(has(s, "outputs:  coolant (out 0) ON  lube (out 1) off\n")) << s;
+  // The E-stop chain closed, nothing touching, no spindle (null).
+  auto m = cannedMill();
+  m["estop_ok"] = true;
+  m["probe"] = false;
+  m["spindle"] = nullptr;
+  const auto calm = app::machineSection(m);
+  EXPECT_TRUE(has(calm, "E-stop chain: closed (ok)   probe: clear")) << calm;
+  EXPECT_FALSE(has(calm, "spindle:")) << calm;
+}
+
+TEST(MonitorView, AnAnswerItDoesNotUnderstandShowsQuestionMarksNotACrash) {
+  EXPECT_TRUE(has(app::machineSection(json::object()), "machine: ? at ? s   E-stop chain: ?"));
+  auto m = cannedMill();
+  m["axes"][0]["position"] = "far";
+  m["axes"][0]["drives"] = 3;
+  m["axes"][1]["drives"][0] = nullptr;
+  m["outputs"][0] = "coolant";
+  m["spindle"] = json::array();
+  const auto s = app::machineSection(m);
+  EXPECT_TRUE(has(s, "  x               ?     -1.500  (no drive)  pushed\n")) << s;
+  EXPECT_TRUE(has(s, "AOUT?       ? V  ENA ?   ?         enc?     ?")) << s;
+  EXPECT_TRUE(has(s, "outputs:  ? (out ?) ?  lube (out 1) off")) << s;
+  EXPECT_NO_THROW((void)app::machineSection(json::array()));
+  EXPECT_NO_THROW((void)app::machineSection(json(42)));
+}
+
+// A control API of the test's own on a free loopback port, answering
+// GET /api/machine with `status` and `body`.
+class CannedApi {
+ public:
+  CannedApi(int status, std::string body) : status_(status), body_(std::move(body)) {
+    server_.Get("/api/machine", [this](const httplib::Request&, httplib::Response& res) {
+      ++requests_;
+      res.status = status_;
+      res.set_content(body_, "application/json");
+    });
+    port_ = server_.bind_to_any_port("127.0.0.1");
+    thread_ = std::thread([this] { server_.listen_after_bind(); });
+    while (!server_.is_running()) std::this_thread::yield();
+  }
+  ~CannedApi() {
+    server_.stop();
+    thread_.join();
+  }
+  [[nodiscard]] int port() const { return port_; }
+  [[nodiscard]] int requests() const { return requests_; }
+
+ private:
+  int status_;
+  std::string body_;
+  httplib::Server server_;
+  int port_ = 0;
+  std::atomic<int> requests_{0};
+  std::thread thread_;
+};
+
+TEST(MonitorView, TheMonitorShowsTheMachineItsApiReports) {
+  CannedApi api(200, cannedMill().dump());
+  const auto r = run({"monitor", "--sim", "--api", "127.0.0.1:" + std::to_string(api.port()), "--frames", "2",
+                      "--plain", "--display", "20"},
+                     std::chrono::seconds(30));
+  ASSERT_EQ(r.exit, 0) << r.err;
+  EXPECT_TRUE(has(r.out, "channel 0: 7I77 field I/O")) << r.out;  // the board as before
+  EXPECT_TRUE(has(r.out, "machine: mill at 12.346 s")) << r.out;
+  EXPECT_TRUE(has(r.out, "switches: x-home TRIPPED  x-min -  x-max TRIPPED")) << r.out;
+  EXPECT_TRUE(has(r.out, "spindle: command 12000 rpm")) << r.out;
+  EXPECT_GE(api.requests(), 1);
+  EXPECT_EQ(r.err, "");
+}
+
+TEST(MonitorView, NoMachineNoApiOrNoAnswerShowNothingExtra) {
+  CannedApi none(404, R"json({"error": "no machine is loaded (lbpkit sim --machine)"})json");
+  // A listening socket nobody accepts on: the request is sent and never
+  // answered. And a port nothing listens on (bound, then closed: free).
+  std::string deafPort, closedPort;
+  const int deaf = loopbackSocket(true, deafPort);
+  ::close(loopbackSocket(false, closedPort));
+  for (const auto& port : {std::to_string(none.port()), deafPort, closedPort}) {
+    const auto r = run({"monitor", "--sim", "--api", "127.0.0.1:" + port, "--frames", "2", "--plain", "--display", "20"},
+                       std::chrono::seconds(30));
+    EXPECT_EQ(r.exit, 0) << port << ": " << r.err;
+    EXPECT_TRUE(has(r.out, "encoders:")) << port << ": " << r.out;
+    EXPECT_FALSE(has(r.out, "machine")) << port << ": " << r.out;
+    EXPECT_EQ(r.err, "") << port;
+  }
+  EXPECT_GE(none.requests(), 1);
+  ::close(deaf);
+  // --no-api asks nobody.
+  CannedApi mill(200, cannedMill().dump());
+  const auto r = run({"monitor", "--sim", "--no-api", "--frames", "1", "--plain"}, std::chrono::seconds(30));
+  EXPECT_EQ(r.exit, 0) << r.err;
+  EXPECT_FALSE(has(r.out, "machine")) << r.out;
+  EXPECT_EQ(mill.requests(), 0);
+}
+
+// The real thing: `lbpkit sim --machine mill` on loopback ports of its own,
+// the monitor on its LBP16 port asking its control API.
+TEST(MonitorView, TheMonitorShowsTheMillOfARunningSim) {
+  const auto state = (std::filesystem::temp_directory_path() / ("lbpkit-monitor-" + std::to_string(::getpid()))).string();
+  {
+    testing_process::Daemon sim({"sim", "--machine", "mill", "--bind", "127.0.0.1:0", "--api", "127.0.0.1:0",
+                                 "--state", state, "--no-realtime"});
+    const auto udp = sim.value("on UDP 127.0.0.1:");
+    const auto api = sim.value("control API: http://127.0.0.1:");
+    ASSERT_FALSE(udp.empty());
+    ASSERT_FALSE(api.empty());
+    const auto apiPort = api.substr(0, api.find('/'));
+    const auto r = run({"monitor", "--addr", "127.0.0.1:" + udp, "--api", apiPort, "--frames", "2", "--plain",
+                        "--display", "20"},
+                       std::chrono::seconds(30));
+    EXPECT_EQ(r.exit, 0) << r.err;
+    EXPECT_TRUE(has(r.out, "machine: mill at ")) << r.out;
+    EXPECT_TRUE(has(r.out, "E-stop chain: closed (ok)")) << r.out;
+    // Where machine::mill() puts the axes at power-up, enables off (no host).
+    EXPECT_TRUE(has(r.out, "  x         200.000      0.000  AOUT0  +0.000 V  ENA off disabled")) << r.out;
+    EXPECT_TRUE(has(r.out, "  z         -75.000")) << r.out;
+    EXPECT_TRUE(has(r.out, "switches: x-home -  x-min -  x-max -")) << r.out;
+    EXPECT_TRUE(has(r.out, "spindle: command 0 rpm, actual 0 rpm, stopped")) << r.out;
+    EXPECT_EQ(sim.stop(), 0);
+  }
+  for (const char* suffix : {"", ".analog"}) std::filesystem::remove(state + suffix);
+}
+
+TEST(MonitorView, AnApiThatWantsATokenSaysSo) {
+  CannedApi locked(401, R"({"error": "unauthorized"})");
+  const auto r = run({"monitor", "--sim", "--api", std::to_string(locked.port()), "--frames", "1", "--plain"},
+                     std::chrono::seconds(30));
+  EXPECT_EQ(r.exit, 0) << r.err;
+  EXPECT_TRUE(has(r.out, "wants the sim's API token (--api-token or LBPKIT_API_TOKEN)")) << r.out;
+  const auto bad = run({"monitor", "--sim", "--api", "127.0.0.1:http", "--frames", "1"}, std::chrono::seconds(30));
+  EXPECT_EQ(bad.exit, 1);
+  EXPECT_TRUE(has(bad.err, "--api: \"127.0.0.1:http\" is not [ADDR:]PORT")) << bad.err;
+}
+
+}  // namespace
