@@ -26,6 +26,7 @@
 #include <thread>
 #include <vector>
 
+#include "daemon/sim_clock.hpp"
 #include "hostmot2/muxed_encoder.hpp"
 #include "lbpkit/hostmot2.hpp"
 #include "lbpkit/lbp16_transport.hpp"
@@ -34,6 +35,25 @@
 #include "process.hpp"
 
 namespace {
+
+// The sim answers each datagram at the simulated time it arrived
+// (SimDaemon::run): ago() maps a moment of the wall clock past to simulated
+// time, at the clock's speed, and not at all while paused.
+TEST(SimClock, AgoIsTheSimulatedTimeOfAWallClockMomentPast) {
+  using namespace std::chrono_literals;
+  net::SimClock paused(1.0, true);
+  paused.advanceBy(5ms);
+  EXPECT_EQ(paused.ago(3ms), paused.now());  // paused time does not move
+  net::SimClock doubled(2.0, false);
+  doubled.advanceBy(100ms);  // simulated time well past 0
+  const auto now = doubled.now();
+  const auto back = doubled.ago(10ms);
+  // 10 ms of wall clock are 20 ms simulated at speed 2 (plus what passed
+  // between the two calls, which only makes `back` later).
+  EXPECT_GE(back, now - 20ms);
+  EXPECT_LT(back, now - 19ms);
+  EXPECT_EQ(doubled.ago(1h), lbp::SimTime{0});  // never before the start
+}
 
 using namespace std::chrono_literals;
 using nlohmann::json;

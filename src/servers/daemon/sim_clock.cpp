@@ -1,5 +1,6 @@
 #include "daemon/sim_clock.hpp"
 
+#include <algorithm>
 #include <cstdint>
 
 namespace net {
@@ -27,6 +28,15 @@ void SimClock::fallBackTo(lbp::SimTime t) {
   wallBase_ = wall;
   behind_ += lag;
   ++slips_;
+}
+
+lbp::SimTime SimClock::ago(std::chrono::nanoseconds wallAgo) const {
+  const lbp::SimTime t = now();
+  if (paused_) return t;
+  const auto back = lbp::SimTime{static_cast<std::int64_t>(static_cast<double>(wallAgo.count()) * speed_)};
+  // Across a change of speed this is approximate, which is harmless: the
+  // card never runs back, so a time before its own is taken as its own.
+  return std::max(lbp::SimTime{0}, t - back);
 }
 
 void SimClock::advanceBy(lbp::SimTime t) {

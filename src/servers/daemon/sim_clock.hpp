@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <utility>
 
 #include "lbp/sim_time.hpp"
 
@@ -23,6 +24,9 @@ class SimClock {
   [[nodiscard]] double speed() const { return speed_; }
   [[nodiscard]] bool paused() const { return paused_; }
   void advanceBy(lbp::SimTime t);  // while paused: step time by hand
+  // The simulated time it was `wallAgo` of wall-clock time ago (now() while
+  // paused: paused time does not move).
+  [[nodiscard]] lbp::SimTime ago(std::chrono::nanoseconds wallAgo) const;
 
   // Brings a model from `from` towards now() by calling advance(t) with t at
   // most kSlice apart, for at most `budget` of wall time, and returns where
@@ -36,7 +40,12 @@ class SimClock {
   static constexpr std::chrono::microseconds kBudget{2000};
   template <typename Advance>
   lbp::SimTime catchUp(lbp::SimTime from, Advance&& advance, std::chrono::microseconds budget = kBudget) {
-    const lbp::SimTime target = now();
+    return catchUpTo(from, now(), std::forward<Advance>(advance), budget);
+  }
+  // The same towards `target`, a simulated time at most now().
+  template <typename Advance>
+  lbp::SimTime catchUpTo(lbp::SimTime from, lbp::SimTime target, Advance&& advance,
+                         std::chrono::microseconds budget = kBudget) {
     const auto start = Wall::now();
     lbp::SimTime t = from;
     while (t < target) {

@@ -84,13 +84,15 @@ SimDaemon::~SimDaemon() {
 
 std::uint16_t SimDaemon::port() const { return udp_->port(); }
 
-lbp::SimTime SimDaemon::catchUp(std::chrono::microseconds budget) {
+lbp::SimTime SimDaemon::catchUp(std::chrono::microseconds budget) { return catchUpTo(clock_.now(), budget); }
+
+lbp::SimTime SimDaemon::catchUpTo(lbp::SimTime target, std::chrono::microseconds budget) {
   // The machine first: each plant step sets its encoders' velocities to
   // reach the shaft at the step's end, so the counters then follow the
   // plant over the card's advance (machine/machine.hpp). It may be up to one
   // step ahead of the card.
-  return clock_.catchUp(
-      card_.now(),
+  return clock_.catchUpTo(
+      card_.now(), target,
       [this](lbp::SimTime t) {
         if (machine_) machine_->advance(t);
         card_.advance(t);
@@ -260,11 +262,15 @@ void SimDaemon::run(const std::atomic<bool>& stop) {
   std::uint64_t errorsSeen = 0;
   if (options_.demo) card_.encoders().setVelocity(0, 10000, card_.now());
   while (!stop.load()) {
-    // The card catches up before it answers (bounded: the reply may come at
-    // a time that lags the wall clock, never late by more than the budget).
+    // The card answers at the simulated time the datagram arrived (its
+    // kernel receive timestamp), caught up to it with bounded work. Normally
+    // that is microseconds ago; when this thread was held up (descheduled,
+    // a long API job) and datagrams queued, each is still taken at its own
+    // time, so a host that kept its period is not seen falling silent by the
+    // 7I77's 50 ms watchdog, which a stall here must not bite.
     const bool served = udp_->serveOnce(std::chrono::milliseconds(1),
                                         [&](std::span<const std::uint8_t> req, std::span<std::uint8_t> reply) {
-                                          return lbp16.handle(req, reply, catchUp());
+                                          return lbp16.handle(req, reply, catchUpTo(clock_.ago(udp_->sinceReceived())));
                                         });
     // From the kernel's receive timestamp, so time queued in the socket
     // counts: that is what the host waits.
@@ -272,7 +278,10 @@ void SimDaemon::run(const std::atomic<bool>& stop) {
       latency_.add(udp_->sinceReceived());
       queueing_.add(udp_->lastQueueing());
     }
-    catchUp();
+    // A datagram that queued for long says more may be waiting: they come
+    // first, each at its own time, before the card runs on to the clock.
+    constexpr std::chrono::milliseconds kBacklog{1};
+    if (!served || udp_->lastQueueing() < kBacklog) catchUp();
     if (machine_) record();
     if (options_.demo) {
       auto& io = card_.daughtercard(0).fieldIo;

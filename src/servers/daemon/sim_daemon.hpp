@@ -91,6 +91,8 @@ class SimDaemon {
   // Brings the card up to the clock, with bounded work (SimClock::catchUp);
   // returns the card's time, the time everything happens at.
   lbp::SimTime catchUp(std::chrono::microseconds budget = SimClock::kBudget);
+  // The same towards `target` (a simulated time not after the clock's).
+  lbp::SimTime catchUpTo(lbp::SimTime target, std::chrono::microseconds budget = SimClock::kBudget);
   // A trace row when the host has run a servo cycle since the last look.
   void record();
   void log(LogLevel level, const std::string& text) const;
