@@ -25,7 +25,7 @@ void SimTransport::queueWrite(std::uint16_t address, const std::uint32_t* from, 
 
 bool SimTransport::run() {
   bool reads = false;
-  for (std::size_t i = 0; i < queued_; ++i) reads = reads || !ops_[i].write;
+  for (std::size_t i = 0; i < queued_ && !reads; ++i) reads = !ops_[i].write;
   const bool drop = reads && dropReplies_ > 0;
   if (drop) --dropReplies_;
   if (queued_) now_ += exchangeLatency_ / 2;  // the request's way there

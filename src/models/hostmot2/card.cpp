@@ -62,6 +62,10 @@ HostMot2Card::HostMot2Card(Options options) : options_(std::move(options)) {
     for (unsigned block = 0; block < 256; ++block)
       for (unsigned off = 0; off < 256; off += 4)
         if (m->decodes(static_cast<std::uint16_t>(block << 8 | off))) byBlock_[block] = m;
+  for (unsigned block = 0; block < 256; ++block)
+    if (Module* m = byBlock_[block])
+      for (unsigned off = 0; off < 256; off += 4)
+        if (m->decodes(static_cast<std::uint16_t>(block << 8 | off))) decoded_[block] |= std::uint64_t{1} << (off / 4);
 
   std::vector<PinDescriptor> pins;
   for (unsigned connector = 0; connector < b.ioPorts; ++connector) {
@@ -85,18 +89,8 @@ std::vector<ModuleDescriptor> HostMot2Card::moduleDescriptors() const {
 }
 
 Module* HostMot2Card::moduleAt(std::uint16_t address) {
-  Module* m = byBlock_[address >> 8];
-  return (m && m->decodes(address)) ? m : nullptr;
-}
-
-void HostMot2Card::advance(SimTime now) {
-  if (now < now_) now = now_;  // time never runs backwards
-  now_ = now;
-  for (Module* m : modules_) m->advance(now);
-  for (auto& d : sevenI77s_) {
-    d->fieldIo.advance(now);
-    d->analog.advance(now);
-  }
+  // `address` is a register's (a multiple of 4).
+  return ((decoded_[address >> 8] >> ((address & 0xFFU) / 4)) & 1U) ? byBlock_[address >> 8] : nullptr;
 }
 
 void HostMot2Card::powerCycle(SimTime now) {

@@ -97,8 +97,22 @@ class HostMot2Card {
   // --- The register file -------------------------------------------------------
   std::uint32_t read32(std::uint16_t address, SimTime now);
   void write32(std::uint16_t address, std::uint32_t value, SimTime now);
-  // Let simulated time pass (watchdogs, encoders, SSLBP, remotes).
-  void advance(SimTime now);
+  // Let simulated time pass (watchdogs, encoders, SSLBP, remotes). Inline:
+  // every access does it, and each part's advance() is a comparison or two
+  // until something is due.
+  void advance(SimTime now) {
+    if (now < now_) now = now_;  // time never runs backwards
+    now_ = now;
+    // The modules whose state moves with time, in IDROM order (the others'
+    // advance() does nothing), called directly.
+    watchdog_->advance(now);
+    encoders_->advance(now);
+    sserial_->advance(now);
+    for (auto& d : sevenI77s_) {
+      d->fieldIo.advance(now);
+      d->analog.advance(now);
+    }
+  }
   // Switch the machine off and on at `now`: every module back to its
   // power-up state (Module::reset()) and both processors of every 7I77
   // booted again, so their NV parameters become working values again
@@ -147,6 +161,9 @@ class HostMot2Card {
   std::unique_ptr<Led> led_;
   std::vector<Module*> modules_;  // IDROM order
   std::array<Module*, 256> byBlock_{};  // address >> 8 -> module
+  // Which registers byBlock_'s module decodes: bit (address & 0xFF) / 4 of
+  // decoded_[address >> 8] (the modules' decodes(), asked once).
+  std::array<std::uint64_t, 256> decoded_{};
   std::array<std::uint32_t, idrom::kWords> idrom_{};
   AccessCounters access_;
   std::array<AccessEvent, RecentAccesses::kCapacity> recent_{};  // a ring

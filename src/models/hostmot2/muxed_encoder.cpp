@@ -7,7 +7,12 @@ namespace hm2 {
 
 namespace {
 // Positions inside a quadrature state: the state index is floor(position).
-std::int64_t stateOf(double position) { return static_cast<std::int64_t>(std::floor(position)); }
+// static_cast<std::int64_t>(std::floor(position)), without the library call:
+// truncation, one less below zero when that truncated upwards.
+std::int64_t stateOf(double position) {
+  const auto t = static_cast<std::int64_t>(position);
+  return static_cast<double>(t) > position ? t - 1 : t;
+}
 // More samples than this in one step are not simulated one by one: at such
 // rates the filter passes nothing and every count is lost.
 constexpr std::int64_t kMaxSimulatedSamples = 2'000'000;
@@ -24,6 +29,7 @@ void MuxedEncoder::reset() {
   // also writes for its default 8 MHz muxed-sample-frequency;
   // docs/protocol-facts.md#muxed-encoders).
   rateDivisor_ = clockLow_ / 8'000'000U - 2;
+  setSamplePeriod();
   tsDivisor_ = 0;
   // Counts, CCRs and latches cleared; the filters start from the inputs as
   // they are now (the encoders do not move because the card restarts).
@@ -34,9 +40,10 @@ void MuxedEncoder::reset() {
   }
 }
 
-SimTime MuxedEncoder::samplePeriod() const {
+void MuxedEncoder::setSamplePeriod() {
   // Each counter sees its inputs every second mux tick.
-  return SimTime{static_cast<std::int64_t>(2.0 * (rateDivisor_ + 2) * 1e9 / clockLow_)};
+  samplePeriod_ = SimTime{static_cast<std::int64_t>(2.0 * (rateDivisor_ + 2) * 1e9 / clockLow_)};
+  samplePeriodSeconds_ = std::chrono::duration<double>(samplePeriod_).count();
 }
 
 std::uint16_t MuxedEncoder::timestampAt(SimTime t) const {
@@ -48,6 +55,7 @@ void MuxedEncoder::setVelocity(unsigned n, double countsPerSecond, SimTime now) 
   advance(now);
   settle(n);
   signals_.at(n).velocity = countsPerSecond;
+  stateSeconds_[n] = 1.0 / std::abs(countsPerSecond);  // how long a quadrature state lasts (run())
 }
 
 void MuxedEncoder::setIndexPeriod(unsigned n, std::uint32_t countsPerRev) {
@@ -63,13 +71,16 @@ MuxedEncoder::State MuxedEncoder::state() const {
   return s;
 }
 
-void MuxedEncoder::advance(SimTime now) {
-  if (now > pending_) pending_ = now;
-}
-
-void MuxedEncoder::settle(unsigned n) const {
-  if (n >= kMaxCounters || settled_[n] >= pending_) return;
-  if (n < counters_) run(n, settled_[n], pending_);
+void MuxedEncoder::catchUp(unsigned n) const {
+  if (n < counters_) {
+    EncoderSignal& s = signals_[n];
+    // A standing signal: all run() would do is move it by velocity * dt, a
+    // zero of the velocity's sign (dt > 0 here), which is the velocity itself.
+    if (s.velocity == 0.0)
+      s.position += s.velocity;
+    else
+      run(n, settled_[n], pending_);
+  }
   settled_[n] = pending_;
 }
 
@@ -94,8 +105,8 @@ void MuxedEncoder::run(unsigned n, SimTime from, SimTime to) const {
   s.position = p1;
   if (s.velocity == 0.0) return;
   const SimTime sample = samplePeriod();
-  const double stateSeconds = 1.0 / std::abs(s.velocity);
-  const double stableSeconds = std::chrono::duration<double>(sample).count() * filterSamples(c);
+  const double stateSeconds = stateSeconds_[n];  // 1 / |velocity|
+  const double stableSeconds = samplePeriodSeconds_ * filterSamples(c);
   const bool hasIndex = s.countsPerRev > 0;
 
   if (stateSeconds >= stableSeconds) {
@@ -136,8 +147,11 @@ void MuxedEncoder::run(unsigned n, SimTime from, SimTime to) const {
     c.stable = filterSamples(c);
     // The timestamp of the last count: when the position entered state b.
     const double edge = step > 0 ? static_cast<double>(b) : static_cast<double>(b + 1);
-    const double tEdge = std::chrono::duration<double>(from).count() + (edge - p0) / s.velocity;
-    c.countTimestamp = timestampAt(SimTime{static_cast<std::int64_t>(tEdge * 1e9)});
+    c.stamp = Counter::Stamp::Edge;
+    c.from = from;
+    c.edgeCounts = edge;
+    c.p0 = p0;
+    c.velocity = s.velocity;
     return;
   }
 
@@ -164,15 +178,30 @@ void MuxedEncoder::run(unsigned n, SimTime from, SimTime to) const {
     const auto diff = (c.candidate - c.filtered) & 3;
     if (diff == 1) {
       ++c.count;
-      c.countTimestamp = timestampAt(sample * k);
+      c.stamp = Counter::Stamp::Sample;
+      c.at = sample * k;
     } else if (diff == 3) {
       --c.count;
-      c.countTimestamp = timestampAt(sample * k);
+      c.stamp = Counter::Stamp::Sample;
+      c.at = sample * k;
     } else {
       c.ccr |= kQuadError;  // A and B changed together: the count is lost
     }
     c.filtered = (c.filtered & ~std::int64_t{3}) | (c.candidate & 3);
   }
+}
+
+void MuxedEncoder::stampCount(Counter& c) const {
+  switch (c.stamp) {
+    case Counter::Stamp::Done: return;
+    case Counter::Stamp::Edge: {
+      const double tEdge = std::chrono::duration<double>(c.from).count() + (c.edgeCounts - c.p0) / c.velocity;
+      c.countTimestamp = timestampAt(SimTime{static_cast<std::int64_t>(tEdge * 1e9)});
+      break;
+    }
+    case Counter::Stamp::Sample: c.countTimestamp = timestampAt(c.at); break;
+  }
+  c.stamp = Counter::Stamp::Done;
 }
 
 std::uint32_t MuxedEncoder::read(std::uint16_t address, SimTime now) {
@@ -182,6 +211,7 @@ std::uint32_t MuxedEncoder::read(std::uint16_t address, SimTime now) {
   switch (address & 0xFF00U) {
     case kCount:
       if (n >= counters_) return 0;
+      stampCount(state_[n]);
       return static_cast<std::uint16_t>(state_[n].count) | (static_cast<std::uint32_t>(state_[n].countTimestamp) << 16);
     case kControl: {
       if (n >= counters_) return 0;
@@ -219,8 +249,14 @@ WriteResult MuxedEncoder::write(std::uint16_t address, std::uint32_t value, SimT
       if (n >= counters_) return WriteResult::Unmapped;
       state_[n].ccr = value & 0xFFF8U;
       return WriteResult::Accepted;
-    case kTimestampDiv: tsDivisor_ = value & 0xFFFFU; return WriteResult::Accepted;
-    case kRate: rateDivisor_ = value & 0xFFFU; return WriteResult::Accepted;
+    case kTimestampDiv:
+      for (auto& c : state_) stampCount(c);  // counts made so far are stamped under the old divisor
+      tsDivisor_ = value & 0xFFFFU;
+      return WriteResult::Accepted;
+    case kRate:
+      rateDivisor_ = value & 0xFFFU;
+      setSamplePeriod();
+      return WriteResult::Accepted;
     case kTimestamp: return WriteResult::ReadOnly;  // the free-running timestamp counter
     default: return WriteResult::Unmapped;
   }

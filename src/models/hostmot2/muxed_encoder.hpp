@@ -82,7 +82,9 @@ class MuxedEncoder final : public Module {
   // module at each host access, tens of times a servo cycle, and counting
   // is exact over any span (run() computes edges, it does not walk time),
   // so working only when someone looks gives the same counts for less.
-  void advance(SimTime now) override;
+  void advance(SimTime now) override {
+    if (now > pending_) pending_ = now;
+  }
   void reset() override;  // counts, CCRs and divisors at power-up; the encoders stay where they are
 
   // The world: what the encoder on input `n` does from `now` on.
@@ -101,7 +103,7 @@ class MuxedEncoder final : public Module {
     settle(n);
     return state_.at(n).ccr;
   }
-  [[nodiscard]] SimTime samplePeriod() const;
+  [[nodiscard]] SimTime samplePeriod() const { return samplePeriod_; }
   [[nodiscard]] unsigned counters() const { return counters_; }
   [[nodiscard]] State state() const;
 
@@ -114,11 +116,24 @@ class MuxedEncoder final : public Module {
     std::int64_t filtered = 0;  // quadrature state (position) the filter has accepted
     std::int64_t candidate = 0;
     unsigned stable = 0;
+    // The time of the last count, kept as what it is worked out from until
+    // the count register is read (stampCount()): a counter catches up several
+    // times a servo cycle, the host reads it once. Edge: the signal reached
+    // edgeCounts from p0 at `velocity`, starting at `from`; Sample: at `at`.
+    enum class Stamp : std::uint8_t { Done, Edge, Sample } stamp = Stamp::Done;
+    SimTime from{};  // Edge
+    double edgeCounts = 0.0, p0 = 0.0, velocity = 0.0;
+    SimTime at{};  // Sample
   };
+  // countTimestamp from what run() kept (under the current timestamp divisor).
+  void stampCount(Counter& c) const;
   // Brings counter n (or every counter) to pending_, the card's time
   // (const: a look at a counter settles it; what it is at a time does not
   // depend on when it was last looked at).
-  void settle(unsigned n) const;
+  void settle(unsigned n) const {
+    if (n < kMaxCounters && settled_[n] < pending_) catchUp(n);
+  }
+  void catchUp(unsigned n) const;
   void settle() const;
   void run(unsigned n, SimTime from, SimTime to) const;
   static void index(Counter& c, std::int64_t countAtIndex);
@@ -128,6 +143,14 @@ class MuxedEncoder final : public Module {
   unsigned counters_;
   std::uint32_t clockLow_;
   std::uint32_t rateDivisor_;
+  // samplePeriod() for rateDivisor_ (setSamplePeriod() when it changes), and
+  // the same in seconds.
+  SimTime samplePeriod_{};
+  double samplePeriodSeconds_ = 0.0;
+  void setSamplePeriod();
+  // 1 / |velocity| per signal, worked out when the velocity is set (run()
+  // compares it with the filter's time at every catch-up).
+  std::array<double, kMaxCounters> stateSeconds_{};
   std::uint32_t tsDivisor_ = 0;
   mutable std::array<EncoderSignal, kMaxCounters> signals_{};
   mutable std::array<Counter, kMaxCounters> state_{};

@@ -30,7 +30,7 @@ SerialLink::Reply SerialLink::exchange(std::span<const std::uint8_t> frame, SimT
   // A receiver only understands characters at its own baud rate: across a
   // mismatch (or a cut cable, or an unpowered remote) nothing comes back.
   const bool heard = connected_ && remote_ != nullptr && remote_->powered() && remote_->baud() == baud;
-  std::array<std::uint8_t, kMaxReply> raw{};
+  std::array<std::uint8_t, kMaxReply> raw;  // the first rawSize are set
   std::size_t rawSize = 0;
   auto deliver = [&](std::uint8_t b) {
     t += ch;

@@ -31,7 +31,9 @@ class SerialLink {
   [[nodiscard]] remote::RemoteDevice* remote() const { return remote_; }
 
   struct Reply {
-    std::array<std::uint8_t, kMaxReply> bytes{};
+    // The first `size` bytes are the reply; the rest are not set (not
+    // cleared either: an exchange runs for every SSLBP transaction).
+    std::array<std::uint8_t, kMaxReply> bytes;
     std::size_t size = 0;
     SimTime lastByteAt{};  // when the last reply character has arrived
     bool breakSeen = false;

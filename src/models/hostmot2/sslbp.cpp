@@ -116,6 +116,7 @@ void SmartSerial::reset() {
     for (unsigned i = 0; i < 4; ++i) ram_[at + i] = static_cast<std::uint8_t>(kDefaultBaud >> (8 * i));
   }
   globalInit();
+  wake_ = nextEvent();
 }
 
 ModuleDescriptor SmartSerial::descriptor() const {
@@ -167,6 +168,12 @@ std::uint32_t SmartSerial::read(std::uint16_t address, SimTime now) {
 }
 
 WriteResult SmartSerial::write(std::uint16_t address, std::uint32_t value, SimTime now) {
+  const WriteResult r = writeRegister(address, value, now);
+  wake_ = nextEvent();  // a command may have started something
+  return r;
+}
+
+WriteResult SmartSerial::writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) {
   advance(now);
   const std::uint16_t block = address & 0xFF00U;
   const unsigned ch = (address & 0x3FU) / 4;
@@ -374,7 +381,14 @@ void SmartSerial::schedule(Channel& c, SimTime at) {
   c.due = at;
 }
 
-void SmartSerial::advance(SimTime now) {
+SimTime SmartSerial::nextEvent() const {
+  SimTime t = busy_ == Busy::Immediate ? immediateDone_ : SimTime::max();
+  for (unsigned i = 0; i < channelCount_; ++i)
+    if (channels_[i].scheduled && channels_[i].due < t) t = channels_[i].due;
+  return t;
+}
+
+void SmartSerial::runEvents(SimTime now) {
   // Events in time order; at equal times a finishing command goes first.
   for (;;) {
     SimTime at = now;
@@ -398,6 +412,7 @@ void SmartSerial::advance(SimTime now) {
       step(static_cast<unsigned>(which), at);
     }
   }
+  wake_ = nextEvent();
 }
 
 SimTime SmartSerial::tickAfter(SimTime t, unsigned n) const {

@@ -61,7 +61,11 @@ class SmartSerial final : public Module {
   [[nodiscard]] bool decodes(std::uint16_t address) const override;
   std::uint32_t read(std::uint16_t address, SimTime now) override;
   WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) override;
-  void advance(SimTime now) override;
+  // Inline and one comparison until something is due (wake_): the card
+  // advances every module at every host access.
+  void advance(SimTime now) override {
+    if (now >= wake_) runEvents(now);
+  }
   // Power-up: the firmware's initmem and init (local RAM, baud rates,
   // every channel stopped, DATA 0xAA). The cables (links) stay attached.
   void reset() override;
@@ -141,6 +145,11 @@ class SmartSerial final : public Module {
     SimTime sentAt{};
   };
 
+  void runEvents(SimTime now);
+  WriteResult writeRegister(std::uint16_t address, std::uint32_t value, SimTime now);
+  // The earliest time anything is due: the running immediate command's end,
+  // or a channel's next step (SimTime::max() if nothing is).
+  [[nodiscard]] SimTime nextEvent() const;
   void execute(std::uint16_t cmd, SimTime now);
   void complete(std::uint8_t data, SimTime now);
   void globalInit();
@@ -184,6 +193,10 @@ class SmartSerial final : public Module {
   std::uint8_t immediateData_ = 0;
   SimTime immediateDone_{};
   bool lost_ = false;
+  // nextEvent() as of the last change (advance, write, reset): advance() has
+  // nothing to do before then, and the card advances every module at every
+  // host access.
+  SimTime wake_{};
   // The hardware timer: the tick period the last START set (0: none since
   // power-up) and the time of one of its ticks.
   SimTime tickPeriod_{};

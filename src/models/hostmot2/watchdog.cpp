@@ -12,8 +12,23 @@ std::uint32_t Watchdog::timer(SimTime now) const {
   return static_cast<std::uint32_t>(reload_ - ticks);
 }
 
-void Watchdog::advance(SimTime now) {
-  if (!running_ || timer(now) != 0xFFFFFFFFU) return;
+void Watchdog::start(SimTime now) {
+  loadedAt_ = now;
+  running_ = true;
+  // timer() passes zero when clockTicks(elapsed) > reload_, i.e. (ticks being
+  // floor(elapsed * clockLow_ / 1e9)) once elapsed reaches
+  // ceil((reload_ + 1) * 1e9 / clockLow_) nanoseconds. reload_ < 2^31 while
+  // running, so this fits 64 bits.
+  if (clockLow_ == 0) {  // a clock that never ticks never bites
+    biteAt_ = SimTime::max();
+    return;
+  }
+  const std::uint64_t ticks = std::uint64_t{reload_} + 1;
+  const std::uint64_t ns = (ticks * 1'000'000'000U + clockLow_ - 1) / clockLow_;
+  biteAt_ = now + SimTime{static_cast<std::int64_t>(ns)};
+}
+
+void Watchdog::bite() {
   running_ = false;
   reload_ = 0xFFFFFFFFU;
   bitten_ = true;
@@ -44,16 +59,14 @@ WriteResult Watchdog::write(std::uint16_t address, std::uint32_t value, SimTime 
     case kTimer:
       reload_ = value;
       loadedAt_ = now;
-      running_ = (value & kDisarmed) == 0;
+      running_ = false;
+      if ((value & kDisarmed) == 0) start(now);
       break;
     case kStatus:
       bitten_ = (value & 1U) != 0;
       break;
     case kReset:
-      if ((value >> 24) == 0x5A && (reload_ & kDisarmed) == 0) {
-        loadedAt_ = now;
-        running_ = true;
-      }
+      if ((value >> 24) == 0x5A && (reload_ & kDisarmed) == 0) start(now);
       break;
     default:
       return WriteResult::Unmapped;

@@ -37,7 +37,10 @@ class Watchdog final : public Module {
   [[nodiscard]] bool decodes(std::uint16_t a) const override { return a >= kTimer && a < kReset + 4; }
   std::uint32_t read(std::uint16_t address, SimTime now) override;
   WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) override;
-  void advance(SimTime now) override;
+  // One comparison until the timer passes zero (the card calls it at every access).
+  void advance(SimTime now) override {
+    if (running_ && now >= biteAt_) bite();
+  }
   void reset() override;  // disarmed, not bitten
 
   [[nodiscard]] bool bitten() const { return bitten_; }
@@ -45,10 +48,15 @@ class Watchdog final : public Module {
   [[nodiscard]] State state(SimTime now) const { return State{bitten_, timer(now)}; }
 
  private:
+  void start(SimTime now);
+  void bite();
   std::uint32_t clockLow_;
   std::function<void()> onBite_;
   std::uint32_t reload_ = kDisarmed;
   SimTime loadedAt_{};
+  // While running: the first time the timer has passed zero (timer() reads
+  // 0xFFFFFFFF from then on), so advance() is one comparison until then.
+  SimTime biteAt_{};
   bool running_ = false;  // counting down (bit 31 clear)
   bool bitten_ = false;
 };

@@ -1,5 +1,7 @@
 #include "lbp/parser.hpp"
 
+#include <algorithm>
+
 #include "lbp/protocol.hpp"
 
 namespace lbp {
@@ -42,6 +44,7 @@ void Parser::reset() {
   crcErrors_ = 0;
   rpcMem_ = false;
   timeout_ = config_.commandTimeout;
+  updateGap();
   address_ = 0;
   unitId_ = 0;
   received_ = 0;
@@ -51,13 +54,14 @@ void Parser::reset() {
   responseLength_ = 0;
 }
 
-bool Parser::gapExpired(SimTime now) const {
-  // Idle time between the end of the previous character and the end of this
-  // one, less the character itself, compared with the timeout register
-  // (tenths of character times, manual: 0xCB).
+void Parser::updateGap() {
+  // The gap has expired when the idle time between the end of the previous
+  // character and the end of this one, less the character itself, exceeds
+  // the timeout register (tenths of character times, manual: 0xCB):
+  // idle * 10 > ch * timeout_, in whole nanoseconds idle > floor(ch * timeout_ / 10),
+  // i.e. now - last_ >= ch + floor(ch * timeout_ / 10) + 1 ns.
   const SimTime ch = characterTime(config_.baud);
-  const SimTime idle = now - last_ - ch;
-  return idle * 10 > ch * timeout_;
+  gap_ = ch + (ch * timeout_) / 10 + SimTime{1};
 }
 
 void Parser::abandon(std::uint8_t statusBits) {
@@ -67,29 +71,15 @@ void Parser::abandon(std::uint8_t statusBits) {
   ++discarded_;
 }
 
-void Parser::advance(SimTime now) {
-  if (!haveLast_ || !gapExpired(now)) return;
+void Parser::endGap() {
   if (length_ > 0) abandon(status::kCommandTimeout);
   skipping_ = false;
 }
 
-std::span<const std::uint8_t> Parser::receive(std::uint8_t byte, SimTime now) {
-  responseLength_ = 0;
-  advance(now);
-  haveLast_ = true;
-  last_ = now;
-  if (skipping_) return {};
-  if (length_ == 0) {
-    startCommand(byte);
-    if (length_ == 0) return {};
-  }
-  command_[received_++] = byte;
-  if (received_ == length_) {
-    execute(now);
-    length_ = 0;
-    received_ = 0;
-  }
-  return {response_.data(), responseLength_};
+void Parser::complete(SimTime now) {
+  execute(now);
+  length_ = 0;
+  received_ = 0;
 }
 
 void Parser::startCommand(std::uint8_t header) {
@@ -205,7 +195,8 @@ void Parser::executeData(DataCommand cmd, const std::uint8_t*& stream, std::uint
 
 void Parser::executeRpc(std::uint8_t header, const std::uint8_t* stream) {
   if (auto sizes = target_.specialRpc(header)) {
-    std::array<std::uint8_t, 256> out{};
+    std::array<std::uint8_t, 256> out;  // the answer's bytes start cleared; the rest are not used
+    std::fill_n(out.begin(), sizes->toHost, std::uint8_t{0});
     target_.runSpecialRpc(header, {stream, sizes->fromHost}, {out.data(), sizes->toHost});
     for (unsigned i = 0; i < sizes->toHost; ++i) emit(out[i]);
     return;
@@ -239,7 +230,10 @@ void Parser::executeLocal(std::uint8_t header, std::uint8_t value) {
     case w::kCrcEnable: crcEnabled_ = config_.crcAlwaysEnabled || value != 0; return;
     case w::kCrcErrorCount: crcErrors_ = value; return;
     case w::kRpcMemEnable: rpcMem_ = value != 0; return;
-    case w::kCommandTimeout: timeout_ = value; return;
+    case w::kCommandTimeout:
+      timeout_ = value;
+      updateGap();
+      return;
     case w::kAddressLow: address_ = static_cast<std::uint16_t>((address_ & 0xFF00U) | value); return;
     case w::kAddressHigh: address_ = static_cast<std::uint16_t>((address_ & 0x00FFU) | (static_cast<unsigned>(value) << 8)); return;
     case w::kAddToAddress: address_ = static_cast<std::uint16_t>(address_ + value); return;

@@ -41,17 +41,50 @@ class Parser {
   // One character arrived (its stop bit ended at `now`). Returns the bytes to
   // send back, completed by this character (empty for most characters).
   // The returned span stays valid until the next call.
-  std::span<const std::uint8_t> receive(std::uint8_t byte, SimTime now);
+  // Inline: it runs for every character of every SSLBP transaction.
+  std::span<const std::uint8_t> receive(std::uint8_t byte, SimTime now) {
+    responseLength_ = 0;
+    advance(now);
+    haveLast_ = true;
+    last_ = now;
+    if (skipping_) return {};
+    if (length_ == 0) {
+      startCommand(byte);
+      if (length_ == 0) return {};
+    }
+    const std::size_t received = received_ + 1;
+    command_[received_] = byte;
+    received_ = received;
+    if (received == length_) complete(now);
+    return {response_.data(), responseLength_};
+  }
 
   // Let time pass without characters: a half-received command times out.
-  void advance(SimTime now);
+  // Between commands (the usual case, checked at every host access) a gap
+  // changes nothing: only a half-received command or skipping is ended by one.
+  void advance(SimTime now) {
+    if ((length_ != 0 || skipping_) && haveLast_ && gapExpired(now)) endGap();
+  }
+  // The earliest time advance() can change anything: when the gap after the
+  // last character expires with a command half received or characters being
+  // skipped; SimTime::max() between commands. Valid until the next receive(),
+  // reset() or configuration change.
+  [[nodiscard]] SimTime gapDeadline() const {
+    return (length_ == 0 && !skipping_) || !haveLast_ ? SimTime::max() : last_ + gap_;
+  }
 
   // Power-up / processor reset: every parser variable to its initial value.
   void reset();
 
   // Power-up values (applied by the next reset()) and the line rate.
-  void setConfig(const ParserConfig& config) { config_ = config; }
-  void setBaud(std::uint32_t baud) { config_.baud = baud; }
+  void setConfig(const ParserConfig& config) {
+    config_ = config;
+    updateGap();
+  }
+  void setBaud(std::uint32_t baud) {
+    config_.baud = baud;
+    updateGap();
+  }
   [[nodiscard]] std::uint32_t baud() const { return config_.baud; }
 
   // Protocol state, readable by the device and by tests.
@@ -86,7 +119,10 @@ class Parser {
   void executeRpc(std::uint8_t header, const std::uint8_t* stream);
   void emit(std::uint8_t byte);
   void abandon(std::uint8_t statusBits);
-  bool gapExpired(SimTime now) const;
+  void endGap();
+  void complete(SimTime now);  // the last character of a command came: execute it
+  bool gapExpired(SimTime now) const { return now - last_ >= gap_; }
+  void updateGap();
 
   Target& target_;
   ParserConfig config_;
@@ -107,6 +143,9 @@ class Parser {
   bool skipping_ = false;   // discarding characters until the next gap
   bool haveLast_ = false;
   SimTime last_{};
+  // From the end of a character, the time after which the gap has expired
+  // (updateGap(): from the baud rate and the timeout register).
+  SimTime gap_{};
   std::uint32_t discarded_ = 0;
 
   std::array<std::uint8_t, kMaxResponse + 1> response_{};  // data, then the CRC

@@ -1,5 +1,8 @@
 #include "machine/switches.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -15,6 +18,11 @@ Switches::Switches(std::vector<SwitchParameters> switches, std::vector<int> axis
   tripped_.assign(switches_.size(), 0);
   forced_.assign(switches_.size(), 0);
   applied_.assign(switches_.size(), 2);
+  for (const int a : axisOf_) {
+    if (a < 0) continue;
+    if (std::find(axes_.begin(), axes_.end(), a) == axes_.end()) axes_.push_back(a);
+    if (static_cast<std::size_t>(a) >= unchanged_.size()) unchanged_.resize(static_cast<std::size_t>(a) + 1);
+  }
 }
 
 bool Switches::setTripped(const std::string& name, bool tripped) {
@@ -23,6 +31,7 @@ bool Switches::setTripped(const std::string& name, bool tripped) {
     if (switches_[i].name == name) {
       forced_[i] = tripped;
       found = true;
+      dirty_ = true;
     }
   return found;
 }
@@ -34,15 +43,36 @@ bool Switches::on(std::size_t i) const {
   return tripped != (switches_[i].contact == Contact::NormallyClosed);
 }
 
+bool Switches::unchanged(const double* axisPositions) const {
+  for (const int a : axes_) {
+    const double q = axisPositions[a];
+    const Unchanged& u = unchanged_[static_cast<std::size_t>(a)];
+    if (!(q >= u.lo && q <= u.hi)) return false;
+  }
+  return true;
+}
+
 void Switches::apply(const double* axisPositions, remote::FieldIoProcessor& io) {
   const double field = io.fieldVoltage();
   const bool fieldChanged = field != appliedField_;
+  // Every input already shows what it would be set to: nothing to do.
+  if (!fieldChanged && !dirty_ && unchanged(axisPositions)) return;
   appliedField_ = field;
+  dirty_ = false;
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  for (const int a : axes_) unchanged_[static_cast<std::size_t>(a)] = {-kInf, kInf};
   for (std::size_t i = 0; i < switches_.size(); ++i) {
     if (const int a = axisOf_[i]; a >= 0) {
       const double pos = axisPositions[a];
       const auto& s = switches_[i];
       tripped_[i] = s.tripAbove ? pos >= s.position : pos <= s.position;
+      // Where this switch keeps its state.
+      Unchanged& u = unchanged_[static_cast<std::size_t>(a)];
+      if (s.tripAbove && tripped_[i]) u.lo = std::max(u.lo, s.position);                         // q >= p
+      if (s.tripAbove && !tripped_[i]) u.hi = std::min(u.hi, std::nextafter(s.position, -kInf));  // q < p
+      if (!s.tripAbove && tripped_[i]) u.hi = std::min(u.hi, s.position);                         // q <= p
+      if (!s.tripAbove && !tripped_[i]) u.lo = std::max(u.lo, std::nextafter(s.position, kInf));  // q > p
+      if (std::isnan(pos)) u = {kInf, -kInf};  // no position is safe: look again next time
     }
     const std::uint8_t now = on(i) ? 1 : 0;
     if (now == applied_[i] && !fieldChanged) continue;

@@ -62,12 +62,25 @@ class Switches {
 
  private:
   [[nodiscard]] bool on(std::size_t i) const;
+  // The positions of an axis at which none of its switches changes state
+  // from the last apply(): lo <= q <= hi (a switch that trips above p keeps
+  // its state for q < p, i.e. q <= the double below p: exact at the trip points).
+  struct Unchanged {
+    double lo, hi;
+  };
+  [[nodiscard]] bool unchanged(const double* axisPositions) const;
   std::vector<SwitchParameters> switches_;
   std::vector<int> axisOf_;
   std::vector<std::uint8_t> tripped_;  // by position, from the last apply()
   std::vector<std::uint8_t> forced_;   // by hand
   std::vector<std::uint8_t> applied_;  // 0 off, 1 on, 2 never applied
   double appliedField_ = -1.0;
+  // apply() runs at every plant step; it has nothing to do while no switch
+  // is tripped or released by hand (dirty_), the field voltage is the same
+  // and every axis stays where its switches keep their states.
+  bool dirty_ = true;
+  std::vector<int> axes_;               // the axes that carry switches
+  std::vector<Unchanged> unchanged_;    // per axis index
 };
 
 }  // namespace machine

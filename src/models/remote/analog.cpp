@@ -71,9 +71,14 @@ double AnalogProcessor::dacVolts(std::int64_t code) {
 
 void AnalogProcessor::driveOutputs() {
   const bool active = powered() && !outputsBlocked();
+  // volts_[ch] is dacVolts(codes_[ch]) (both 0 at first): worked out again
+  // only for a code that changed.
   for (unsigned ch = 0; ch < kChannels; ++ch) {
-    codes_[ch] = active ? static_cast<std::int16_t>(rawSigned(static_cast<ElementId>(kAnalogOut0 + ch))) : 0;
-    volts_[ch] = dacVolts(codes_[ch]);
+    const auto code =
+        active ? static_cast<std::int16_t>(rawSigned(static_cast<ElementId>(kAnalogOut0 + ch))) : std::int16_t{0};
+    if (code == codes_[ch]) continue;
+    codes_[ch] = code;
+    volts_[ch] = dacVolts(code);
   }
   const bool ena = active && raw(kAnalogEna) != 0;
   const bool spin = active && raw(kSpinEna) != 0;

@@ -1,6 +1,7 @@
 #include "remote/field_io.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 
 namespace remote {
@@ -94,7 +95,7 @@ void FieldIoProcessor::applyPower(SimTime now) {
   const bool on = vin() >= kMinVin;
   if (on && !powered()) powerUp(now);
   if (!on && powered()) powerDown();
-  for (unsigned i = 0; i < kInputs; ++i) updateInput(i);
+  updateInputs();
   if (powered()) checkSupply();
   driveOutputs();
 }
@@ -150,6 +151,9 @@ void FieldIoProcessor::setInputVoltage(unsigned input, double volts) {
   const bool oldB[] = {this->input(kMpgB[0]), this->input(kMpgB[1])};
   inputVolts_.at(input) = volts;
   updateInput(input);
+  // This input now follows the current mode's thresholds; the others keep
+  // inputsMpg_'s (sampleInputs() brings them all to one mode).
+  if (mpgMode() != inputsMpg_) inputsCurrent_ = false;
   if (!mpgMode() || !powered()) return;
   for (unsigned n = 0; n < kMpgs; ++n)
     countMpg(n, oldA[n], oldB[n], this->input(kMpgA[n]), this->input(kMpgB[n]));
@@ -171,6 +175,31 @@ void FieldIoProcessor::updateInput(unsigned i) {
     inputBits_ &= ~(1U << i);
 }
 
+void FieldIoProcessor::updateInputs() {
+  // updateInput() for every input, with what it works out for each one
+  // (the mode, the thresholds) worked out once: this runs at every command.
+  const bool mpg = mpgMode();
+  const double high = kHighThreshold * fieldVolts_;
+  const double low = kLowThreshold * fieldVolts_;
+  inputsCurrent_ = true;
+  inputsMpg_ = mpg;
+  std::uint32_t bits = inputBits_;
+  for (unsigned i = 0; i < kInputs; ++i) {
+    const double v = inputVolts_[i];
+    bool state = false;
+    if (mpg && i >= 16 && i <= 19)
+      state = v >= kMpgThreshold;
+    else if (v >= high && v > 0.0)
+      state = true;
+    else if (v <= low)
+      state = false;
+    else
+      continue;  // between the thresholds: hysteresis keeps the last state
+    bits = state ? bits | (1U << i) : bits & ~(1U << i);
+  }
+  inputBits_ = bits;
+}
+
 void FieldIoProcessor::countMpg(unsigned n, bool oldA, bool oldB, bool newA, bool newB) {
   if (oldA == newA && oldB == newB) return;
   // Quadrature, A leading B counts up. EncMode: 0 = 1X (rising A only, the
@@ -184,10 +213,22 @@ void FieldIoProcessor::countMpg(unsigned n, bool oldA, bool oldB, bool newA, boo
 }
 
 void FieldIoProcessor::sampleInputs() {
-  for (unsigned i = 0; i < kInputs; ++i) updateInput(i);
+  // Every input's state is what updateInput() makes of its voltage (it
+  // would change nothing) while no input was set under another mode and the
+  // mode is the same: setInputVoltage() and applyPower() keep it so.
+  if (!inputsCurrent_ || mpgMode() != inputsMpg_) updateInputs();
   setRaw(kInput, inputBits_);
-  for (unsigned i = 0; i < 4; ++i) setRaw(static_cast<ElementId>(kAnalogIn0 + i), analogReading(inputVolts_[i]));
-  setRaw(kFieldVoltage, analogReading(fieldVolts_));
+  // The readings of inputs 0..3 and of the field voltage, worked out again
+  // only for a voltage that is not the one last read.
+  for (unsigned k = 0; k < readings_.size(); ++k) {
+    const double volts = k < 4 ? inputVolts_[k] : fieldVolts_;
+    if (!(volts == readVolts_[k])) {
+      readVolts_[k] = volts;
+      readings_[k] = analogReading(volts);
+    }
+  }
+  for (unsigned i = 0; i < 4; ++i) setRaw(static_cast<ElementId>(kAnalogIn0 + i), readings_[i]);
+  setRaw(kFieldVoltage, readings_[4]);
   setRaw(kEnc0, static_cast<std::uint32_t>(mpgCounts_[0]));
   setRaw(kEnc1, static_cast<std::uint32_t>(mpgCounts_[1]));
 }
@@ -237,15 +278,18 @@ FieldIoProcessor::State FieldIoProcessor::state() const {
 void FieldIoProcessor::driveOutputs() {
   const bool enabled = powered() && !outputsBlocked();
   const auto commanded = enabled ? static_cast<std::uint16_t>(raw(kOutput)) : std::uint16_t{0};
-  std::uint16_t on = 0;
-  for (unsigned i = 0; i < kOutputs; ++i) {
-    if (((commanded >> i) & 1U) && !outputTripped(i) && !chipOff_[i / kOutputsPerChip])
-      on = static_cast<std::uint16_t>(on | (1U << i));
-  }
+  // Commanded, not tripped, on a chip that is not shut down.
+  unsigned chips = 0;
+  for (unsigned c = 0; c < kChips; ++c)
+    if (!chipOff_[c]) chips |= ((1U << kOutputsPerChip) - 1) << (c * kOutputsPerChip);
+  const auto on = static_cast<std::uint16_t>(commanded & ~tripped_ & chips);
   outputsOn_ = on;
   if (!powered()) return;
   // Short circuit: the output turns itself off and the firmware flags it.
-  for (unsigned i = 0; i < kOutputs; ++i) {
+  // Outputs that are off carry no current (outputCurrent() is 0): only the
+  // ones that are on are looked at, in order.
+  for (unsigned rest = on; rest != 0; rest &= rest - 1) {
+    const auto i = static_cast<unsigned>(std::countr_zero(rest));
     if (outputCurrent(i) > kShortCircuitAmps) {
       tripped_ = static_cast<std::uint16_t>(tripped_ | (1U << i));
       outputsOn_ = static_cast<std::uint16_t>(outputsOn_ & ~(1U << i));
@@ -254,8 +298,10 @@ void FieldIoProcessor::driveOutputs() {
   }
   // Per-chip current above 1.4 A: thermal shutdown of that chip.
   for (unsigned c = 0; c < kChips; ++c) {
-    double amps = 0.0;
-    for (unsigned i = c * kOutputsPerChip; i < (c + 1) * kOutputsPerChip; ++i) amps += outputCurrent(i);
+    double amps = 0.0;  // an output that is off adds 0 A: the ones on, in order
+    const unsigned chipMask = ((1U << kOutputsPerChip) - 1) << (c * kOutputsPerChip);
+    for (unsigned rest = outputsOn_ & chipMask; rest != 0; rest &= rest - 1)
+      amps += outputCurrent(static_cast<unsigned>(std::countr_zero(rest)));
     if (amps > kChipLimitAmps) {
       chipOff_[c] = true;
       raiseFault(fault::kOverTemp);

@@ -117,6 +117,7 @@ class FieldIoProcessor final : public RemoteDevice {
  private:
   void applyPower(SimTime now);
   void updateInput(unsigned i);
+  void updateInputs();
   void checkSupply();
   [[nodiscard]] bool mpgMode() const;
   void countMpg(unsigned n, bool oldA, bool oldB, bool newA, bool newB);
@@ -127,6 +128,16 @@ class FieldIoProcessor final : public RemoteDevice {
   double vinVolts_;
   std::array<double, kInputs> inputVolts_{};
   std::uint32_t inputBits_ = 0;
+  // inputBits_ is what updateInputs() would make of the voltages in the
+  // mode where mpgMode() is inputsMpg_ (the last updateInputs() made it so).
+  bool inputsCurrent_ = false;
+  bool inputsMpg_ = false;
+  // analogReading() of inputs 0..3 and the field voltage, and the voltages
+  // they are of (NaN: none yet).
+  std::array<std::uint8_t, 5> readings_{};
+  std::array<double, 5> readVolts_{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
+                                   std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
+                                   std::numeric_limits<double>::quiet_NaN()};
   std::array<double, kOutputs> loadOhms_{};
   std::uint16_t outputsOn_ = 0;
   std::uint16_t tripped_ = 0;  // disabled by short circuit until a fault clear

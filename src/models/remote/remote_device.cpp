@@ -77,6 +77,22 @@ void RemoteDevice::buildTables(std::span<const ProcessDataDescriptor> own, std::
   for (const auto& d : kStandardParameters) elements_.push_back({d, place(d)});
   if (ram > memory::kRam + memory::kRamSize || eeprom > memory::kEeprom + memory::kEepromSize)
     throw std::logic_error("remote variables do not fit the memory map");
+  // Each element's bytes, as storage() finds them (a pad has none).
+  for (auto& e : elements_) {
+    e.bytes = static_cast<std::uint8_t>(byteSize(e.d));
+    e.mask = e.d.bits >= 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << e.d.bits) - 1;
+    if (e.address >= memory::kRam && e.address < memory::kRam + memory::kRamSize) {
+      e.store = Store::Ram;
+      e.offset = static_cast<std::uint16_t>(e.address - memory::kRam);
+    } else if (e.address >= memory::kEeprom && e.address < memory::kEeprom + memory::kEepromSize) {
+      e.store = Store::Eeprom;
+      e.offset = static_cast<std::uint16_t>(e.address - memory::kEeprom);
+    }
+  }
+  const Element& watchdog = elements_[standard(Standard::WatchdogTime)];
+  if (watchdog.store != Store::Ram || watchdog.d.bits != 16)
+    throw std::logic_error("WatchDogTime must be 16 bits of RAM");
+  watchdogOffset_ = watchdog.offset;
 
   // Discovery records in ROM: every PDD, the hardware mode, each software mode.
   std::vector<std::uint8_t>& rom = rom_;
@@ -191,6 +207,7 @@ void RemoteDevice::powerUp(SimTime now) {
   sampleInputs();
   setRaw(standard(Standard::Fault), faults_);
   driveOutputs();
+  wake_ = nextEvent();
 }
 
 void RemoteDevice::powerDown() {
@@ -208,22 +225,16 @@ void RemoteDevice::resetProcessor() { powerUp(now_); }
 
 // --- Time ----------------------------------------------------------------------
 
-std::span<const std::uint8_t> RemoteDevice::receive(std::uint8_t byte, SimTime now) {
-  if (!powered_) return {};
-  advance(now);
-  return parser_.receive(byte, now);
-}
-
-void RemoteDevice::advance(SimTime now) {
-  if (!powered_) return;
-  now_ = now;
+void RemoteDevice::catchUp(SimTime now) {
   parser_.advance(now);
   checkWatchdog(now);
+  wake_ = nextEvent();
 }
 
 void RemoteDevice::checkWatchdog(SimTime now) {
-  const auto ms = watchdogTimeMs();  // 0 disables the watchdog
-  if (ms == 0 || (faults_ & fault::kWatchdog)) return;
+  if (faults_ & fault::kWatchdog) return;  // already bitten
+  const auto ms = watchdogTimeMs();        // 0 disables the watchdog
+  if (ms == 0) return;
   if (now - lastHostCommand_ <= std::chrono::milliseconds(ms)) return;
   raiseFault(fault::kWatchdog);
   parser_.raiseStatus(status::kWatchdogTimeout);
@@ -317,30 +328,8 @@ bool RemoteDevice::writeMemory(std::uint16_t address, std::uint8_t value) {
   return true;
 }
 
-std::uint64_t RemoteDevice::raw(ElementId id) const {
-  const auto& e = elements_.at(id);
-  const std::uint8_t* p = storage(e.address);
-  if (p == nullptr) return 0;
-  std::uint64_t v = 0;
-  for (unsigned i = 0; i < byteSize(e.d); ++i) v |= static_cast<std::uint64_t>(p[i]) << (8 * i);
-  return e.d.bits >= 64 ? v : v & ((1ULL << e.d.bits) - 1);
-}
-
-std::int64_t RemoteDevice::rawSigned(ElementId id) const { return lbp::signExtend(raw(id), elements_.at(id).d.bits); }
-
-void RemoteDevice::setRaw(ElementId id, std::uint64_t value) {
-  const auto& e = elements_.at(id);
-  std::uint8_t* p = storage(e.address);
-  if (p == nullptr) return;
-  if (e.d.bits < 64) value &= (1ULL << e.d.bits) - 1;
-  for (unsigned i = 0; i < byteSize(e.d); ++i) p[i] = static_cast<std::uint8_t>(value >> (8 * i));
-}
-
 std::uint32_t RemoteDevice::unitNumber() const {
   return static_cast<std::uint32_t>(raw(standard(Standard::UnitNumber)));
-}
-std::uint16_t RemoteDevice::watchdogTimeMs() const {
-  return static_cast<std::uint16_t>(raw(standard(Standard::WatchdogTime)));
 }
 
 // --- Local registers -------------------------------------------------------------

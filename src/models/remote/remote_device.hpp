@@ -101,9 +101,20 @@ class RemoteDevice : public lbp::Target {
 
   // --- The serial face -----------------------------------------------------
   // A character from the host; returns the reply it completes (may be empty).
-  std::span<const std::uint8_t> receive(std::uint8_t byte, SimTime now);
-  // Let simulated time pass (watchdog, framing gaps).
-  void advance(SimTime now);
+  std::span<const std::uint8_t> receive(std::uint8_t byte, SimTime now) {
+    if (!powered_) return {};
+    advance(now);
+    const auto reply = parser_.receive(byte, now);
+    wake_ = nextEvent();  // the command may have fed or set the watchdog, or be half received
+    return reply;
+  }
+  // Let simulated time pass (watchdog, framing gaps). Inline and cheap until
+  // something is due: the card advances both processors at every host access.
+  void advance(SimTime now) {
+    if (!powered_) return;
+    now_ = now;
+    if (now >= wake_) catchUp(now);
+  }
   [[nodiscard]] std::uint32_t baud() const { return parser_.baud(); }
 
   // --- Power and jumpers ---------------------------------------------------
@@ -124,7 +135,11 @@ class RemoteDevice : public lbp::Target {
   [[nodiscard]] std::uint8_t crcErrorCount() const { return parser_.crcErrorCount(); }
   [[nodiscard]] std::uint8_t softwareMode() const { return swMode_; }
   [[nodiscard]] std::uint32_t unitNumber() const;
-  [[nodiscard]] std::uint16_t watchdogTimeMs() const;
+  [[nodiscard]] std::uint16_t watchdogTimeMs() const {
+    // raw(standard(Standard::WatchdogTime)) without the look-up: asked at
+    // every character. A 16-bit working parameter, so in RAM.
+    return static_cast<std::uint16_t>(ram_[watchdogOffset_] | (ram_[watchdogOffset_ + 1U] << 8));
+  }
   [[nodiscard]] std::string_view cardName() const { return identity_.cardName; }
   // CR15 (activity: toggles every 512 process data transfers, about 1 Hz at
   // a 1 kHz update) and CR16 (fault) (manual: STATUS LEDs).
@@ -163,8 +178,15 @@ class RemoteDevice : public lbp::Target {
 
   // Element access by id: the device's own elements are 0..n-1, the standard
   // parameters follow (see standard()).
-  [[nodiscard]] std::uint64_t raw(ElementId id) const;
-  [[nodiscard]] std::int64_t rawSigned(ElementId id) const;
+  [[nodiscard]] std::uint64_t raw(ElementId id) const {
+    const auto& e = elements_.at(id);
+    const std::uint8_t* p = bytesOf(e);
+    if (p == nullptr) return 0;
+    std::uint64_t v = 0;
+    for (unsigned i = 0; i < e.bytes; ++i) v |= static_cast<std::uint64_t>(p[i]) << (8 * i);
+    return v & e.mask;
+  }
+  [[nodiscard]] std::int64_t rawSigned(ElementId id) const { return lbp::signExtend(raw(id), elements_[id].d.bits); }
   [[nodiscard]] ElementId standard(Standard s) const {
     return static_cast<ElementId>(ownElements_ + static_cast<unsigned>(s));
   }
@@ -186,7 +208,13 @@ class RemoteDevice : public lbp::Target {
 
  protected:
   // Working (RAM) value of an element; NV elements live in the EEPROM.
-  void setRaw(ElementId id, std::uint64_t value);
+  void setRaw(ElementId id, std::uint64_t value) {
+    const auto& e = elements_.at(id);
+    auto* p = const_cast<std::uint8_t*>(bytesOf(e));  // this device's own memory
+    if (p == nullptr) return;
+    value &= e.mask;
+    for (unsigned i = 0; i < e.bytes; ++i) p[i] = static_cast<std::uint8_t>(value >> (8 * i));
+  }
   void raiseFault(std::uint8_t bits) { faults_ = static_cast<std::uint8_t>(faults_ | bits); }
   // Outputs may reach the terminals only while no watchdog (or illegal mode)
   // fault is set: the host must clear it first (manual: WATCHDOG AND FAULTS).
@@ -200,9 +228,16 @@ class RemoteDevice : public lbp::Target {
   virtual void onPowerUp() {}
 
  private:
+  // Where an element's value lives, worked out once (raw() and setRaw() run
+  // for every element of every process data exchange).
+  enum class Store : std::uint8_t { None, Ram, Eeprom };
   struct Element {
     ProcessDataDescriptor d;
     std::uint16_t address;
+    Store store = Store::None;
+    std::uint16_t offset = 0;  // into ram_ or eeprom_
+    std::uint8_t bytes = 0;
+    std::uint64_t mask = 0;  // the element's bits
   };
   struct ModeTables {
     std::uint16_t ptoc;
@@ -214,12 +249,38 @@ class RemoteDevice : public lbp::Target {
   void buildTables(std::span<const ProcessDataDescriptor> own, std::span<const ElementId> parameters);
   void clearFaults();
   void checkWatchdog(SimTime now);
+  void catchUp(SimTime now);
+  // The earliest time advance() can change anything (a framing gap ending a
+  // half-received command, the watchdog biting): kept in wake_, worked out
+  // again after everything that can bring it closer (a character received,
+  // power-up, a catch-up), all of which go through receive(), powerUp() or
+  // advance().
+  [[nodiscard]] SimTime nextEvent() const {
+    SimTime t = parser_.gapDeadline();
+    // checkWatchdog() bites once now - lastHostCommand_ > ms.
+    const auto ms = watchdogTimeMs();
+    if (powered_ && !(faults_ & fault::kWatchdog) && ms != 0) {
+      const SimTime bite = lastHostCommand_ + std::chrono::milliseconds(ms) + SimTime{1};
+      if (bite < t) t = bite;
+    }
+    return t;
+  }
   [[nodiscard]] const SoftwareMode& currentMode() const;
   [[nodiscard]] const ModeTables& currentTables() const;
   [[nodiscard]] std::uint8_t* storage(std::uint16_t address);
   [[nodiscard]] const std::uint8_t* storage(std::uint16_t address) const;
   [[nodiscard]] const Element* elementAt(std::uint16_t address) const;
+  [[nodiscard]] const std::uint8_t* bytesOf(const Element& e) const {
+    return e.store == Store::Ram      ? ram_.data() + e.offset
+           : e.store == Store::Eeprom ? eeprom_.data() + e.offset
+                                      : nullptr;
+  }
   std::vector<std::uint8_t> factoryEeprom() const;
+
+  // First: what advance() looks at, at every host access of the card.
+  bool powered_ = false;
+  SimTime now_{};
+  SimTime wake_{SimTime::min()};  // nextEvent() as last worked out
 
   Identity identity_;
   std::span<const SoftwareMode> modes_;
@@ -237,13 +298,12 @@ class RemoteDevice : public lbp::Target {
   lbp::Parser parser_;
   NvStore nv_;
 
-  bool powered_ = false;
   bool setupJumper_ = false;
   std::uint8_t faults_ = 0;
   std::uint8_t swMode_ = 0;
   std::uint8_t nvAccess_ = 0;
-  SimTime now_{};
   SimTime lastHostCommand_{};
+  std::uint16_t watchdogOffset_ = 0;  // WatchDogTime's bytes in ram_
   std::uint32_t processDataCount_ = 0;
 };
 

@@ -108,6 +108,11 @@ void SimDaemon::record() {
   const std::uint32_t n = card_.daughtercard(0).analog.processDataCount();
   if (n == analogExchanges_) return;
   analogExchanges_ = n;
+  // Two exchanges within one plant step (a host's start-up chatter) would
+  // give two rows of the same instant: the first stands for both.
+  if (traced_ && machine_->time() == lastTraced_) return;
+  traced_ = true;
+  lastTraced_ = machine_->time();
   machine_->traceRow(traceRow_);
   trace_->push(traceRow_);
 }

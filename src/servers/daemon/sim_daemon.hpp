@@ -106,6 +106,8 @@ class SimDaemon {
   std::unique_ptr<TraceRing> trace_;
   std::vector<double> traceRow_;  // allocated once
   std::uint32_t analogExchanges_ = 0;
+  bool traced_ = false;  // a trace row has been taken, at lastTraced_ (the plant's time)
+  lbp::SimTime lastTraced_{};
   std::unique_ptr<TraceFile> traceFile_;  // after trace_: it reads it until it goes
   std::unique_ptr<Lbp16Card> lbp16_;
   std::unique_ptr<UdpServer> udp_;
