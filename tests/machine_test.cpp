@@ -255,6 +255,28 @@ TEST(Machine, TheIndexComesOnceAMotorRevolution) {
   EXPECT_NEAR(at[1] - at[0], 5.0, 2 * kOneCount);
 }
 
+// The index is a track of its own: counts an A or B channel missed while
+// broken do not move it, so after the repair it comes at the same shaft
+// angle as before (homing to it lands where it always did).
+TEST(Machine, AMendedEncoderChannelLeavesTheIndexWhereItWas) {
+  Rig r;
+  r.setEnable(true);
+  r.setVolts(0, 0.2);  // 5 mm/s
+  auto indexPosition = [&] {
+    r.enc.enableIndex(0);
+    for (int i = 0; i < 1100 && r.enc.indexEnabled(0); ++i) r.cycle();
+    EXPECT_FALSE(r.enc.indexEnabled(0));
+    return r.m.axis(0).position() - static_cast<double>(r.enc.counts(0)) / kCountsPerMm;
+  };
+  const double before = indexPosition();
+  r.m.setEncoderBroken(0, 0, machine::EncoderChannel::A, true);
+  for (int i = 0; i < 333; ++i) r.cycle();  // 1.665 mm the count misses
+  r.m.setEncoderBroken(0, 0, machine::EncoderChannel::A, false);
+  const double after = indexPosition();
+  const double revolutions = (after - before) / 5.0;  // one index a motor revolution, 5 mm
+  EXPECT_NEAR(revolutions, std::round(revolutions), 2 * kOneCount / 5.0) << before << " then " << after;
+}
+
 // The spindle: SpinEna runs the VFD, which ramps to rpm-per-volt; its
 // encoder counts the turns.
 TEST(Machine, SpindleRampsToSpeedAndItsEncoderCounts) {

@@ -58,9 +58,10 @@ void MuxedEncoder::setVelocity(unsigned n, double countsPerSecond, SimTime now) 
   stateSeconds_[n] = 1.0 / std::abs(countsPerSecond);  // how long a quadrature state lasts (run())
 }
 
-void MuxedEncoder::setIndexPeriod(unsigned n, std::uint32_t countsPerRev) {
+void MuxedEncoder::setIndexPeriod(unsigned n, std::uint32_t countsPerRev, std::int64_t indexAt) {
   settle(n);
   signals_.at(n).countsPerRev = countsPerRev;
+  signals_.at(n).indexAt = indexAt;
 }
 
 MuxedEncoder::State MuxedEncoder::state() const {
@@ -117,14 +118,16 @@ void MuxedEncoder::run(unsigned n, SimTime from, SimTime to) const {
     const std::int64_t step = b > a ? 1 : -1;
     std::int64_t at = a;
     if (hasIndex && (c.ccr & (kClearOnIndex | kLatchOnIndex))) {
-      // Index pulses are one count wide, at multiples of countsPerRev. Only
+      // Index pulses are one count wide, every countsPerRev from indexAt. Only
       // the first and the last one crossed while clear or latch on index is
       // armed matter: the first may disarm it ("just once"), and between
       // them every index does the same thing. Computed, not walked: with an
       // index every count at MHz rates, one step can cross billions of them.
       const auto cpr = static_cast<std::int64_t>(s.countsPerRev);
       auto floorDiv = [](std::int64_t x, std::int64_t m) { return x >= 0 ? x / m : -((-x + m - 1) / m); };
-      const std::int64_t first = step > 0 ? (floorDiv(at, cpr) + 1) * cpr : floorDiv(at - 1, cpr) * cpr;
+      const std::int64_t ia = s.indexAt;
+      const std::int64_t first =
+          step > 0 ? (floorDiv(at - ia, cpr) + 1) * cpr + ia : floorDiv(at - 1 - ia, cpr) * cpr + ia;
       if ((step > 0 && first <= b) || (step < 0 && first >= b)) {
         c.count += static_cast<std::int32_t>(first - at);
         at = first;
@@ -220,7 +223,8 @@ std::uint32_t MuxedEncoder::read(std::uint16_t address, SimTime now) {
       const bool a = st == 1 || st == 2;
       const bool b = st == 2 || st == 3;
       const auto& s = signals_[n];
-      const bool z = s.countsPerRev > 0 && (stateOf(s.position) % static_cast<std::int64_t>(s.countsPerRev)) == 0;
+      const bool z = s.countsPerRev > 0 &&
+                     ((stateOf(s.position) - s.indexAt) % static_cast<std::int64_t>(s.countsPerRev)) == 0;
       return (static_cast<std::uint32_t>(c.latched) << 16) | (c.ccr & 0xFFF8U) | (z ? 4U : 0U) | (b ? 2U : 0U) |
              (a ? 1U : 0U);
     }

@@ -36,6 +36,10 @@ struct EncoderSignal {
   double position = 0.0;    // counts (4 per quadrature cycle)
   double velocity = 0.0;    // counts per second
   std::uint32_t countsPerRev = 0;  // 0: no index
+  // The quadrature state of one index pulse; the others are every
+  // countsPerRev from it. The index is a track of its own on the disc: where
+  // the A/B count lost counts, the pulses stay at their shaft angle.
+  std::int64_t indexAt = 0;
 };
 
 class MuxedEncoder final : public Module {
@@ -89,7 +93,7 @@ class MuxedEncoder final : public Module {
 
   // The world: what the encoder on input `n` does from `now` on.
   void setVelocity(unsigned n, double countsPerSecond, SimTime now);
-  void setIndexPeriod(unsigned n, std::uint32_t countsPerRev);
+  void setIndexPeriod(unsigned n, std::uint32_t countsPerRev, std::int64_t indexAt = 0);
   [[nodiscard]] const EncoderSignal& signal(unsigned n) const {
     settle(n);
     return signals_.at(n);

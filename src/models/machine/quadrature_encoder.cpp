@@ -34,9 +34,12 @@ void QuadratureEncoder::setBroken(EncoderChannel channel, bool broken, double re
   if (!wasCounting && counting) {
     // The counts missed stay missed: the signal goes on from where it stopped.
     encoders_->advance(now);
-    origin_ += encoders_->signal(input_).position - trueCounts(revs);
+    const double slip = encoders_->signal(input_).position - trueCounts(revs);
+    origin_ += slip;
+    slipped_ += slip;
   }
-  encoders_->setIndexPeriod(input_, p_.index && !this->broken(EncoderChannel::Index) ? countsPerRev() : 0);
+  encoders_->setIndexPeriod(input_, p_.index && !this->broken(EncoderChannel::Index) ? countsPerRev() : 0,
+                            std::llround(slipped_));
 }
 
 void QuadratureEncoder::drive(double revs, SimTime from, SimTime until, SimTime minimum) {

@@ -72,6 +72,10 @@ class QuadratureEncoder {
   hm2::MuxedEncoder* encoders_;
   unsigned input_;
   double origin_;  // signal counts at shaft revolution 0
+  // How far the A/B count has slipped against the shaft (counts missed
+  // while a channel was broken): the index track has not, so its pulses
+  // are set this far along the signal.
+  double slipped_ = 0.0;
   std::uint8_t broken_ = 0;  // bit per EncoderChannel
 };
 
