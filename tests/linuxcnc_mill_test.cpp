@@ -391,7 +391,24 @@ AfterKill killAndWatch(LinuxCncRun& run, MillSim& sim) {
 // its watchdog bit, or the smart-serial port stopped (the PC's servo thread or
 // the card thread fell far behind), as the display's last report and
 // LinuxCNC's log say.
-std::string hostTrouble(const std::map<std::string, json>& r, const std::string& log) {
+std::string hostTrouble(const std::map<std::string, json>& r, const std::vector<json>& mdi, const std::string& log) {
+  // A following error while the machine ran as it should (homing, MDI, the
+  // program): LinuxCNC's servo thread (not real-time on this kernel) came
+  // late, the drives ran on at their last command meanwhile, and the error
+  // outgrew MIN_FERROR; no configuration prevents that. A fault of the
+  // machine or the configuration trips every attempt.
+  auto followingError = [](const json& j) {
+    if (j.contains("messages"))
+      for (const auto& m : j["messages"])
+        if (m.get<std::string>().find("following error") != std::string::npos) return true;
+    return false;
+  };
+  for (const char* step : {"home", "program"})
+    if (r.count(step) && followingError(r.at(step)))
+      return std::string(step) + ": a following error while the servo thread ran late (" +
+             r.at(step).value("ferror", json::object()).dump() + ")";
+  for (const auto& j : mdi)
+    if (followingError(j)) return "mdi " + j.value("command", std::string()) + ": a following error";
   for (const auto& [step, j] : r) {
     if (!j.contains("hm2")) continue;
     const auto& h = j["hm2"];
@@ -436,8 +453,9 @@ TEST(LinuxCncMill, RunsGcodeAndRehearsesFaultsAgainstTheVirtualMill) {
     GTEST_SKIP() << "LinuxCNC's Python module is not installed for /usr/bin/python3";
   const auto started = Clock::now();
 
-  // Two attempts when the first is lost to the host's timing, not to what
+  // Up to three attempts when one is lost to the host's timing, not to what
   // this test checks.
+  constexpr int kAttempts = 3;
   for (int attempt = 1;; ++attempt) {
     Network net;
     ASSERT_TRUE(net.ok()) << "could not set up the network namespace";
@@ -461,8 +479,8 @@ TEST(LinuxCncMill, RunsGcodeAndRehearsesFaultsAgainstTheVirtualMill) {
       run.kill();
       r = run.reports(&mdi);
       log = run.log();
-      trouble = hostTrouble(r, log);
-      if (!trouble.empty() && attempt < 2) {
+      trouble = hostTrouble(r, mdi, log);
+      if (!trouble.empty() && attempt < kAttempts) {
         std::printf("LinuxCNC mill: attempt %d lost to the host's timing (%s); once more\n", attempt, trouble.c_str());
         std::fflush(stdout);
       }
@@ -476,7 +494,7 @@ TEST(LinuxCncMill, RunsGcodeAndRehearsesFaultsAgainstTheVirtualMill) {
     fs::remove_all(simDir, ec);
     net.remove();
     EXPECT_TRUE(net.gone()) << "the network namespace or a veth outlived the test";
-    if (!trouble.empty() && attempt < 2) continue;
+    if (!trouble.empty() && attempt < kAttempts) continue;
 
     const std::string context = "\n--- LinuxCNC's output ---\n" + log.substr(log.size() > 6000 ? log.size() - 6000 : 0);
     ASSERT_TRUE(trouble.empty()) << trouble << context;
