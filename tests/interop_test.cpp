@@ -100,8 +100,16 @@ template <typename F>
 bool waitFor(F&& ok, std::chrono::milliseconds limit) {
   const auto end = std::chrono::steady_clock::now() + limit;
   while (std::chrono::steady_clock::now() < end) {
-    if (ok()) return true;
-    std::this_thread::sleep_for(2ms);
+    // A look that failed (the sim's API not answering in time on a loaded
+    // machine leaves a null state) is only a look: try again.
+    try {
+      if (ok()) return true;
+    } catch (const json::exception&) {
+    }
+    // Not faster: each look may ask the sim for its whole state, and on
+    // two cores a sanitized sim's answers take CPU from LinuxCNC's
+    // servo thread (which runs without real-time priority here).
+    std::this_thread::sleep_for(10ms);
   }
   return ok();
 }
@@ -327,7 +335,7 @@ TEST_F(LinuxCnc, Hm2EthRunsTheVirtual7i77) {
   hal("halcmd setp hm2_7i92.0.7i77.0.1.analogena 1");
   EXPECT_TRUE(waitFor(
       [&] {
-        const auto s = sim_->get()["daughtercards"][0];
+        auto s = sim_->get()["daughtercards"][0];
         return s["field_io"]["outputs"][3]["on"] == true && s["field_io"]["outputs"][12]["on"] == true &&
                std::abs(s["analog"]["outputs"][2]["volts"].get<double>() - 4.5) < 0.005 &&
                std::abs(s["analog"]["outputs"][5]["volts"].get<double>() + 7.25) < 0.005 &&
@@ -348,14 +356,14 @@ TEST_F(LinuxCnc, Hm2EthRunsTheVirtual7i77) {
   const auto stopped = std::chrono::steady_clock::now();
   EXPECT_TRUE(waitFor(
       [&] {
-        const auto s = sim_->get()["daughtercards"][0];
+        auto s = sim_->get()["daughtercards"][0];
         return s["field_io"]["outputs"][3]["on"] == false && s["analog"]["outputs"][0]["enable"] == false &&
                s["analog"]["outputs"][2]["volts"].get<double>() == 0.0;
       },
       1000ms));
   const auto dropped = std::chrono::steady_clock::now() - stopped;
   EXPECT_LT(dropped, 400ms) << "including halcmd's own start-up";
-  const auto s = sim_->get();
+  auto s = sim_->get();
   EXPECT_EQ(s["daughtercards"][0]["field_io"]["faults"][0], "WatchdogFault");
   EXPECT_EQ(s["watchdog"]["bitten"], true);
   hal("halcmd start");
@@ -392,7 +400,7 @@ TEST_F(LinuxCnc, SixtySecondsAt1kHz) {
   std::this_thread::sleep_for(std::chrono::seconds(seconds));
   const auto after = sim_->get()["lbp16"]["packets"].get<std::uint64_t>();
   const auto errors = getp("hm2_7i92.0.packet-error-total");
-  const auto server = sim_->get()["server"];
+  auto server = sim_->get()["server"];
   const auto ioError = getp("hm2_7i92.0.io_error");
   // A figure, printed for the README: the goal is none, but this machine's
   // LinuxCNC runs without a real-time kernel.

@@ -4,6 +4,7 @@
 #include <poll.h>
 #include <signal.h>
 #include <sys/wait.h>
+#include <sys/prctl.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -24,6 +25,9 @@ inline pid_t spawn(const std::vector<std::string>& args, int& outFd, int& errFd)
   if (::pipe(out) != 0 || ::pipe(err) != 0) throw std::runtime_error("pipe");
   const pid_t pid = ::fork();
   if (pid == 0) {
+    // A test that aborts (a sanitizer's report) must not leave its sim
+    // behind to hold the address the next attempt binds.
+    ::prctl(PR_SET_PDEATHSIG, SIGTERM);
     ::dup2(out[1], 1);
     ::dup2(err[1], 2);
     ::close(out[0]);

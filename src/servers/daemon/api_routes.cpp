@@ -103,7 +103,7 @@ constexpr std::uint64_t kMaxCountsPerRev = std::uint64_t{1} << 31;
 constexpr double kMaxSpeed = 10000;
 constexpr double kMaxStepMs = 60000;
 
-using Route = std::function<std::string(const json&)>;
+using Route = std::function<Answer(const json&)>;
 
 // --- The machine (issue 10): GET /api/machine, POST /api/machine actions,
 // GET /api/machine/trace.
@@ -261,13 +261,13 @@ void addMachineRoutes(httplib::Server& http, const ApiTarget& t, const CardThrea
   };
   http.Get("/api/machine", guarded([t, run](const httplib::Request&) {
              if (t.machine == nullptr) throw NoMachine();
-             return run([t] { return t.machineJson(); });
+             return run([t] { return t.machineState(); });
            }));
   http.Post("/api/machine", guarded([t, run](const httplib::Request& req) {
               if (t.machine == nullptr) throw NoMachine();
               return run([t, j = body(req)] {
                 machineAction(*t.machine, j);
-                return t.machineJson();
+                return t.machineState();
               });
             }));
   http.Get("/api/machine/trace", guarded([t](const httplib::Request& req) {
@@ -295,7 +295,7 @@ void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner
   // Each route holds a copy of the target (references and the state
   // function), so a job stays valid whichever request it came from. Changes
   // happen at the card's own time (it may lag the clock while it catches up).
-  http.Get("/api/state", handle([t](const json&) { return t.stateJson(); }));
+  http.Get("/api/state", handle([t](const json&) { return t.state(); }));
   addMachineRoutes(http, t, run);
   http.Post("/api/input", handle([t](const json& j) {
               auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
@@ -303,7 +303,7 @@ void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner
               const double v = j.contains("volts") ? number(j, "volts", 0, kMaxVolts, kVoltsRange)
                                                    : (flag(j, "on") ? io.fieldVoltage() : 0.0);
               io.setInputVoltage(n, v);
-              return t.stateJson();
+              return t.state();
             }));
   http.Post("/api/field", handle([t](const json& j) {
               auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
@@ -313,7 +313,7 @@ void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner
               const double w = vin ? number(j, "vin", 0, kMaxVolts, kVoltsRange) : 0;
               if (volts) io.setFieldVoltage(v, t.card.now());
               if (vin) io.setVin(w, t.card.now());
-              return t.stateJson();
+              return t.state();
             }));
   http.Post("/api/encoder", handle([t](const json& j) {
               const auto d = connector(j, t.card);
@@ -330,12 +330,12 @@ void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner
               auto& enc = t.card.encoders();
               if (cpr) enc.setIndexPeriod(n, static_cast<std::uint32_t>(c));
               if (vel) enc.setVelocity(n, v, t.card.now());
-              return t.stateJson();
+              return t.state();
             }));
   http.Post("/api/cable", handle([t](const json& j) {
               const auto ch = index(j, "channel", t.card.smartSerial().channels());
               t.card.smartSerial().link(ch).setConnected(flag(j, "connected"));
-              return t.stateJson();
+              return t.state();
             }));
   http.Post("/api/output", handle([t](const json& j) {
               auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
@@ -349,12 +349,12 @@ void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner
                                           "for a short)",
                                           kMaxOhms));
               io.setOutputLoad(n, ohms);
-              return t.stateJson();
+              return t.state();
             }));
   http.Post("/api/overtemp", handle([t](const json& j) {
               auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
               io.setDriverOverTemperature(index(j, "chip", remote::FieldIoProcessor::kChips), flag(j, "hot"));
-              return t.stateJson();
+              return t.state();
             }));
   http.Post("/api/time", handle([t](const json& j) {
               const double speed =
@@ -365,7 +365,7 @@ void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner
               const double step = j.contains("step_ms") ? number(j, "step_ms", 0, kMaxStepMs, "from 0 to 60000") : 0;
               t.clock.set(speed, flag(j, "paused", t.clock.paused()));
               if (step > 0) t.clock.advanceBy(lbp::SimTime{static_cast<std::int64_t>(step * 1e6)});
-              return t.stateJson();
+              return t.state();
             }));
 }
 

@@ -42,25 +42,32 @@ struct ApiOptions {
   unsigned maxRequestsPerConnection = 100;
 };
 
+// What a job hands back from the card thread: a snapshot (taken there,
+// in microseconds) that becomes the answer's text when called, on the API's
+// own thread. Serialising the whole state takes milliseconds under a
+// sanitizer, and a host's next datagram must not wait for it: hm2_eth
+// counts a reply later than 80 % of its servo period as a packet error.
+using Answer = std::function<std::string()>;
+
 // What the routes act on: touched only inside jobs, on the card thread
 // (but for the trace, made to be read by any thread).
 struct ApiTarget {
   hm2::HostMot2Card& card;  // card.now(): the simulated time everything happens at
   SimClock& clock;
-  // The answer to every successful call: the whole state as JSON.
-  std::function<std::string()> stateJson;
+  // The answer to every successful call: the whole state.
+  std::function<Answer()> state;
   // The machine behind connector 0 (`lbpkit sim --machine`), or none: then
   // the /api/machine routes answer 404.
   machine::Machine* machine = nullptr;
-  std::function<std::string()> machineJson;  // GET /api/machine's answer
-  const TraceRing* trace = nullptr;          // GET /api/machine/trace reads it on the API's threads
+  std::function<Answer()> machineState;  // GET /api/machine's answer
+  const TraceRing* trace = nullptr;      // GET /api/machine/trace reads it on the API's threads
 };
 
-// Runs a job on the card thread and returns its result. What the job throws
-// comes back as is (std::invalid_argument: a bad request); it throws
-// std::runtime_error when the card thread does not get to it in time or the
-// sim is stopping.
-using CardThreadRunner = std::function<std::string(std::function<std::string()>)>;
+// Runs a job on the card thread and returns its answer's text, made on the
+// calling thread. What the job throws comes back as is
+// (std::invalid_argument: a bad request); it throws std::runtime_error when
+// the card thread does not get to it in time or the sim is stopping.
+using CardThreadRunner = std::function<std::string(std::function<Answer()>)>;
 
 class ControlApi {
  public:

@@ -38,6 +38,7 @@ SimDaemon::SimDaemon(SimOptions options)
   unsigned a[4] = {127, 0, 0, 1};
   std::sscanf(options_.bindAddress.c_str(), "%u.%u.%u.%u", &a[0], &a[1], &a[2], &a[3]);
   for (int i = 0; i < 4; ++i) id.ip[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(a[i]);
+  id.flashFile = options_.flashFile;
   lbp16_ = std::make_unique<Lbp16Card>(card_, id);
   // A driver developer needs to see "hm2_eth wrote 0x5A04 to 0x1234, which
   // nothing decodes": at debug level every such access is logged as it
@@ -58,9 +59,9 @@ SimDaemon::SimDaemon(SimOptions options)
     api.port = options_.apiPort;
     api.token = options_.apiToken;
     api_ = std::make_unique<ControlApi>(api,
-                                        ApiTarget{card_, clock_, [this] { return stateJson(); }, machine_.get(),
-                                                  [this] { return machineJson(); }, trace_.get()},
-                                        [this](std::function<std::string()> job) { return runJob(std::move(job)); });
+                                        ApiTarget{card_, clock_, [this] { return stateAnswer(); }, machine_.get(),
+                                                  [this] { return machineAnswer(); }, trace_.get()},
+                                        [this](std::function<Answer()> job) { return runJob(std::move(job)); });
     apiPort_ = api_->port();
   }
   // Last, so a sim that cannot start leaves no file behind it.
@@ -152,12 +153,14 @@ SimState SimDaemon::state() {
   return s;
 }
 
-std::string SimDaemon::machineJson() {
+Answer SimDaemon::machineAnswer() {
   catchUp(clock_.paused() ? std::chrono::microseconds(200'000) : SimClock::kBudget);
-  return net::toJson(machine_->state()).dump();
+  return [s = machine_->state()] { return net::toJson(s).dump(); };
 }
 
-std::string SimDaemon::stateJson() { return net::stateJson(state()); }
+Answer SimDaemon::stateAnswer() {
+  return [s = state()] { return net::stateJson(s); };
+}
 
 std::string SimDaemon::banner() const {
   const auto& id = lbp16_->identity();
@@ -196,8 +199,8 @@ std::string SimDaemon::banner() const {
   return s;
 }
 
-std::string SimDaemon::runJob(std::function<std::string()> job) {
-  std::packaged_task<std::string()> task(std::move(job));
+std::string SimDaemon::runJob(std::function<Answer()> job) {
+  std::packaged_task<Answer()> task(std::move(job));
   auto result = task.get_future();
   {
     std::lock_guard<std::mutex> lock(jobsMutex_);
@@ -206,13 +209,14 @@ std::string SimDaemon::runJob(std::function<std::string()> job) {
   }
   if (result.wait_for(std::chrono::seconds(5)) != std::future_status::ready)
     throw std::runtime_error("the card thread is busy: the request is queued and will still be applied");
-  return result.get();
+  // The snapshot becomes text here, on the API's thread.
+  return result.get()();
 }
 
 void SimDaemon::drainJobs() {
   // Never wait for the API threads: if they hold the lock, try next time.
   // The jobs run with the lock released, so API threads never wait on them.
-  std::deque<std::packaged_task<std::string()>> ready;
+  std::deque<std::packaged_task<Answer()>> ready;
   {
     std::unique_lock<std::mutex> lock(jobsMutex_, std::try_to_lock);
     if (!lock.owns_lock() || jobs_.empty()) return;
@@ -325,7 +329,7 @@ void SimDaemon::run(const std::atomic<bool>& stop) {
   // No job is taken after this one last round: the API's threads get their
   // answers (or "stopping") at once instead of waiting for a thread that is
   // gone.
-  std::deque<std::packaged_task<std::string()>> last;
+  std::deque<std::packaged_task<Answer()>> last;
   {
     std::lock_guard<std::mutex> lock(jobsMutex_);
     jobsClosed_ = true;

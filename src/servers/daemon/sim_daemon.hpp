@@ -15,12 +15,14 @@
 #include <deque>
 #include <functional>
 #include <future>
+#include <filesystem>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "daemon/api_routes.hpp"
 #include "daemon/sim_clock.hpp"
 #include "daemon/trace_file.hpp"
 #include "daemon/trace_ring.hpp"
@@ -56,6 +58,9 @@ struct SimOptions {
   // How many servo cycles the trace keeps for GET /api/machine/trace (60 s at 1 kHz).
   std::size_t traceRows = 60'000;
   hm2::HostMot2Card::Options card;
+  // The 7I92's configuration flash, kept across runs (lbp16/flash_file.hpp);
+  // empty: in memory, blank at every start.
+  std::filesystem::path flashFile;
   std::string configDescription = "built-in default";
 };
 
@@ -77,16 +82,17 @@ class SimDaemon {
 
   [[nodiscard]] std::uint16_t port() const;
   [[nodiscard]] int apiPort() const { return apiPort_; }
-  // The whole board now, and as JSON (for the API; call on the card thread).
+  // The whole board now (call on the card thread).
   [[nodiscard]] SimState state();
-  std::string stateJson();
-  // GET /api/machine (call on the card thread, with a machine).
-  std::string machineJson();
+  // The same, and GET /api/machine's (with a machine), as the API's
+  // answers: taken on the card thread, made text by whoever calls them.
+  Answer stateAnswer();
+  Answer machineAnswer();
   // "median 3 us, 99th percentile 9 us, max 40 us over N datagrams".
   [[nodiscard]] std::string latencySummary() const;
 
  private:
-  std::string runJob(std::function<std::string()> job);
+  std::string runJob(std::function<Answer()> job);
   void drainJobs();
   // Brings the card up to the clock, with bounded work (SimClock::catchUp);
   // returns the card's time, the time everything happens at.
@@ -116,7 +122,7 @@ class SimDaemon {
   std::string schedule_ = "normal scheduling";
   bool macFromInterface_ = false;
   std::mutex jobsMutex_;
-  std::deque<std::packaged_task<std::string()>> jobs_;
+  std::deque<std::packaged_task<Answer()>> jobs_;
   bool jobsClosed_ = false;  // the card thread has stopped: no job would run
   // Server-side time per datagram: from the kernel's receive
   // timestamp to the reply sent (latency_), and of that the time it queued
