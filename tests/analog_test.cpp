@@ -71,4 +71,29 @@ TEST(Analog, MoreThan50msWithoutTheHostDropsEverything) {
   EXPECT_EQ(a.faults(), remote::fault::kWatchdog);
 }
 
+// FIELD I/O WATCHDOG AND FAULTS: "When a fault flag is set, outputs can not
+// longer be set and the host must first clear the fault"; ANALOG SECTION
+// WATCHDOG: outputs "set to 0V and drive enable OPTO couplers turned off".
+// What the host writes while bitten is not set: the fault clear alone
+// brings back neither volts nor enables; the next write does.
+TEST(Analog, WritesWhileTheWatchdogFaultIsSetAreNotSet) {
+  AnalogProcessor a;
+  Host h(a);
+  start(h);
+  h.wait(51ms);
+  ASSERT_EQ(a.faults(), remote::fault::kWatchdog);
+  h.processData(pack({2000, 2000, 2000, 2000, 2000, 2000}, true, true));
+  EXPECT_DOUBLE_EQ(a.outputVoltage(0), 0.0);
+  ASSERT_TRUE(h.setLocal(lbp::local_write::kClearFault, 0xFF));
+  EXPECT_EQ(a.faults(), 0);
+  for (unsigned ch = 0; ch < 6; ++ch) {
+    EXPECT_DOUBLE_EQ(a.outputVoltage(ch), 0.0) << ch;
+    EXPECT_FALSE(a.enable(ch)) << ch;
+  }
+  h.processData(pack({2000, 2000, 2000, 2000, 2000, 2000}, true, true));
+  EXPECT_GT(a.outputVoltage(0), 4.8);
+  EXPECT_TRUE(a.enable(0));
+  EXPECT_TRUE(a.enable(5));
+}
+
 }  // namespace

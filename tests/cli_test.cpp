@@ -35,7 +35,7 @@ std::string trim(std::string s) {
 
 TEST(Cli, DiscoverJsonListsBothChannelsInEveryFieldIoMode) {
   for (int mode = 0; mode < 4; ++mode) {
-    const auto r = run({"discover", "--json", "--modes", std::to_string(mode) + "0x"});  // TB6 skipped
+    const auto r = run({"discover", "--json", "--modes", std::to_string(mode) + "0xxxx"});  // TB6, channels 3..5 skipped
     ASSERT_EQ(r.exit, 0) << r.err;
     const auto j = nlohmann::json::parse(r.out);
     EXPECT_EQ(j["card"], "MESA7I92");
@@ -72,9 +72,13 @@ TEST(Cli, DiscoverByDefaultTriesEveryChannelAsLinuxCncDoes) {
   const auto r = run({"discover", "--json"});
   ASSERT_EQ(r.exit, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
-  ASSERT_EQ(j["channels"].size(), 3U);
-  EXPECT_EQ(j["channels"][2]["present"], false);  // TB6: nothing attached
-  EXPECT_NE(j["channels"][2]["status"].get<std::string>().find("TimeoutError"), std::string::npos);
+  // Mesa's two-7I77 firmware has six channels: TB6 (2) and the second
+  // connector's (3..5) have nothing attached.
+  ASSERT_EQ(j["channels"].size(), 6U);
+  for (unsigned ch = 2; ch < 6; ++ch) {
+    EXPECT_EQ(j["channels"][ch]["present"], false) << ch;
+    EXPECT_NE(j["channels"][ch]["status"].get<std::string>().find("TimeoutError"), std::string::npos) << ch;
+  }
 }
 
 TEST(Cli, RpdWpdOnTheVirtualCard) {
@@ -157,6 +161,24 @@ TEST(Cli, SimRefusesBadConfigurationsClearly) {
   r = run({"sim", "--bind", "127.0.0.1:70000", "--api", "0"});
   EXPECT_EQ(r.exit, 1);
   EXPECT_NE(r.err.find("not a port number"), std::string::npos) << r.err;
+  std::filesystem::remove(bad);
+}
+
+// Issue 12 item 5: the TOML chooses the firmware's pinout; a second 7I77
+// needs Mesa's two-7I77 one.
+TEST(Cli, SimConfigChoosesThePinout) {
+  const auto bad = tempPath("pinout.toml");
+  std::ofstream(bad) << "[card]\npinout = \"7I77x3\"\n";
+  auto r = run({"sim", "--config", bad, "--api", "0"});
+  EXPECT_EQ(r.exit, 1);
+  EXPECT_NE(r.err.find(bad + ":2:10: card.pinout: \"7I77x3\" is not one of \"7I77x2\", \"7I77+GPIO\""), std::string::npos)
+      << r.err;
+  std::ofstream(bad) << "[card]\npinout = \"7I77+GPIO\"\n[[daughtercard]]\ntype = \"7I77\"\n[[daughtercard]]\ntype = \"7I77D\"\n";
+  r = run({"sim", "--config", bad, "--api", "0"});
+  EXPECT_EQ(r.exit, 1);
+  EXPECT_NE(r.err.find(bad + ":6:8: daughtercard[1].type: the 7I77+GPIO pinout has GPIO on the second connector"),
+            std::string::npos)
+      << r.err;
   std::filesystem::remove(bad);
 }
 

@@ -27,6 +27,14 @@ void start(Host& h, std::uint8_t mode = 0) {
   EXPECT_EQ(h.local(lbp::local_read::kFaultStatus), 0);
 }
 
+// W1 right: VIN from its own 12 V supply, so field supply faults show.
+FieldIoProcessor::Options separateVin() {
+  FieldIoProcessor::Options o;
+  o.vinFromField = false;
+  o.vin = 12.0;
+  return o;
+}
+
 std::uint32_t inputsOf(const Bytes& reply) {
   return std::uint32_t{reply.at(1)} | (std::uint32_t{reply.at(2)} << 8) | (std::uint32_t{reply.at(3)} << 16) |
          (std::uint32_t{reply.at(4)} << 24);
@@ -100,27 +108,69 @@ TEST(FieldIo, AnalogModesReportEightBitReadingsAt36_3VoltsFullScale) {
   EXPECT_EQ(r[9], FieldIoProcessor::analogReading(24.0));  // field voltage
 }
 
+// MPG INPUTS: mode 3 counts two MPGs on inputs 16..19, A and B as
+// pncconf's 7I77 mode-3 table assigns them (input 16 MPG 0 B, 17 MPG 0 A,
+// 18 MPG 1 B, 19 MPG 1 A), 1X by default.
 TEST(FieldIo, Mode3CountsTwoMpgsOnInputs16To19At1X) {
   FieldIoProcessor io;
   Host h(io);
   start(h, 3);
   // 5 V encoder signals: the 2.5 V threshold applies, not 60 % of 24 V.
-  auto step = [&](unsigned a, unsigned b, int cycles) {
+  auto step = [&](unsigned first, unsigned second, int cycles) {
     const double hi = 5.0;
-    for (int i = 0; i < cycles; ++i) {  // A leads B: up
-      io.setInputVoltage(a, hi);
-      io.setInputVoltage(b, hi);
-      io.setInputVoltage(a, 0);
-      io.setInputVoltage(b, 0);
+    for (int i = 0; i < cycles; ++i) {  // `first` leads
+      io.setInputVoltage(first, hi);
+      io.setInputVoltage(second, hi);
+      io.setInputVoltage(first, 0);
+      io.setInputVoltage(second, 0);
     }
   };
-  step(16, 17, 10);
-  step(19, 18, 3);  // B leads A on MPG 1: down
+  step(17, 16, 10);  // A leads B on MPG 0: up
+  step(18, 19, 3);   // B leads A on MPG 1: down
   const auto r = h.processData({0, 0});
   ASSERT_EQ(r.size(), 12U);
   EXPECT_EQ(r[10], 10);                      // 1X: one count per cycle
   EXPECT_EQ(r[11], static_cast<std::uint8_t>(-3));
   EXPECT_EQ(inputsOf(r) & (1U << 16), 0U);
+}
+
+TEST(FieldIo, Mode3MpgAIsInput17And19AndNVEncModeSetsTheCountMode) {
+  FieldIoProcessor io;  // its EEPROM in memory, kept across a power cycle
+  Host h(io);
+  start(h, 3);
+  // Pulses on A alone (B low): 1X counts each rising edge of A, up.
+  for (int i = 0; i < 4; ++i) {
+    io.setInputVoltage(17, 5.0);
+    io.setInputVoltage(17, 0.0);
+    io.setInputVoltage(19, 5.0);
+    io.setInputVoltage(19, 0.0);
+  }
+  auto r = h.processData({0, 0});
+  EXPECT_EQ(r[10], 4);
+  EXPECT_EQ(r[11], 4);
+  // Pulses on B alone count nothing at 1X.
+  io.setInputVoltage(16, 5.0);
+  io.setInputVoltage(16, 0.0);
+  EXPECT_EQ(h.processData({0, 0})[10], 4);
+  // NVEncMode0 = 2 (4X), read at the next power-up (NON-VOLATILE FIELD I/O PARAMETERS).
+  std::uint16_t nv = 0;
+  for (std::size_t id = 0; id < io.elementCount(); ++id)
+    if (io.descriptor(static_cast<remote::ElementId>(id)).name == "NVEncMode0")
+      nv = io.address(static_cast<remote::ElementId>(id));
+  ASSERT_NE(nv, 0);
+  ASSERT_TRUE(h.setLocal(lbp::local_write::kNonVolatile, lbp::nonvolatile::kEeprom));
+  ASSERT_TRUE(h.write(nv, 1, 2));
+  ASSERT_TRUE(h.setLocal(lbp::local_write::kNonVolatile, lbp::nonvolatile::kNone));
+  io.powerCycle(h.now);
+  start(h, 3);
+  for (int i = 0; i < 2; ++i) {  // one full quadrature cycle, A leading: 4 edges
+    io.setInputVoltage(17, 5.0);
+    io.setInputVoltage(16, 5.0);
+    io.setInputVoltage(17, 0.0);
+    io.setInputVoltage(16, 0.0);
+  }
+  r = h.processData({0, 0});
+  EXPECT_EQ(r[10], 8);
 }
 
 TEST(FieldIo, WatchdogBitesAfter50msAndTheHostMustClearIt) {
@@ -143,6 +193,51 @@ TEST(FieldIo, WatchdogBitesAfter50msAndTheHostMustClearIt) {
   ASSERT_TRUE(h.setLocal(lbp::local_write::kClearFault, 0xFF));
   h.processData({0xFF, 0x00});
   EXPECT_EQ(io.outputs(), 0x00FF);
+}
+
+// FIELD I/O WATCHDOG AND FAULTS: "When a fault flag is set, outputs can not
+// longer be set and the host must first clear the fault". Outputs written
+// while the watchdog fault is set are not set: the clear alone turns
+// nothing on; the host's next write does.
+TEST(FieldIo, OutputsWrittenWhileTheWatchdogFaultIsSetAreNotSet) {
+  FieldIoProcessor io;
+  Host h(io);
+  start(h);
+  h.processData({0x0F, 0x00});
+  h.wait(51ms);
+  ASSERT_EQ(io.faults(), fault::kWatchdog);
+  EXPECT_EQ(io.outputs(), 0);
+  h.processData({0xFF, 0xFF});
+  EXPECT_EQ(io.outputs(), 0);
+  ASSERT_TRUE(h.setLocal(lbp::local_write::kClearFault, 0xFF));
+  EXPECT_EQ(io.faults(), 0);
+  EXPECT_EQ(io.outputs(), 0);  // neither what was set before the bite nor what came after
+  h.processData({0xFF, 0xFF});
+  EXPECT_EQ(io.outputs(), 0xFFFF);
+}
+
+// SHORT CIRCUIT PROTECTION ("disable the affected output and indicate a
+// fault") and OVER-TEMPERATURE PROTECTION ("disable the affected chip and
+// indicate a fault"): those fault flags do not stop the host setting the
+// other outputs; only the watchdog's flag does (FIELD I/O WATCHDOG AND
+// FAULTS). Field supply faults block nothing either.
+TEST(FieldIo, OnlyTheWatchdogFaultStopsOutputsBeingSet) {
+  FieldIoProcessor io(separateVin());
+  Host h(io);
+  start(h);
+  io.setOutputLoad(3, 0.0);  // a dead short on output 3
+  h.processData({0x08, 0x00});
+  ASSERT_TRUE(io.faults() & fault::kOverCurrent);
+  h.processData({0x38, 0x01});  // with OverCurrent set, set outputs 4, 5 and 8
+  EXPECT_EQ(io.outputs(), 0x0130);
+  io.setDriverOverTemperature(1, true);
+  ASSERT_TRUE(io.faults() & fault::kOverTemp);
+  h.processData({0x78, 0x01});  // chip 1 is off; chip 0 still takes new outputs
+  EXPECT_EQ(io.outputs(), 0x0070);
+  io.setFieldVoltage(4.0, h.now);
+  ASSERT_TRUE(io.faults() & fault::kLowVoltage);
+  h.processData({0x03, 0x00});
+  EXPECT_EQ(io.outputs(), 0x0003);
 }
 
 TEST(FieldIo, WatchdogTimeZeroDisablesIt) {
@@ -216,10 +311,7 @@ TEST(FieldIo, FieldAndVinSupply) {
   EXPECT_TRUE(io.powered());
   EXPECT_EQ(io.faults(), fault::kWatchdog);  // a fresh power-up
   // W1 right: separate VIN; a field supply failure is reported.
-  FieldIoProcessor::Options o;
-  o.vinFromField = false;
-  o.vin = 12.0;
-  FieldIoProcessor sep(o);
+  FieldIoProcessor sep(separateVin());
   Host hs(sep);
   start(hs);
   sep.setFieldVoltage(3.0, hs.now);

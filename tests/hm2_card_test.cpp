@@ -26,9 +26,14 @@ struct Md {
 };
 
 TEST(Idrom, ParsesLikeTheHostmot2Driver) {
-  for (bool two : {false, true}) {
+  using Pinout = hm2::HostMot2Card::Pinout;
+  // Mesa's two-7I77 firmware with one and with two 7I77s (the same IDROM),
+  // and the 7I77 + GPIO layout.
+  for (int variant : {0, 1, 2}) {
+    const bool x2 = variant < 2;
     hm2::HostMot2Card::Options o;
-    if (two) o.second = hm2::HostMot2Card::DaughterOptions{};
+    o.pinout = x2 ? Pinout::SevenI77x2 : Pinout::SevenI77Gpio;
+    if (variant == 1) o.second = hm2::HostMot2Card::DaughterOptions{};
     hm2::HostMot2Card card(o);
     CardHost h{card};
     ASSERT_EQ(h.read(0x0100), 0x55AACAFEU);
@@ -77,8 +82,12 @@ TEST(Idrom, ParsesLikeTheHostmot2Driver) {
       if (m.gtag == 0x03) {
         EXPECT_EQ(m.instances, ioPorts);
       }
+      // PIN_7I77x2_34.vhd: 12 MuxedQCount, one MuxedQCountSel, one SSerial.
       if (m.gtag == 0x0C) {
-        EXPECT_EQ(m.instances, two ? 12 : 6);
+        EXPECT_EQ(m.instances, x2 ? 12 : 6) << variant;
+      }
+      if (m.gtag == 0x0D || m.gtag == 0xC1) {
+        EXPECT_EQ(m.instances, 1) << variant;
       }
     }
     // Pin descriptors: primary IOPort for all; the manual's P1 table on IO0..16.
@@ -99,15 +108,55 @@ TEST(Idrom, ParsesLikeTheHostmot2Driver) {
     EXPECT_EQ(fn(10), 0x000C03U);  // IO10 QCMUXI01
     EXPECT_EQ(fn(13), 0x010C03U);  // IO13 QCMUXI23
     EXPECT_EQ(fn(16), 0x020C03U);  // IO16 QCMUXI45
-    if (two) {
+    if (x2) {
+      // The second connector as PIN_7I77x2_34.vhd has it, 7I77 or not.
       EXPECT_EQ(fn(17), 0x00C196U);  // SS5TXEN on the second connector
+      EXPECT_EQ(fn(18), 0x00C186U);  // SS5TX
+      EXPECT_EQ(fn(19), 0x00C106U);  // SS5RX
       EXPECT_EQ(fn(23), 0x00C104U);  // SS3RX
-      EXPECT_EQ(fn(24), 0x010D81U);  // second ENCMUX
+      EXPECT_EQ(fn(24), 0x060D81U);  // second ENCMUX: unit 6, as the firmware has it
+      EXPECT_EQ(fn(25), 0x030C01U);  // pair 3 (counters 6, 7)
       EXPECT_EQ(fn(33), 0x050C03U);
     } else {
       EXPECT_EQ(fn(17), 0U);  // plain GPIO
+      EXPECT_EQ(fn(33), 0U);
     }
   }
+}
+
+// With one 7I77 on Mesa's two-7I77 firmware, the second connector's SSerial
+// channels are there but nobody answers: START reports channels 2..5
+// failed, 0 and 1 run; the muxed counters 6..11 count (they are the
+// firmware's whether a 7I77 is plugged in or not).
+TEST(Card, TheTwo7I77FirmwareWithOne7I77HasSixChannelsAndTwelveCounters) {
+  namespace cmd = hm2::command;
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  ASSERT_EQ(card.daughtercards(), 1U);
+  EXPECT_EQ(card.smartSerial().channels(), 6U);
+  EXPECT_EQ(card.encoders().counters(), 12U);
+  h.command(cmd::kStop);
+  for (unsigned ch = 0; ch < 6; ++ch) h.write(CardHost::cs(ch), 0);
+  EXPECT_EQ(h.command(cmd::kStart | 0x3F), 0x3C);  // no remote on 2..5
+  EXPECT_TRUE(card.smartSerial().channelRunning(0));
+  EXPECT_TRUE(card.smartSerial().channelRunning(1));
+  for (unsigned ch = 2; ch < 6; ++ch) EXPECT_FALSE(card.smartSerial().channelRunning(ch)) << ch;
+  EXPECT_EQ(h.read(CardHost::iface(1, 3)), 0U);  // no unit number on channel 3
+  EXPECT_EQ(h.read(CardHost::iface(2, 3)), 0U);  // no discovery
+  card.encoders().setVelocity(11, -1000, h.now);
+  h.wait(10ms);
+  EXPECT_NEAR(static_cast<std::int16_t>(h.read(hm2::MuxedEncoder::kCount + 4 * 11) & 0xFFFF), -10, 1);
+}
+
+TEST(Card, TheGpioPinoutHasNoSecond7I77) {
+  hm2::HostMot2Card::Options o;
+  o.pinout = hm2::HostMot2Card::Pinout::SevenI77Gpio;
+  o.second = hm2::HostMot2Card::DaughterOptions{};
+  EXPECT_THROW(hm2::HostMot2Card{o}, std::invalid_argument);
+  o.second.reset();
+  hm2::HostMot2Card card(o);
+  EXPECT_EQ(card.smartSerial().channels(), 3U);
+  EXPECT_EQ(card.encoders().counters(), 6U);
 }
 
 TEST(Card, UnmappedAccessesAreHarmless) {
@@ -153,6 +202,52 @@ TEST(Watchdog, BitesAfterItsTimeoutAndResetsGpio) {
   EXPECT_EQ(h.read(hm2::Watchdog::kStatus), 1U);
 }
 
+// watchdog.vhd bites on a rising edge of the timer's bit 31: a write of a
+// value with bit 31 set to a running watchdog is such an edge. To one that
+// is not running it only disarms.
+TEST(Watchdog, WritingBit31WhileItRunsBitesIt) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  h.write(hm2::IoPort::kDdr, 0x1);
+  h.write(hm2::Watchdog::kTimer, hm2::Watchdog::kDisarmed);  // not running: disarmed, no bite
+  EXPECT_EQ(h.read(hm2::Watchdog::kStatus), 0U);
+  h.write(hm2::Watchdog::kTimer, 499999);
+  h.wait(1ms);
+  EXPECT_EQ(h.read(hm2::Watchdog::kStatus), 0U);
+  h.write(hm2::Watchdog::kTimer, hm2::Watchdog::kDisarmed);  // running: bit 31 rises
+  EXPECT_EQ(h.read(hm2::Watchdog::kStatus), 1U);
+  EXPECT_EQ(card.ioPort().ddr(0), 0U);  // GPIO released
+  EXPECT_EQ(h.read(hm2::Watchdog::kTimer), hm2::Watchdog::kDisarmed);  // and it stays stopped
+  h.write(hm2::Watchdog::kStatus, 0);
+  h.wait(10ms);
+  EXPECT_EQ(h.read(hm2::Watchdog::kStatus), 0U);
+}
+
+// A pet loads the timer with the value last written to it (wdtime), also
+// after it bit: the timer runs again, and bites again unless petted.
+TEST(Watchdog, APetAfterABiteRunsTheTimerAgain) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  h.write(hm2::Watchdog::kTimer, 99999);  // 1 ms
+  h.wait(2ms);
+  ASSERT_EQ(h.read(hm2::Watchdog::kStatus), 1U);
+  EXPECT_EQ(h.read(hm2::Watchdog::kTimer), 0xFFFFFFFFU);
+  h.write(hm2::Watchdog::kStatus, 0);
+  h.write(hm2::Watchdog::kReset, 0x5A000000);
+  const auto t = h.read(hm2::Watchdog::kTimer);
+  EXPECT_LT(t, 99999U);
+  EXPECT_GT(t, 99000U);
+  h.wait(2ms);
+  EXPECT_EQ(h.read(hm2::Watchdog::kStatus), 1U);
+  // Disarmed at power-up, a pet does nothing.
+  hm2::HostMot2Card fresh;
+  CardHost f{fresh};
+  f.write(hm2::Watchdog::kReset, 0x5A000000);
+  f.wait(1s);
+  EXPECT_EQ(f.read(hm2::Watchdog::kStatus), 0U);
+  EXPECT_EQ(f.read(hm2::Watchdog::kTimer), hm2::Watchdog::kDisarmed);
+}
+
 TEST(Watchdog, LongTimesDoNotOverflow) {
   // 185 s at 100 MHz is more than 2^64 nanosecond-cycles.
   hm2::HostMot2Card card;
@@ -167,10 +262,27 @@ TEST(Watchdog, LongTimesDoNotOverflow) {
   EXPECT_EQ(static_cast<std::uint16_t>(after - before), static_cast<std::uint16_t>((200ULL * 50'000'000ULL + 50) & 0xFFFF));
 }
 
+// The power-up mux divisor is qcounteratesk.vhd's round(ClockLow / 8 MHz) - 2:
+// 11 at 100 MHz (12.5 rounds away from zero), a mux tick every 130 ns, each
+// counter sampling every 260 ns.
+TEST(MuxedEncoder, PowerUpDivisorIsTheFirmwares) {
+  hm2::HostMot2Card card;
+  CardHost h{card};
+  EXPECT_EQ(h.read(hm2::MuxedEncoder::kRate), 11U);
+  EXPECT_EQ(card.encoders().samplePeriod(), SimTime{260});
+  h.write(hm2::MuxedEncoder::kRate, 10);  // what LinuxCNC writes for its 8 MHz default
+  EXPECT_EQ(card.encoders().samplePeriod(), SimTime{240});
+  hm2::MuxedEncoder at50(6, 50'000'000);  // round(6.25) - 2
+  EXPECT_EQ(at50.samplePeriod(), SimTime{2 * 6 * 20});
+  hm2::MuxedEncoder at33(6, 33'333'333);  // round(4.17) - 2
+  EXPECT_EQ(at33.samplePeriod(), SimTime{static_cast<std::int64_t>(2 * 4 * 1e9 / 33'333'333)});
+}
+
 TEST(MuxedEncoder, ExactUpTo2MHzAndLosingCountsAbove) {
   for (double rate : {1000.0, 250e3, 1e6, 2e6, 3e6, 6e6}) {
     hm2::HostMot2Card card;
     CardHost h{card};
+    h.write(hm2::MuxedEncoder::kRate, 10);  // LinuxCNC's rate: 8.33 MHz mux ticks, exact to 2.08 MHz
     h.write(static_cast<std::uint16_t>(hm2::MuxedEncoder::kControl), 0);  // 3-tick filter
     card.encoders().setVelocity(0, rate, h.now);
     card.encoders().setVelocity(1, -rate, h.now);
@@ -268,24 +380,26 @@ TEST(Card, PowerCycleLeavesEveryRegisterAsAFreshCardHasIt) {
   h.remote(1, 0x65, analog.address(analog.standard(remote::Standard::WatchdogTime)), 30);
   ASSERT_EQ(io.watchdogTimeMs(), 20);
   ASSERT_EQ(analog.watchdogTimeMs(), 30);
-  // SSLBP: a normal run, then STOP ALL, which leaves byte 2 of interface 0
-  // (inputs 16..23) alone; a changed baud rate in the local RAM; channel 1
+  // SSLBP: a normal run, then STOP ALL, which clears all of interface 0,
+  // byte 2 (inputs 16..23) too (SSLBP 43: 0x00FF0000 with inputs 16..23 on,
+  // 0 100 us after STOP ALL); a changed baud rate in the local RAM; channel 1
   // chattering and a START of the empty channel 2 still running.
-  io.setInputVoltage(16, 24.0);
+  for (unsigned i = 16; i < 24; ++i) io.setInputVoltage(i, 24.0);
   h.command(cmd::kStop);
   h.write(CardHost::cs(0), 0);  // software mode 0 (setup mode left LBP commands there)
   h.write(CardHost::cs(1), 0);
   ASSERT_EQ(h.command(cmd::kStart | 0x03), 0);
   ASSERT_EQ(h.command(cmd::kDoit | 0x03), 0);
+  ASSERT_EQ(h.read(CardHost::iface(0, 0)), 0x00FF0000U);
   h.command(cmd::kStop);
-  ASSERT_NE(h.read(CardHost::iface(0, 0)) & 0x00FF0000U, 0U);
+  h.wait(100us);
+  ASSERT_EQ(h.read(CardHost::iface(0, 0)), 0U);
   const std::uint16_t baud0 = hm2::local::kChannelBlock + hm2::local::kBaudOffset;
   h.write(hm2::SmartSerial::kData, 0x42);
   h.command(cmd::kWrite | cmd::kRequest | baud0);
   ASSERT_EQ(h.command(cmd::kStart | 0x02), 0);
   h.write(hm2::SmartSerial::kCommand, cmd::kStart | 0x04);
   h.wait(1ms);
-  ASSERT_NE(h.read(CardHost::iface(0, 0)) & 0x00FF0000U, 0U);
 
   hm2::HostMot2Card fresh;
   ASSERT_GT(registerDifferences(card, fresh, h.now, false), 20U);  // the test has something to find

@@ -72,8 +72,17 @@ class Sim {
     if (daemon_) daemon_->stop();
     std::filesystem::remove(state_);
     std::filesystem::remove(state_ + ".analog");
+    std::filesystem::remove(state_ + ".flash");  // the configuration flash, kept beside the EEPROM
   }
   [[nodiscard]] bool up() const { return apiPort_ > 0; }
+  // Its resident memory now, in kB (/proc/PID/status VmRSS).
+  [[nodiscard]] long residentKb() const {
+    std::ifstream f("/proc/" + std::to_string(daemon_->pid()) + "/status");
+    std::string line;
+    while (std::getline(f, line))
+      if (line.rfind("VmRSS:", 0) == 0) return std::atol(line.c_str() + 6);
+    return -1;
+  }
   json get(const std::string& path = "/api/state") {
     httplib::Client c("127.0.0.1", apiPort_);
     auto r = c.Get(path.c_str());
@@ -184,6 +193,69 @@ TEST(Mesaflash, WritesAndVerifiesTheVirtualFlash) {
   EXPECT_NE(r.out.find("Boot sector OK"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("verified successfully"), std::string::npos) << r.out;
   std::filesystem::remove(bit);
+}
+
+// mesaflash --sserial --verbose collects every software mode record of each
+// remote's GTOC and walks each one (mesaflash: sserial_module.c): both 7I77
+// processors list all their modes there, whatever the current one. Its
+// verbose parameter list shows UNSIGNED parameters whose unit reads "None".
+TEST(Mesaflash, ShowsEverySoftwareModeOfBothRemotes) {
+  if (!have("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
+  Sim sim(loopback());
+  ASSERT_TRUE(sim.up());
+  const auto r = sh("timeout 60 mesaflash --device 7i92 --addr " + loopback() + " --sserial --verbose");
+  ASSERT_EQ(r.exit, 0) << r.out;
+  const auto field = r.out.find("channel 0: 7I77 GPIO");
+  const auto analog = r.out.find("channel 1: 7I77 ANALOG");
+  ASSERT_NE(field, std::string::npos) << r.out;
+  ASSERT_NE(analog, std::string::npos) << r.out;
+  ASSERT_LT(field, analog) << r.out;
+  const std::string fieldPart = r.out.substr(field, analog - field);
+  const std::string analogPart = r.out.substr(analog);
+  for (const char* mode : {"SOFTWARE MODE IO [index 00]", "SOFTWARE MODE IO+AnalogIn [index 01]",
+                           "SOFTWARE MODE IO+AnalogIn+FieldVoltage [index 02]",
+                           "SOFTWARE MODE IO+AnalogIn+FieldVoltage+MPG [index 03]"})
+    EXPECT_NE(fieldPart.find(mode), std::string::npos) << mode << "\n" << r.out;
+  EXPECT_NE(analogPart.find("SOFTWARE MODE Analog [index 00]"), std::string::npos) << r.out;
+  EXPECT_EQ(analogPart.find("[index 01]"), std::string::npos) << r.out;
+  EXPECT_NE(fieldPart.find("UnitNumber = 12000AEE [32 bits UNSIGNED IO | UNIT: None"), std::string::npos) << r.out;
+  EXPECT_NE(analogPart.find("UnitNumber = 11000AEE"), std::string::npos) << r.out;
+  EXPECT_NE(fieldPart.find("NVEncMode0 [8 bits NV UNSIGNED IN | UNIT: None"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("HwRevision"), std::string::npos) << "no sibling reports one: " << r.out;
+  EXPECT_EQ(sim.stop(), 0);
+}
+
+// Issue 12 item 11: what mesaflash --write programmed is in the flash file
+// next to the EEPROM, and a sim started again on the same state verifies.
+TEST(Mesaflash, TheFlashIsKeptAcrossRestarts) {
+  if (!have("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
+  const auto state = (std::filesystem::temp_directory_path() / ("lbpkit-interop-flash-" + std::to_string(::getpid()))).string();
+  auto clean = [&] {
+    for (const char* suffix : {"", ".analog", ".flash", ".flash.tmp"}) std::filesystem::remove(state + suffix);
+  };
+  clean();
+  auto start = [&] {
+    auto d = std::make_unique<Daemon>(std::vector<std::string>{"sim", "--bind", loopback(), "--no-api", "--state", state});
+    d->readUntil("point LinuxCNC at it");
+    return d;
+  };
+  const auto bit = fakeBitfile();
+  const std::string card = "timeout 120 mesaflash --device 7i92 --addr " + loopback();
+  auto first = start();
+  auto r = sh(card + " --write " + bit + " --fix-boot-block");
+  EXPECT_EQ(r.exit, 0) << r.out;
+  EXPECT_NE(r.out.find("verified successfully"), std::string::npos) << r.out;
+  EXPECT_EQ(first->stop(), 0);
+  EXPECT_TRUE(std::filesystem::exists(state + ".flash"));
+  EXPECT_FALSE(std::filesystem::exists(state + ".flash.tmp"));
+  auto second = start();
+  r = sh(card + " --verify " + bit);
+  EXPECT_EQ(r.exit, 0) << r.out;
+  EXPECT_NE(r.out.find("Boot sector OK"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("verified successfully"), std::string::npos) << r.out;
+  EXPECT_EQ(second->stop(), 0);
+  std::filesystem::remove(bit);
+  clean();
 }
 
 TEST(Lbp16, GarbageFromAnotherPortDoesNotStopService) {
@@ -388,6 +460,34 @@ TEST_F(LinuxCnc, FieldIoModesProduceTheirPins) {
       500ms));
 }
 
+// The parameters LinuxCNC makes of the GTOC (LinuxCNC: sserial.c, read only
+// when the direction is Input): the siblings' set in sserial(9), nv* and
+// swrevision ro; the manual's working unitnumber and watchdogtime rw; no
+// encmode, hwrevision or mode 1..3 process data as parameters in mode 0.
+TEST_F(LinuxCnc, SmartSerialParametersAreTheSiblingsWithTheirReadOnlyChoice) {
+  startSim();
+  ASSERT_EQ(load("00xxxxxx").exit, 0);
+  const auto params = hal("halcmd show param").out;
+  auto line = [&](const std::string& name) {
+    const auto full = "hm2_7i92.0.7i77.0." + name;
+    std::size_t at = params.find(full + "\n");
+    if (at == std::string::npos) return std::string();
+    const auto begin = params.rfind('\n', at);
+    return params.substr(begin == std::string::npos ? 0 : begin + 1, at + full.size() - (begin + 1));
+  };
+  for (const char* ro : {"0.nvbaudrate", "0.nvunitnumber", "0.nvwatchdogtimeout", "0.swrevision", "0.nvencmode0",
+                         "0.nvencmode1", "1.nvbaudrate", "1.nvunitnumber", "1.nvwatchdogtimeout", "1.swrevision"}) {
+    const auto l = line(ro);
+    EXPECT_NE(l.find(" RO "), std::string::npos) << ro << ": " << l << "\n" << params;
+  }
+  for (const char* rw : {"0.unitnumber", "0.watchdogtime", "1.unitnumber", "1.watchdogtime"}) {
+    const auto l = line(rw);
+    EXPECT_NE(l.find(" RW "), std::string::npos) << rw << ": " << l << "\n" << params;
+  }
+  for (const char* absent : {"0.encmode0", "0.encmode1", "1.hwrevision", "0.analogin0", "0.fieldvoltage"})
+    EXPECT_EQ(line(absent), "") << absent << "\n" << params;
+}
+
 // A measurement, not a pass/fail test: scripts/test runs it with
 // LBPKIT_SOAK_SECONDS=60 and prints the figures.
 TEST_F(LinuxCnc, SixtySecondsAt1kHz) {
@@ -409,6 +509,193 @@ TEST_F(LinuxCnc, SixtySecondsAt1kHz) {
               seconds, static_cast<unsigned long long>(after - before), errors.c_str(), ioError.c_str(),
               server["median_us"].get<double>(), server["p99_us"].get<double>(), server["max_us"].get<double>());
   EXPECT_GT(after - before, static_cast<std::uint64_t>(seconds) * 1000);  // about 2 per cycle
+}
+
+// A HAL file loading hm2_eth with 12 muxed encoders and smart-serial
+// channels 0..5 (the hostmot2 man page: sserial_port_N, one digit or x per
+// channel), the servo thread running; returns its name.
+std::string twelveEncodersAndSixChannels(const std::string& file, const std::string& cardIp) {
+  std::ofstream(file) << "loadrt hostmot2\n"
+                      << "loadrt hm2_eth board_ip=" << cardIp << " config=\"num_encoders=12 sserial_port_0=000000\"\n"
+                      << "loadrt threads name1=servo period1=1000000\n"
+                      << "addf hm2_7i92.0.read servo\naddf hm2_7i92.0.write servo\nstart\n";
+  return file;
+}
+
+// Issue 12 item 5: the card's IDROM is Mesa's two-7I77 firmware
+// (PIN_7I77x2_34.vhd): a configuration asking for 12 muxed encoders and
+// smart-serial channels 3..5 loads. With one 7I77, channels 3..5 answer
+// "no remote" (hm2 makes their pins GPIO) and the first 7I77 runs as ever.
+TEST_F(LinuxCnc, Hm2EthLoadsTwelveEncodersAndChannels3To5WithOne7I77) {
+  startSim();
+  const auto r = hal("halcmd -f " + twelveEncodersAndSixChannels(fifo_ + ".hal", cardIp_));
+  std::filesystem::remove(fifo_ + ".hal");
+  ASSERT_EQ(r.exit, 0) << r.out;
+  const auto pins = hal("halcmd show pin").out;
+  for (int i = 0; i < 12; ++i) EXPECT_NE(pins.find(fmt("hm2_7i92.0.encoder.%02d.count", i)), std::string::npos) << i;
+  EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.0.input-00"), std::string::npos);
+  EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.1.analogout5"), std::string::npos);
+  EXPECT_EQ(pins.find("hm2_7i92.0.7i77.0.3."), std::string::npos) << "nothing on channel 3";
+  sim_->post("/api/input", {{"input", 5}, {"on", true}});
+  EXPECT_TRUE(waitFor([&] { return getp("hm2_7i92.0.7i77.0.0.input-05") == "TRUE"; }, 500ms));
+  EXPECT_EQ(getp("hm2_7i92.0.io_error"), "FALSE");
+}
+
+// Two 7I77s (`[[daughtercard]]` twice): the second on channels 3 and 4 and
+// encoders 6..11, as on the real card.
+TEST_F(LinuxCnc, Hm2EthRunsTwo7I77sOnChannels0To5AndTwelveEncoders) {
+  const auto config = fifo_ + ".toml";
+  std::ofstream(config) << "[card]\npinout = \"7I77x2\"\n[[daughtercard]]\ntype = \"7I77\"\n[[daughtercard]]\ntype = \"7I77\"\n";
+  sim_ = std::make_unique<Sim>(cardIp_, std::vector<std::string>{"--config", config});
+  ASSERT_TRUE(sim_->up());
+  const auto r = hal("halcmd -f " + twelveEncodersAndSixChannels(fifo_ + ".hal", cardIp_));
+  std::filesystem::remove(fifo_ + ".hal");
+  std::filesystem::remove(config);
+  ASSERT_EQ(r.exit, 0) << r.out;
+  const auto pins = hal("halcmd show pin").out;
+  EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.3.input-31"), std::string::npos) << pins;
+  EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.3.output-15"), std::string::npos);
+  EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.4.analogout5"), std::string::npos);
+  EXPECT_NE(pins.find("hm2_7i92.0.encoder.11.count"), std::string::npos);
+  // The second 7I77's terminals reach HAL, and HAL them.
+  sim_->post("/api/input", {{"connector", 1}, {"input", 3}, {"on", true}});
+  EXPECT_TRUE(waitFor([&] { return getp("hm2_7i92.0.7i77.0.3.input-03") == "TRUE"; }, 500ms));
+  EXPECT_EQ(getp("hm2_7i92.0.7i77.0.0.input-03"), "FALSE");
+  sim_->post("/api/encoder", {{"connector", 1}, {"encoder", 5}, {"velocity", 20000}});
+  EXPECT_TRUE(waitFor([&] { return std::atoi(getp("hm2_7i92.0.encoder.11.count").c_str()) > 1000; }, 1000ms));
+  hal("halcmd setp hm2_7i92.0.7i77.0.3.output-01 1");
+  EXPECT_TRUE(waitFor([&] { return sim_->get()["daughtercards"][1]["field_io"]["outputs"][1]["on"] == true; }, 500ms))
+      << sim_->get()["daughtercards"][1].dump();
+  EXPECT_EQ(getp("hm2_7i92.0.io_error"), "FALSE");
+  // The second connector's EEPROM files (FILE.2, FILE.analog.2) go too.
+  hal("halrun -U");
+  sim_.reset();
+  const auto state = (std::filesystem::temp_directory_path() / ("lbpkit-interop-" + std::to_string(::getpid()))).string();
+  std::filesystem::remove(state + ".2");
+  std::filesystem::remove(state + ".analog.2");
+}
+
+// Issue 13: a bad network, as hm2_eth sees it. Its documented rules
+// (hm2_eth(9)): a cycle with a read or write error adds
+// packet-error-increment to packet-error-level (up to packet-error-limit), a
+// good one takes packet-error-decrement off (down to 0), and at the limit
+// io_error is set for good. The sim's network loses or delays replies on
+// purpose (POST /api/network); the numbers seen are printed.
+TEST_F(LinuxCnc, PacketErrorsFollowHm2EthsDocumentedRules) {
+  startSim();
+  ASSERT_EQ(load("00xxxxxx").exit, 0);
+  const std::string board = "hm2_7i92.0.";
+  const int limit = std::atoi(getp(board + "packet-error-limit").c_str());
+  const int increment = std::atoi(getp(board + "packet-error-increment").c_str());
+  const int decrement = std::atoi(getp(board + "packet-error-decrement").c_str());
+  ASSERT_GT(limit, 0);
+  ASSERT_GT(increment, 0);
+  ASSERT_GT(decrement, 0);
+  EXPECT_EQ(getp(board + "io_error"), "FALSE");
+  auto total = [&] { return std::atoll(getp(board + "packet-error-total").c_str()); };
+  auto network = [&](const json& body) { return sim_->post("/api/network", body); };
+
+  // While losses are rehearsed, a higher limit: LinuxCNC's servo thread runs
+  // without real-time priority here, and a late cycle of its own must not
+  // end the run before the rules are seen.
+  hal("halcmd setp " + board + "packet-error-limit 100");
+
+  // 1 % of the replies lost, for 3 s: each loss is one error cycle, isolated
+  // losses never reach the limit.
+  const auto before = total();
+  auto set = network({{"direction", "reply"}, {"drop", 0.01}, {"seed", 7}});
+  ASSERT_TRUE(set.contains("set")) << set.dump();
+  int highest = 0;
+  for (int i = 0; i < 30; ++i) {
+    std::this_thread::sleep_for(100ms);
+    highest = std::max(highest, std::atoi(getp(board + "packet-error-level").c_str()));
+  }
+  auto seen = network({{"clear", true}});
+  const auto dropped = seen["did"]["reply"]["dropped"].get<long long>();
+  const auto passed = seen["did"]["reply"]["passed"].get<long long>();
+  const auto errors = total() - before;
+  std::printf("hm2_eth with 1 %% of replies dropped for 3 s: %lld replies, %lld dropped, packet-error-total +%lld, "
+              "highest packet-error-level seen %d (limit %d, increment %d, decrement %d), io_error %s\n",
+              dropped + passed, dropped, errors, highest, limit, increment, decrement,
+              getp(board + "io_error").c_str());
+  EXPECT_GT(dropped, 0);
+  EXPECT_GE(errors, dropped) << "every lost reply is a read error";
+  EXPECT_EQ(getp(board + "io_error"), "FALSE");
+
+  // Good cycles take the level back down by the decrement, to 0.
+  EXPECT_TRUE(waitFor([&] { return getp(board + "packet-error-level") == "0"; }, 2000ms))
+      << "good cycles bring the level back to 0";
+
+  // Every reply 3 ms late (the read timeout is 80 % of the 1 ms period):
+  // every cycle is an error, the level climbs to the limit and io_error is
+  // set, and stays set when the network is good again.
+  hal("halcmd setp " + board + "packet-error-limit " + std::to_string(limit));
+  network({{"direction", "reply"}, {"delay_us", 3000}});
+  EXPECT_TRUE(waitFor([&] { return getp(board + "io_error") == "TRUE"; }, 2000ms));
+  const auto late = network({{"clear", true}});
+  // From 0, limit / increment late replies reach the limit (fewer if a
+  // cycle of LinuxCNC's own was late too); then hm2_eth stops reading.
+  const auto delayed = late["did"]["reply"]["delayed"].get<long long>();
+  EXPECT_GE(delayed, 1);
+  EXPECT_LE(delayed, (limit + increment - 1) / increment);
+  std::printf("hm2_eth with every reply 3 ms late: io_error %s, packet-error-level %s, packet-error-exceeded %s, "
+              "%lld replies delayed\n",
+              getp(board + "io_error").c_str(), getp(board + "packet-error-level").c_str(),
+              getp(board + "packet-error-exceeded").c_str(), delayed);
+  EXPECT_EQ(std::atoi(getp(board + "packet-error-level").c_str()), limit);
+  EXPECT_EQ(getp(board + "packet-error-exceeded"), "TRUE");
+  std::this_thread::sleep_for(200ms);
+  EXPECT_EQ(getp(board + "io_error"), "TRUE") << "the condition must be reset by hand";
+}
+
+// Issue 13: while LinuxCNC runs at 1 kHz, another socket floods the card
+// with garbage and with replayed reads, ten times LinuxCNC's own rate: the
+// card answers LinuxCNC in time all along (no io_error) and its memory stays
+// flat.
+TEST_F(LinuxCnc, AGarbageAndReplayFloodLeavesLinuxCncRunning) {
+  startSim();
+  ASSERT_EQ(load("00xxxxxx").exit, 0);
+  const std::string board = "hm2_7i92.0.";
+  std::this_thread::sleep_for(300ms);
+  const long before = sim_->residentKb();
+  const auto errorsBefore = std::atoll(getp(board + "packet-error-total").c_str());
+  const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  sockaddr_in sa{};
+  sa.sin_family = AF_INET;
+  sa.sin_port = htons(27181);
+  ::inet_pton(AF_INET, cardIp_.c_str(), &sa.sin_addr);
+  // A read of the IDROM and of the 7I77's process data, as hm2_eth sends
+  // them, replayed; and noise of every length.
+  const std::uint8_t replay[][4] = {{0x01, 0x4A, 0x00, 0x01}, {0x08, 0x4A, 0x00, 0x5D}, {0x04, 0x4A, 0x00, 0x5C}};
+  std::uint32_t x = 11;
+  std::vector<std::uint8_t> junk(1500);
+  long sent = 0;
+  const auto end = std::chrono::steady_clock::now() + 5s;
+  while (std::chrono::steady_clock::now() < end) {
+    for (int k = 0; k < 10; ++k, ++sent) {
+      if (k % 2 == 0) {
+        const auto& r = replay[static_cast<std::size_t>(sent) % 3];
+        ::sendto(fd, r, sizeof r, 0, reinterpret_cast<sockaddr*>(&sa), sizeof sa);
+      } else {
+        for (auto& b : junk) b = static_cast<std::uint8_t>((x = x * 1103515245U + 12345U) >> 16);
+        ::sendto(fd, junk.data(), 1 + x % junk.size(), 0, reinterpret_cast<sockaddr*>(&sa), sizeof sa);
+      }
+    }
+    std::this_thread::sleep_for(1ms);
+  }
+  ::close(fd);
+  std::this_thread::sleep_for(200ms);
+  const long after = sim_->residentKb();
+  const auto s = sim_->get();
+  const auto errors = std::atoll(getp(board + "packet-error-total").c_str()) - errorsBefore;
+  std::printf("flood of %ld datagrams in 5 s beside LinuxCNC at 1 kHz: io_error %s, packet-error-total +%lld, "
+              "sim resident memory %ld kB -> %ld kB, %d malformed\n",
+              sent, getp(board + "io_error").c_str(), errors, before, after,
+              s["lbp16"]["parse_errors"].get<int>());
+  EXPECT_EQ(getp(board + "io_error"), "FALSE");
+  EXPECT_GT(s["lbp16"]["parse_errors"].get<int>(), 0);
+  ASSERT_GT(before, 0);
+  EXPECT_LT(after - before, 2048) << "the sim's memory grew under the flood";
 }
 
 }  // namespace

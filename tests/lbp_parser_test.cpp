@@ -151,7 +151,7 @@ TEST_F(ParserTest, LocalRegistersOfTheProtocol) {
   EXPECT_EQ(one(lbp::local_read::kRpcPitch), 8);
   EXPECT_EQ(one(lbp::local_read::kRpcSizeLow), 0x00);
   EXPECT_EQ(one(lbp::local_read::kRpcSizeHigh), 0x02);
-  EXPECT_EQ(one(lbp::local_read::kCrcEnable), 1);
+  EXPECT_EQ(one(lbp::local_read::kCrcEnable), 0xFF);
   EXPECT_EQ(one(lbp::local_read::kCommandTimeout), 255);
   EXPECT_EQ(one(0xD0), '7');
   EXPECT_EQ(one(0xD3), '7');
@@ -164,7 +164,7 @@ TEST_F(ParserTest, LocalRegistersOfTheProtocol) {
   EXPECT_EQ(one(0xD9), 0x12);
   // CRCs are always on for the 7I77: disabling is ignored.
   ASSERT_EQ(send({0xE2, 0x00}), Bytes{0x00});
-  EXPECT_EQ(one(lbp::local_read::kCrcEnable), 1);
+  EXPECT_EQ(one(lbp::local_read::kCrcEnable), 0xFF);
   // Writing a reserved local is a write to a protected area.
   EXPECT_EQ(send({0xE4, 0x01}), Bytes{0x00});
   EXPECT_TRUE(parser.status() & lbp::status::kInvalidWrite);
@@ -250,7 +250,7 @@ TEST_F(ParserTest, SpecialRpcCarriesItsDataBothWays) {
 TEST_F(ParserTest, ResetCommands) {
   EXPECT_EQ(send({0xFE, 0x11}), Bytes{0x00});  // wrong key: nothing
   EXPECT_EQ(target.resets, 0);
-  EXPECT_EQ(send({0xFE, 0x5A}), Bytes{0x00});
+  EXPECT_TRUE(send({0xFE, 0x5A}).empty());  // the processor restarts: no answer at all
   EXPECT_EQ(target.resets, 1);
   // A run of 0xFF completes any half-received command (which then fails its
   // CRC) and leaves the parser idle: each further 0xFF is a parser reset.
@@ -259,6 +259,61 @@ TEST_F(ParserTest, ResetCommands) {
   EXPECT_FALSE(parser.midCommand());
   EXPECT_EQ(target.mem[0], 0);
   EXPECT_EQ(send({0xDF}).at(0), 0x5A);
+}
+
+// LOCAL LBP WRITE COMMANDS: 0xFE with 0x5A resets the processor. It
+// restarts instead of answering: no data and no CRC byte, and the next
+// command is parsed from its first byte.
+TEST_F(ParserTest, AProcessorResetAnswersNothingAndTheNextCommandWorks) {
+  const int endsBefore = target.ends;
+  EXPECT_TRUE(raw(crc({0xFE, lbp::kResetKey})).empty());
+  EXPECT_EQ(target.resets, 1);
+  EXPECT_EQ(target.ends, endsBefore);  // not a command that completed: the processor restarted
+  EXPECT_FALSE(parser.midCommand());
+  EXPECT_EQ(send({lbp::local_read::kCookie}), (Bytes{0x5A, lbp::crc8(Bytes{0x5A})}));
+}
+
+// LOCAL LBP READ COMMANDS: CRC enable (0xC2) and RPCMEM (0xCA) are flags,
+// read back as the firmware stores true: 0xFF (LBP.INC), false 0x00.
+TEST_F(ParserTest, FlagsReadBackAsTheFirmwareStoresTrue) {
+  auto one = [&](std::uint8_t c) { return send({c}).at(0); };
+  EXPECT_EQ(one(lbp::local_read::kCrcEnable), 0xFF);
+  EXPECT_EQ(one(lbp::local_read::kRpcMemEnable), 0x00);
+  ASSERT_EQ(send({lbp::local_write::kRpcMemEnable, 0x01}), Bytes{0x00});  // any non-zero sets it
+  EXPECT_EQ(one(lbp::local_read::kRpcMemEnable), 0xFF);
+  ASSERT_EQ(send({lbp::local_write::kRpcMemEnable, 0x00}), Bytes{0x00});
+  EXPECT_EQ(one(lbp::local_read::kRpcMemEnable), 0x00);
+}
+
+// LBP DATA READ/WRITE COMMAND: RID is "RPC only, ignored for non RPC
+// commands". A write sent on its own with RID set carries its data after the
+// address like any write: it is executed and answered, not taken as having
+// no data (which made its first data byte the CRC, and the command fail).
+TEST_F(ParserTest, RidOnADirectCommandIsIgnored) {
+  const std::uint8_t rid = lbp::DataCommand::kRpcIncludesData;
+  const std::uint8_t write2 = lbp::writeHeader(2, true) | rid;  // 0x75
+  ASSERT_EQ(write2, 0x75);
+  EXPECT_EQ(send({write2, 0x00, 0x03, 0x12, 0x34}), Bytes{0x00});
+  EXPECT_EQ(target.mem[0x300], 0x12);
+  EXPECT_EQ(target.mem[0x301], 0x34);
+  EXPECT_EQ(parser.crcErrorCount(), 0);
+  EXPECT_EQ(parser.status() & lbp::status::kCrcError, 0);
+  // Without an address (the pointer, now 0x300) and on a read alike.
+  EXPECT_EQ(send({static_cast<std::uint8_t>(lbp::writeHeader(1, false) | rid), 0x56}), Bytes{0x00});
+  EXPECT_EQ(target.mem[0x300], 0x56);
+  EXPECT_EQ(send({static_cast<std::uint8_t>(lbp::readHeader(2, true) | rid), 0x00, 0x03}),
+            (Bytes{0x56, 0x34, lbp::crc8(Bytes{0x56, 0x34})}));
+  // Inside an RPC list RID still means the data is stored with the command.
+  ASSERT_EQ(send({0xEA, 0x01}), Bytes{0x00});
+  const Bytes list{write2, 0x10, 0x03, 0xAB, 0xCD, 0x00};
+  Bytes store{lbp::writeHeader(8, true), 0x08, 0x00};
+  store.insert(store.end(), list.begin(), list.end());
+  store.push_back(0);
+  store.push_back(0);
+  ASSERT_EQ(send(store), Bytes{0x00});
+  EXPECT_EQ(send({0x81}), Bytes{0x00});  // RPC 1: no stream data
+  EXPECT_EQ(target.mem[0x310], 0xAB);
+  EXPECT_EQ(target.mem[0x311], 0xCD);
 }
 
 TEST_F(ParserTest, AnRpcThatRewritesItsOwnListConsumesOnlyWhatArrived) {

@@ -126,6 +126,7 @@ class Daemon {
     pid_ = -1;
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   }
+  [[nodiscard]] pid_t pid() const { return pid_; }
   int stop(int sig = SIGTERM) {
     ::kill(pid_, sig);
     int status = 0;

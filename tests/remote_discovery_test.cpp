@@ -8,6 +8,7 @@
 
 #include "lbp/protocol.hpp"
 #include "lbp_host.hpp"
+#include "lbpkit/discovery.hpp"
 #include "remote/analog.hpp"
 #include "remote/field_io.hpp"
 
@@ -128,6 +129,19 @@ void checkConsistent(const Discovered& d, std::uint8_t mode) {
   }
 }
 
+// GTOC entries that are not process data of the current PTOC (same
+// PARAM_ADD, as LinuxCNC decides), by name: what hosts make parameters of.
+std::vector<std::string> parametersOf(const Discovered& d) {
+  std::vector<std::string> out;
+  for (const auto& g : d.gtoc) {
+    if (g.type != lbp::kProcessDataRecord) continue;
+    bool inPtoc = false;
+    for (const auto& p : d.ptoc) inPtoc |= p.type == lbp::kProcessDataRecord && p.address == g.address;
+    if (!inPtoc) out.push_back(g.name);
+  }
+  return out;
+}
+
 const Record* find(const std::vector<Record>& t, const std::string& name) {
   for (const auto& r : t)
     if (r.name == name) return &r;
@@ -162,12 +176,160 @@ TEST(Discovery, FieldIoEveryModeSetupAndOperate) {
       if (mode >= 1) {
         EXPECT_FLOAT_EQ(find(d.ptoc, "AnalogIn0")->max, 36.3F);
       }
-      // GTOC parameters (names as real boards report them, plus the manual's).
-      for (const char* p : {"SwRevision", "NVBaudRate", "NVUnitNumber", "NVWatchDogTimeout", "UnitNumber",
-                            "WatchDogTime", "Fault", "Output", "FieldVoltage", "EncMode0", "NVEncMode1"})
-        EXPECT_NE(find(d.gtoc, p), nullptr) << p;
+      // GTOC parameters: the table's rows for this processor, in every mode.
+      EXPECT_EQ(parametersOf(d), (std::vector<std::string>{"NVEncMode0", "NVEncMode1", "SwRevision", "NVBaudRate",
+                                                           "NVUnitNumber", "NVWatchDogTimeout", "UnitNumber",
+                                                           "WatchDogTime", "Fault"}));
     }
   }
+}
+
+// mesaflash collects every software mode record in the GTOC and walks each
+// (mesaflash: sserial_module.c); LinuxCNC prints them ("Board ... Software
+// Mode i = name") and makes pins from the PTOC alone (LinuxCNC: sserial.c).
+// So the GTOC lists all of a processor's software modes whatever the current
+// one; the PTOC only the current hardware and software modes (MODE DESCRIPTOR).
+TEST(Discovery, TheGtocListsEverySoftwareModeThePtocOnlyTheCurrentOne) {
+  const std::vector<std::string> names = {"IO", "IO+AnalogIn", "IO+AnalogIn+FieldVoltage",
+                                          "IO+AnalogIn+FieldVoltage+MPG"};
+  for (std::uint8_t mode = 0; mode < 4; ++mode) {
+    SCOPED_TRACE(testing::Message() << "mode " << int(mode));
+    remote::FieldIoProcessor io;
+    Host h(io);
+    const auto d = discover(h, mode);
+    std::vector<std::string> gtocModes;
+    unsigned hardware = 0;
+    for (const auto& r : d.gtoc) {
+      if (r.type != lbp::kModeRecord) continue;
+      if (r.modeType == lbp::kHwMode) {
+        ++hardware;
+        continue;
+      }
+      EXPECT_EQ(r.modeIndex, gtocModes.size());
+      gtocModes.push_back(r.name);
+    }
+    EXPECT_EQ(hardware, 1U);
+    EXPECT_EQ(gtocModes, names);
+    std::vector<std::string> ptocModes;
+    for (const auto& r : d.ptoc)
+      if (r.type == lbp::kModeRecord && r.modeType == lbp::kSwMode) ptocModes.push_back(r.name);
+    EXPECT_EQ(ptocModes, std::vector<std::string>{names[mode]});
+  }
+  remote::AnalogProcessor a;
+  Host h(a);
+  const auto d = discover(h, 0);
+  unsigned software = 0;
+  for (const auto& r : d.gtoc) software += r.type == lbp::kModeRecord && r.modeType == lbp::kSwMode;
+  EXPECT_EQ(software, 1U);  // the analog processor has one mode
+}
+
+// --state files keep working across versions: the NV parameters sit where
+// earlier lbpkit versions put them in the EEPROM image.
+TEST(Discovery, NonVolatileParametersKeepTheirEepromPlaces) {
+  remote::FieldIoProcessor io;
+  remote::AnalogProcessor an;
+  auto at = [](const remote::RemoteDevice& d, const std::string& name) {
+    for (std::size_t id = 0; id < d.elementCount(); ++id)
+      if (d.descriptor(static_cast<remote::ElementId>(id)).name == name) return d.address(static_cast<remote::ElementId>(id));
+    return std::uint16_t{0};
+  };
+  EXPECT_EQ(at(io, "NVEncMode0"), 0x0300);
+  EXPECT_EQ(at(io, "NVEncMode1"), 0x0301);
+  EXPECT_EQ(at(io, "NVBaudRate"), 0x0302);
+  EXPECT_EQ(at(io, "NVUnitNumber"), 0x0304);
+  EXPECT_EQ(at(io, "NVWatchDogTimeout"), 0x0308);
+  EXPECT_EQ(at(an, "NVBaudRate"), 0x0300);
+  EXPECT_EQ(at(an, "NVUnitNumber"), 0x0302);
+  EXPECT_EQ(at(an, "NVWatchDogTimeout"), 0x0306);
+}
+
+// The host library over plain LBP: what it makes of a GTOC holding every
+// software mode (lbpkit discover counts and shows them).
+class LbpAccess : public lbpkit::RemoteAccess {
+ public:
+  explicit LbpAccess(Host& h) : h_(h) {}
+  std::uint64_t read(std::uint16_t address, unsigned size) override {
+    ++n_;
+    return h_.read(address, static_cast<std::uint8_t>(size));
+  }
+  void write(std::uint16_t address, unsigned size, std::uint64_t value) override {
+    ++n_;
+    h_.write(address, static_cast<std::uint8_t>(size), value);
+  }
+  std::uint8_t localRead(std::uint8_t command) override {
+    ++n_;
+    return h_.local(command);
+  }
+  void localWrite(std::uint8_t command, std::uint8_t value) override {
+    ++n_;
+    h_.setLocal(command, value);
+  }
+  [[nodiscard]] std::uint64_t transactions() const override { return n_; }
+  [[nodiscard]] std::string where() const override { return "LBP"; }
+
+ private:
+  Host& h_;
+  std::uint64_t n_ = 0;
+};
+
+TEST(Discovery, TheHostLibraryKeepsTheGtocsModesApartFromTheCurrentOnes) {
+  remote::FieldIoProcessor io;
+  Host h(io);
+  const auto tables = discover(h, 2);
+  ASSERT_TRUE(h.setLocal(lbp::local_write::kRemoteSwMode, 2));
+  const auto rpc = h.transact({lbp::special_rpc::kDiscovery}, 6);
+  ASSERT_TRUE(rpc.has_value());
+  LbpAccess access(h);
+  const auto d = lbpkit::discover(access, static_cast<std::uint16_t>((*rpc)[2] | ((*rpc)[3] << 8)),
+                                  static_cast<std::uint16_t>((*rpc)[4] | ((*rpc)[5] << 8)), (*rpc)[0], (*rpc)[1]);
+  ASSERT_EQ(d.modes.size(), 2U);  // the PTOC's: hardware and the current software mode
+  EXPECT_EQ(d.modes[1].name, "IO+AnalogIn+FieldVoltage");
+  std::vector<std::string> software;
+  for (const auto& m : d.gtocModes)
+    if (m.type == lbp::kSwMode) software.push_back(m.name);
+  EXPECT_EQ(software, (std::vector<std::string>{"IO", "IO+AnalogIn", "IO+AnalogIn+FieldVoltage",
+                                                "IO+AnalogIn+FieldVoltage+MPG"}));
+  std::vector<std::string> params;
+  for (const auto& e : d.parameters) params.push_back(e.name);
+  EXPECT_EQ(params, parametersOf(tables));
+  // One DOIT per byte, as LinuxCNC reads: both tables and their sentinels,
+  // and every record once (the GTOC's mode records include the PTOC's).
+  EXPECT_EQ(d.gtocEntries, tables.gtoc.size());
+  std::size_t bytes = 2 * (tables.ptoc.size() + 1) + 2 * (tables.gtoc.size() + 1);
+  for (const auto& r : tables.gtoc)
+    bytes += r.type == lbp::kModeRecord ? 4 + r.name.size() + 1 : 14 + r.unit.size() + 1 + r.name.size() + 1;
+  EXPECT_EQ(d.bytewiseReads(), bytes);
+}
+
+// No source shows a real 7I77's GTOC: its parameters follow the manual's
+// FIELD I/O PARAMETERS table and, where that is silent, the siblings in
+// LinuxCNC's sserial(9): nvbaudrate, nvunitnumber, nvwatchdogtimeout,
+// swrevision "(u32 ro)" (7I76, 7I69, 7I70, 7I71), nvencmodeN ro (7I73).
+// LinuxCNC makes a parameter read only when its direction is Input. No
+// sibling lists a working encmode, hwrevision or its analog inputs as
+// parameters. Dimensionless units read "None", the spelling mesaflash
+// compares (mesaflash: sserial_module.c).
+TEST(Discovery, GtocParametersAreTheSiblingsWithTheirReadOnlyChoice) {
+  remote::FieldIoProcessor io;
+  Host h(io);
+  const auto d = discover(h, 0);
+  for (const char* name : {"SwRevision", "NVBaudRate", "NVUnitNumber", "NVWatchDogTimeout", "NVEncMode0", "NVEncMode1",
+                           "Fault"}) {
+    const Record* r = find(d.gtoc, name);
+    ASSERT_NE(r, nullptr) << name;
+    EXPECT_EQ(r->direction, 0x00) << name << " is read only to LinuxCNC";
+    EXPECT_EQ(r->unit, std::string(name) == "NVWatchDogTimeout" ? "mS" : "None") << name;
+  }
+  for (const char* name : {"UnitNumber", "WatchDogTime"}) {  // the manual's "user settable" working values
+    const Record* r = find(d.gtoc, name);
+    ASSERT_NE(r, nullptr) << name;
+    EXPECT_EQ(r->direction, 0x40) << name;
+  }
+  EXPECT_EQ(find(d.gtoc, "UnitNumber")->unit, "None");
+  for (const char* absent : {"EncMode0", "EncMode1", "HwRevision", "AnalogIn0", "FieldVoltage", "Enc0"})
+    EXPECT_EQ(find(d.gtoc, absent), nullptr) << absent << " in the mode 0 GTOC";
+  EXPECT_EQ(find(d.ptoc, "Input")->unit, "None");
+  EXPECT_EQ(find(d.ptoc, "Output")->unit, "None");
 }
 
 TEST(Discovery, AnalogProcessor) {
@@ -188,7 +350,10 @@ TEST(Discovery, AnalogProcessor) {
   }
   EXPECT_EQ(find(d.ptoc, "AnalogEna")->dataType, 0x07);
   EXPECT_EQ(find(d.ptoc, "SpinEna")->dataType, 0x07);
-  EXPECT_NE(find(d.gtoc, "HwRevision"), nullptr);
+  EXPECT_EQ(find(d.ptoc, "AnalogEna")->unit, "None");
+  EXPECT_EQ(find(d.gtoc, "HwRevision"), nullptr);  // no sibling reports it
+  EXPECT_EQ(parametersOf(d), (std::vector<std::string>{"SwRevision", "NVBaudRate", "NVUnitNumber",
+                                                       "NVWatchDogTimeout", "UnitNumber", "WatchDogTime", "Fault"}));
 }
 
 TEST(Discovery, IllegalModeIsAFaultAndFallsBackToModeZeroTables) {

@@ -8,6 +8,7 @@
 
 #include "card_host.hpp"
 #include "lbp/protocol.hpp"
+#include "remote/field_io.hpp"
 
 namespace {
 
@@ -20,6 +21,13 @@ constexpr unsigned kFieldIo = 0;
 constexpr unsigned kAnalog = 1;
 
 std::uint8_t localRead(CardHost& h, std::uint16_t addr) { return h.command(cmd::kRequest | addr); }
+
+// The card the SSLBP 43 comparison used (tools/sslbp-compare): 3 SSerial channels, one 7I77 and
+// GPIO on the second connector. The default card runs the two-7I77 firmware, 6 channels.
+hm2::HostMot2Card::Options threeChannels(hm2::HostMot2Card::Options o = {}) {
+  o.pinout = hm2::HostMot2Card::Pinout::SevenI77Gpio;
+  return o;
+}
 
 TEST(Sslbp, LocalParameters) {
   hm2::HostMot2Card card;
@@ -34,7 +42,9 @@ TEST(Sslbp, LocalParameters) {
   EXPECT_EQ(localRead(h, hm2::local::kChannelStart), hm2::local::kChannelBlock);
   EXPECT_EQ(localRead(h, hm2::local::kChannelStride), hm2::local::kChannelBlockStride);
   EXPECT_EQ(localRead(h, hm2::local::kProcessorType), 0xD8);
-  EXPECT_EQ(localRead(h, hm2::local::kChannels), 3);
+  // Copied from the hardware channel count: 6 with two 7I77 connectors.
+  EXPECT_EQ(localRead(h, hm2::local::kChannels), card.smartSerial().channels());
+  EXPECT_EQ(card.smartSerial().channels(), 6U);
   // Local write then read back (the channel 0 baud rate, LSB).
   const std::uint16_t baud0 = hm2::local::kChannelBlock + hm2::local::kBaudOffset;
   EXPECT_EQ(localRead(h, baud0), 2500000 & 0xFF);
@@ -233,12 +243,16 @@ TEST(Sslbp, StoppingDoitsDropsOutputsAndTheFaultShowsAtTheNextStart) {
   EXPECT_EQ(csr >> 24, remote::fault::kWatchdog);
   EXPECT_TRUE(csr & (cs::kStatusRemoteFault << 8));
   EXPECT_TRUE(csr & cs::kRemoteFault);
-  // Recovery: stop and start the channel; START clears the fault.
+  // Recovery: stop and start the channel; START clears the fault. CS byte 3
+  // keeps the old fault byte until the first DOIT's reply replaces it (a
+  // START that reads no fault leaves it: SSLBP 43, CS 0x203B0000 after a
+  // LowVoltageFault, see HeldRemoteFaultNeverRaisesTooManyErrorsAsFirmware43).
   h.command(cmd::kStop | 0x03);
   ASSERT_EQ(h.command(cmd::kStart | 0x03), 0);
   EXPECT_EQ(io.faults(), 0);
-  EXPECT_EQ(h.read(CardHost::cs(kFieldIo)) >> 24, 0U);
+  EXPECT_EQ(h.read(CardHost::cs(kFieldIo)) >> 24, remote::fault::kWatchdog);
   ASSERT_EQ(h.command(cmd::kDoit | 0x03), 0);
+  EXPECT_EQ(h.read(CardHost::cs(kFieldIo)) >> 24, 0U);
   EXPECT_EQ(io.outputs(), 0xFFFF);
 }
 
@@ -418,16 +432,17 @@ TEST(Sslbp, TheCardCountsRefusedCommandsByKind) {
   h.write(SmartSerial::kCommand, cmd::kStop);
   ASSERT_GE(h.waitCommand().count(), 0);
   EXPECT_EQ(card.accessCounters().lostCommands, 1U);
-  // This instance has channels 0..2: channel 3's registers are not there.
-  h.write(CardHost::cs(2), 0);
+  // The registers of a channel the instance lacks are not there.
+  const unsigned missing = card.smartSerial().channels();
+  h.write(CardHost::cs(missing - 1), 0);
   EXPECT_EQ(card.accessCounters().unmappedWrites, 0U);
-  h.write(CardHost::cs(3), 0x12345678);
-  h.write(CardHost::iface(2, 3), 1);
-  EXPECT_EQ(h.read(CardHost::cs(3)), 0U);
+  h.write(CardHost::cs(missing), 0x12345678);
+  h.write(CardHost::iface(2, missing), 1);
+  EXPECT_EQ(h.read(CardHost::cs(missing)), 0U);
   EXPECT_EQ(card.accessCounters().unmappedWrites, 2U);
   EXPECT_EQ(card.accessCounters().unmappedReads, 1U);
   recent = card.recentAccesses();
-  EXPECT_EQ(recent.events[recent.size - 2].address, CardHost::iface(2, 3));
+  EXPECT_EQ(recent.events[recent.size - 2].address, CardHost::iface(2, missing));
 }
 
 // Module::reset(): the SSLBP alone back to its power-up state, links kept.
@@ -439,7 +454,7 @@ TEST(Sslbp, ResetIsThePowerUpState) {
   ASSERT_EQ(h.command(cmd::kStart | 0x03), 0);
   ASSERT_EQ(h.command(cmd::kDoit | 0x03), 0);
   ASSERT_EQ((h.read(CardHost::cs(kFieldIo)) >> 16) & 0xFF, 0x42U);  // COM_STATE: normal run
-  // Interface 0 byte 2 (inputs 16..23), which a STOP leaves alone: power-up clears it.
+  // Interface 0 byte 2 (inputs 16..23): power-up clears it.
   ASSERT_NE(h.read(CardHost::iface(0, kFieldIo)) & 0x00FF0000U, 0U);
   const std::uint16_t baud1 =
       hm2::local::kChannelBlock + hm2::local::kChannelBlockStride + hm2::local::kBaudOffset;
@@ -479,30 +494,54 @@ SimTime waitPolled(CardHost& h) {
   return h.now - start;
 }
 
+// The comparison's field I/O processor: VIN from a separate 24 V supply (7I77 W1 right), so that
+// dropping field power leaves it running and reporting LowVoltageFault.
+hm2::HostMot2Card::Options separateVin() {
+  hm2::HostMot2Card::Options o;
+  o.first.fieldIo.vinFromField = false;
+  o.first.fieldIo.vin = 24;
+  return threeChannels(o);
+}
+
+// LinuxCNC's stopstart: STOP ALL, software mode 0 in both channels' CS, normal START of both.
+void startBoth(CardHost& h) {
+  h.command(cmd::kStop);
+  h.write(CardHost::cs(kFieldIo), 0);
+  h.write(CardHost::cs(kAnalog), 0);
+  ASSERT_EQ(h.command(cmd::kStart | 0x03), 0);
+}
+
 TEST(Sslbp, LocalParametersMatchFirmware43) {
-  hm2::HostMot2Card card;
-  CardHost h{card};
-  const std::uint8_t identity[8] = {0x12, 0x08, 0x01, 0x2B, 0x70, 0x32, 0xD8, 0x03};
-  for (std::uint16_t a = 0; a < 8; ++a) EXPECT_EQ(localRead(h, a), identity[a]) << "local " << a;
-  // I/O above the RAM: the interface clock, 100 000 000 Hz little-endian, and the hardware
-  // channel count (which local 7 is copied from: 6 in a 6-channel build, 3 here).
-  const std::uint8_t io[5] = {0x00, 0xE1, 0xF5, 0x05, 0x03};
-  for (std::uint16_t a = 0; a < 5; ++a) EXPECT_EQ(localRead(h, 0x230 + a), io[a]) << "local 0x" << std::hex << 0x230 + a;
+  // The 3-channel build (one 7I77) and the 6-channel one (two 7I77s, the default card).
+  for (const std::uint8_t n : {std::uint8_t{3}, std::uint8_t{6}}) {
+    hm2::HostMot2Card card(n == 3 ? threeChannels() : hm2::HostMot2Card::Options{});
+    CardHost h{card};
+    const std::uint8_t identity[8] = {0x12, 0x08, 0x01, 0x2B, 0x70, 0x32, 0xD8, n};
+    for (std::uint16_t a = 0; a < 8; ++a) EXPECT_EQ(localRead(h, a), identity[a]) << "local " << a;
+    // I/O above the RAM: the interface clock, 100 000 000 Hz little-endian, and the hardware
+    // channel count (which local 7 is copied from).
+    const std::uint8_t io[5] = {0x00, 0xE1, 0xF5, 0x05, n};
+    for (std::uint16_t a = 0; a < 5; ++a) {
+      EXPECT_EQ(localRead(h, static_cast<std::uint16_t>(0x230 + a)), io[a]) << "local 0x" << std::hex << 0x230 + a;
+    }
+  }
 }
 
 TEST(Sslbp, StopAllTakesAsLongAsFirmware43) {
-  hm2::HostMot2Card card;
-  CardHost h{card};
-  h.accessTime = SimTime{20};
-  // The global init sets up every channel's UART: 46.89 us with 3 channels (92.43 us with 6).
-  h.write(SmartSerial::kCommand, cmd::kStop);
-  const SimTime t = waitPolled(h);
-  EXPECT_NEAR(us(t), 46.89, 1.5) << "us";
-  EXPECT_EQ(h.read(SmartSerial::kData), 0xAAU);
+  // The global init sets up every channel's UART: 46.89 us with 3 channels, 92.43 us with 6.
+  for (const auto& [options, firmware] : {std::pair{threeChannels(), 46.89}, std::pair{hm2::HostMot2Card::Options{}, 92.43}}) {
+    hm2::HostMot2Card card(options);
+    CardHost h{card};
+    h.accessTime = SimTime{20};
+    h.write(SmartSerial::kCommand, cmd::kStop);
+    const SimTime t = waitPolled(h);
+    EXPECT_NEAR(us(t), firmware, 1.5) << "us";
+    EXPECT_EQ(h.read(SmartSerial::kData), 0xAAU);
+  }
 }
 
 TEST(Sslbp, NoRemoteSetupStartMatchesFirmware43) {
-  hm2::HostMot2Card card;
+  hm2::HostMot2Card card(threeChannels());
   CardHost h{card};
   h.accessTime = SimTime{20};
   h.command(cmd::kStop);
@@ -529,7 +568,7 @@ TEST(Sslbp, NoRemoteSetupStartMatchesFirmware43) {
 }
 
 TEST(Sslbp, BothProcessorsStartAndRunAsWithFirmware43) {
-  hm2::HostMot2Card card;
+  hm2::HostMot2Card card(threeChannels());
   CardHost h{card};
   h.accessTime = SimTime{20};
   h.command(cmd::kStop);
@@ -539,8 +578,8 @@ TEST(Sslbp, BothProcessorsStartAndRunAsWithFirmware43) {
   const SimTime setup = waitPolled(h);
   EXPECT_NEAR(ms(setup), 1.704, 0.05) << "ms";  // firmware 1.704 ms
   EXPECT_EQ(h.read(SmartSerial::kData), 0U);
-  const std::uint32_t expected[2][4] = {{0x00400000, 0x12000AEE, 0x37374937, 0x069E0694},
-                                        {0x00400000, 0x11000AEE, 0x37374937, 0x05FA05E4}};
+  const std::uint32_t expected[2][4] = {{0x00400000, 0x12000AEE, 0x37374937, 0x0666065C},
+                                        {0x00400000, 0x11000AEE, 0x37374937, 0x05DC05C6}};
   for (unsigned ch = 0; ch < 2; ++ch) {
     EXPECT_EQ(h.read(CardHost::cs(ch)), expected[ch][0]);
     for (unsigned n = 0; n < 3; ++n) EXPECT_EQ(h.read(CardHost::iface(n, ch)), expected[ch][n + 1]);
@@ -586,10 +625,7 @@ TEST(Sslbp, BothProcessorsStartAndRunAsWithFirmware43) {
 // The remote's fault byte in CS byte 3 (manual: CS REGISTER AFTER DOIT) is left by SSLBP 43's stop
 // and channel init, which rewrite CS bytes 2..0 only; only the reset clears it.
 TEST(Sslbp, RemoteFaultByteSurvivesStopAndStartAsInFirmware43) {
-  hm2::HostMot2Card::Options o;
-  o.first.fieldIo.vinFromField = false;  // VIN from a separate 24 V supply, as in the comparison
-  o.first.fieldIo.vin = 24;
-  hm2::HostMot2Card card(o);
+  hm2::HostMot2Card card(separateVin());
   CardHost h{card};
   h.accessTime = SimTime{20};
   auto& io = card.daughtercard(0).fieldIo;
@@ -635,7 +671,7 @@ TEST(Sslbp, RemoteFaultByteSurvivesStopAndStartAsInFirmware43) {
 // SSLBP): DATA is the channel's bit, after the divisor computation the firmware runs before its
 // channel check (SSLBP 43: 18.3-18.5 us).
 TEST(Sslbp, StartOfAMissingChannelTakesAsLongAsFirmware43) {
-  hm2::HostMot2Card card;
+  hm2::HostMot2Card card(threeChannels());
   CardHost h{card};
   h.accessTime = SimTime{20};
   h.command(cmd::kStop);
@@ -646,6 +682,215 @@ TEST(Sslbp, StartOfAMissingChannelTakesAsLongAsFirmware43) {
       EXPECT_NEAR(us(t), 18.4, 0.15) << "us, channel " << ch;
       EXPECT_EQ(h.read(SmartSerial::kData), 1U << ch);
     }
+  }
+}
+
+// STOP clears every interface register, byte 2 of interface 0 (inputs 16..23 of the field I/O)
+// too: SSLBP.MAC initchannel skips that byte, but sserialwa.vhd writes a host register only with
+// its byte 3, bytes 0..2 from a latch each register write clears.
+TEST(Sslbp, StopClearsAllOfInterface0AsFirmware43) {
+  hm2::HostMot2Card card(threeChannels());
+  CardHost h{card};
+  h.accessTime = SimTime{20};
+  auto& io = card.daughtercard(0).fieldIo;
+  for (unsigned i = 16; i < 24; ++i) io.setInputVoltage(i, 24.0);
+  for (const std::uint32_t stop : {std::uint32_t{cmd::kStop}, cmd::kStop | 0x01U}) {
+    startBoth(h);
+    ASSERT_EQ(h.command(cmd::kDoit | 0x03), 0);
+    ASSERT_EQ(h.read(CardHost::iface(0, kFieldIo)), 0x00FF0000U);  // firmware: the same
+    h.command(stop);
+    // Firmware: 100 us after STOP ALL, and at once after STOP 0x0801 (3.99 us).
+    if (stop == cmd::kStop) h.wait(100us);
+    EXPECT_EQ(h.read(CardHost::cs(kFieldIo)), 0x0000C100U) << std::hex << stop;
+    for (unsigned n = 0; n < 3; ++n) {
+      EXPECT_EQ(h.read(CardHost::iface(n, kFieldIo)), 0U) << std::hex << stop << " " << n;
+    }
+    // STOP 0x0801 leaves channel 1 running: firmware CS 0x00420000.
+    if (stop != cmd::kStop) {
+      EXPECT_EQ(h.read(CardHost::cs(kAnalog)), 0x00420000U);
+    }
+  }
+}
+
+// A remote fault during the normal run is reported in CS but not counted (SSLBP.JMP
+// dorecvgeneric sets the error without the dead-end counter): held for 1100 DOITs, SSLBP 43
+// reads CS 0x20422140 (field power off: LowVoltageFault) or 0x04422140 (an output driver
+// over-temperature) with DATA 0 after every one of them, and never TooManyErrors.
+TEST(Sslbp, HeldRemoteFaultNeverRaisesTooManyErrorsAsFirmware43) {
+  hm2::HostMot2Card card(separateVin());
+  CardHost h{card};
+  h.accessTime = SimTime{20};
+  auto& io = card.daughtercard(0).fieldIo;
+  struct Held {
+    void (*set)(remote::FieldIoProcessor&, bool, SimTime);
+    std::uint32_t cs;
+    std::uint32_t csAtStart;  // chattering after the normal START before it
+  };
+  const Held faults[] = {
+      {[](remote::FieldIoProcessor& f, bool on, SimTime t) { f.setFieldVoltage(on ? 0.0 : 24.0, t); }, 0x20422140U,
+       0x003B0000U},
+      // The START clears the remote's LowVoltageFault; reading 0 it leaves CS byte 3 as it was
+      // (SSLBP.JMP dochkgenfaults stores only a non-zero fault byte): firmware 0x203B0000.
+      {[](remote::FieldIoProcessor& f, bool on, SimTime) { f.setDriverOverTemperature(0, on); }, 0x04422140U,
+       0x203B0000U},
+  };
+  for (const auto& f : faults) {
+    startBoth(h);
+    EXPECT_EQ(h.read(CardHost::cs(kFieldIo)) & 0xFF00FFFFU, f.csAtStart & 0xFF00FFFFU);  // COM_STATE 3A/3B
+    f.set(io, true, h.now);
+    for (int k = 0; k < 1100; ++k) {
+      h.write(CardHost::iface(0, kFieldIo), 0x00FF);
+      ASSERT_EQ(h.command(cmd::kDoit | 0x03), 0) << "DOIT " << k + 1;
+      ASSERT_EQ(h.read(CardHost::cs(kFieldIo)), f.cs) << "DOIT " << k + 1;
+    }
+    f.set(io, false, h.now);
+    ASSERT_EQ(h.command(cmd::kDoit | 0x03), 0);  // the fault stays latched in the remote
+    EXPECT_EQ(h.read(CardHost::cs(kFieldIo)), f.cs);
+    EXPECT_EQ(h.read(CardHost::cs(kAnalog)), 0x00420000U);
+  }
+}
+
+// The M bit (manual: COMMAND REGISTER, "ROM enable/reset bit"; sserialwa.vhd romwrena): the
+// processor is held in reset, DATA reads and writes the 16-bit program ROM word COMMAND bits
+// 10..0 address, and releasing M boots the processor: the command written then is not run, the
+// RAM (baud rates, remote fault bytes) is back at its boot values.
+TEST(Sslbp, MBitGivesTheHostTheRomAndBootsOnReleaseAsFirmware43) {
+  hm2::HostMot2Card card(threeChannels());
+  CardHost h{card};
+  h.accessTime = SimTime{20};
+  auto& io = card.daughtercard(0).fieldIo;
+  auto& sserial = card.smartSerial();
+  // A remote fault byte in CS (driver over-temperature) and channel 0's baud rate changed.
+  startBoth(h);
+  io.setDriverOverTemperature(0, true);
+  ASSERT_EQ(h.command(cmd::kDoit | 0x03), 0);
+  ASSERT_EQ(h.read(CardHost::cs(kFieldIo)), 0x04422140U);
+  h.command(cmd::kStop);
+  const std::uint16_t baud0 = hm2::local::kChannelBlock + hm2::local::kBaudOffset;
+  for (unsigned k = 0; k < 4; ++k) {
+    h.write(SmartSerial::kData, (115200U >> (8 * k)) & 0xFF);
+    h.command(cmd::kWrite | cmd::kRequest | (baud0 + k));
+  }
+  ASSERT_EQ(localRead(h, static_cast<std::uint16_t>(baud0 + 1)), (115200 >> 8) & 0xFF);
+
+  // M set: the ROM. Firmware: word 0x7FF reads 0xABCD (SSLBP.ASM's ROM cookie), COMMAND reads
+  // back as written, CS keeps the fault byte (0x0400C100).
+  h.write(SmartSerial::kCommand, cmd::kReset | 0x7FF);
+  EXPECT_TRUE(sserial.processorInReset());
+  EXPECT_EQ(h.read(SmartSerial::kData), 0xABCDU);
+  EXPECT_EQ(h.read(SmartSerial::kCommand), 0x47FFU);
+  EXPECT_EQ(h.read(CardHost::cs(kFieldIo)), 0x0400C100U);
+  h.wait(1ms);  // held: nothing runs
+  EXPECT_EQ(h.read(SmartSerial::kCommand), 0x47FFU);
+  // A word written through DATA (16 bits kept) lands a few clocks later. Firmware: a read 20 ns
+  // after the write returns the old word, 100 ns after it the new one.
+  h.write(SmartSerial::kCommand, cmd::kReset | 0x123);
+  const auto old = h.read(SmartSerial::kData);
+  h.write(SmartSerial::kData, 0xFFFFC3A5U);
+  EXPECT_EQ(h.read(SmartSerial::kData), old);
+  h.wait(SimTime{100});
+  EXPECT_EQ(h.read(SmartSerial::kData), 0xC3A5U);
+  h.write(SmartSerial::kCommand, cmd::kReset | 0x124);
+  EXPECT_NE(h.read(SmartSerial::kData), 0xC3A5U);
+  EXPECT_EQ(sserial.romWord(0x123), 0xC3A5U);
+
+  // Released by a local read of the version: firmware COMMAND reads 0x2003 until it clears
+  // 21.6 us later; DATA is then 0xAA, and still 200 us later (the read was not run).
+  h.write(SmartSerial::kCommand, cmd::kRequest | hm2::local::kMinorRev);
+  EXPECT_FALSE(sserial.processorInReset());
+  EXPECT_EQ(h.read(SmartSerial::kCommand), 0x2003U);
+  const SimTime boot = waitPolled(h);
+  EXPECT_NEAR(us(boot), 21.6, 0.3);
+  EXPECT_EQ(h.read(SmartSerial::kData), 0xAAU);
+  h.wait(200us);
+  EXPECT_EQ(h.read(SmartSerial::kData), 0xAAU);
+  // Booted: firmware version 43, channel 0 at the default 2.5 MBaud again, CS 0x0000C100.
+  EXPECT_EQ(localRead(h, hm2::local::kMinorRev), 43);
+  for (std::uint16_t k = 0; k < 4; ++k) {
+    EXPECT_EQ(localRead(h, static_cast<std::uint16_t>(baud0 + k)), (2500000U >> (8 * k)) & 0xFF) << k;
+  }
+  EXPECT_EQ(h.read(CardHost::cs(kFieldIo)), 0x0000C100U);
+  EXPECT_EQ(h.read(SmartSerial::kData) & 0xFFFF0000U, 0U);
+  io.setDriverOverTemperature(0, false);
+  h.write(CardHost::cs(kFieldIo), 0);
+  h.write(CardHost::cs(kAnalog), 0);
+  EXPECT_EQ(h.command(cmd::kStart | 0x03), 0);
+  EXPECT_EQ(h.command(cmd::kDoit | 0x03), 0);
+  // The downloaded word stays until the FPGA is configured again (power-up).
+  EXPECT_EQ(sserial.romWord(0x123), 0xC3A5U);
+  sserial.reset();
+  EXPECT_EQ(sserial.romWord(0x123), 0U);
+  EXPECT_EQ(sserial.romWord(SmartSerial::kRomCookieAddress), SmartSerial::kRomCookie);
+}
+
+// A command written while the processor boots (after M is released, before COMMAND clears) is
+// lost with the boot's command clear.
+TEST(Sslbp, CommandWrittenWhileBootingIsLost) {
+  hm2::HostMot2Card card(threeChannels());
+  CardHost h{card};
+  h.accessTime = SimTime{20};
+  h.write(SmartSerial::kCommand, cmd::kReset);
+  h.write(SmartSerial::kCommand, 0x0001);
+  h.wait(5us);
+  h.write(SmartSerial::kCommand, cmd::kRequest | hm2::local::kMinorRev);
+  EXPECT_EQ(card.smartSerial().counters().lostCommands, 1U);
+  ASSERT_GE(waitPolled(h).count(), 0);
+  EXPECT_EQ(h.read(SmartSerial::kData), 0xAAU);
+  EXPECT_EQ(localRead(h, hm2::local::kMinorRev), 43);
+}
+
+// With 6 channels (two 7I77s) the boot after M clears the remote fault byte of channels 0..2 only:
+// initmem clears RAM 0x000..0x0FF, and channel 3's block starts at 0x106. The 6-channel SSLBP 43
+// with lbpkit's field I/O processor on channel 3 (and, the same, 5): CS 0x2000C100 after STOP ALL,
+// while M is held, 200 us after its release, and 0x20400000 after the next setup START; on channel
+// 0: 0x0000C100 after the release.
+TEST(Sslbp, BootAfterMKeepsTheFaultByteOfChannelsAbove2AsFirmware43) {
+  for (const unsigned ch : {0U, 3U, 5U}) {
+    hm2::SmartSerial ss(6);
+    remote::FieldIoProcessor::Options o;
+    o.vinFromField = false;
+    o.vin = 24;
+    remote::FieldIoProcessor io(o);
+    ss.link(ch).attach(&io);
+    SimTime now{};
+    const auto at = [&](SimTime t) {
+      now += t;
+      io.advance(now);
+    };
+    const auto write = [&](std::uint16_t a, std::uint32_t v) {
+      at(SimTime{20});
+      ss.write(a, v, now);
+    };
+    const auto read = [&](std::uint16_t a) {
+      at(SimTime{20});
+      return ss.read(a, now);
+    };
+    const auto command = [&](std::uint32_t c) {
+      write(SmartSerial::kCommand, c);
+      for (int k = 0; k < 1'000'000 && read(SmartSerial::kCommand) != 0; ++k) at(SimTime{200});
+      EXPECT_EQ(read(SmartSerial::kCommand), 0U) << std::hex << c;
+      return read(SmartSerial::kData) & 0xFF;
+    };
+    const auto csAddress = static_cast<std::uint16_t>(SmartSerial::kCs + 4 * ch);
+    command(cmd::kStop);
+    write(csAddress, 0);
+    ASSERT_EQ(command(cmd::kStart | (1U << ch)), 0U) << ch;
+    io.setFieldVoltage(0.0, now);
+    for (int k = 0; k < 3; ++k) ASSERT_EQ(command(cmd::kDoit | (1U << ch)), 0U) << ch;
+    ASSERT_EQ(read(csAddress), 0x20422140U) << ch;
+    io.setFieldVoltage(24.0, now);
+    command(cmd::kStop);
+    at(100us);
+    EXPECT_EQ(read(csAddress), 0x2000C100U) << ch;
+    write(SmartSerial::kCommand, cmd::kReset);
+    EXPECT_EQ(read(csAddress), 0x2000C100U) << ch;
+    write(SmartSerial::kCommand, 0x0001);
+    at(200us);
+    const std::uint32_t fault = ch < 3 ? 0 : 0x20000000U;
+    EXPECT_EQ(read(csAddress), fault | 0x0000C100U) << ch;
+    write(csAddress, 0);
+    EXPECT_EQ(command(cmd::kSetupStart | (1U << ch)), 0U) << ch;
+    EXPECT_EQ(read(csAddress), fault | 0x00400000U) << ch;
   }
 }
 

@@ -39,25 +39,14 @@ struct MonitorOptions {
   std::string apiToken;
 };
 
-constexpr int kApiPort = 27182;  // `lbpkit sim --api`'s default
-
 // Where to ask for the machine: --api [ADDR:]PORT, else the card's address
 // on the sim's default API port. The in-process card (--sim) has no sim
 // behind it: asked only when --api names one.
 std::unique_ptr<app::MachineWatcher> machineWatcher(const MonitorOptions& o) {
   if (o.noApi) return nullptr;
-  std::string host = o.card.addr.substr(0, o.card.addr.find(':'));
-  int port = kApiPort;
-  if (!o.api.empty()) {
-    const auto colon = o.api.rfind(':');
-    const auto portText = colon == std::string::npos ? o.api : o.api.substr(colon + 1);
-    if (colon != std::string::npos) host = o.api.substr(0, colon);
-    if (host.empty()) host = "127.0.0.1";
-    if (portText.empty() || portText.size() > 5 || portText.find_first_not_of("0123456789") != std::string::npos ||
-        std::stoul(portText) < 1 || std::stoul(portText) > 65535)
-      throw lbpkit::Error(fmt::format("--api: \"{}\" is not [ADDR:]PORT (a port is 1..65535)", o.api));
-    port = static_cast<int>(std::stoul(portText));
-  }
+  const auto api = app::parseApiAddress(o.api, o.card.addr.substr(0, o.card.addr.find(':')));
+  const std::string& host = api.host;
+  const int port = api.port;
   if (host.empty()) return nullptr;
   // Once per screen, at most 20 times a second.
   const auto period = std::max(std::chrono::milliseconds(50),

@@ -9,15 +9,19 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "common.hpp"
 #include "config/card_toml.hpp"
+#include "config/fault_script.hpp"
 #include "config/machine_toml.hpp"
 #include "lbpkit/error.hpp"
 #include "lbpkit/wire/seven_i77.hpp"
 #include "daemon/sim_daemon.hpp"
+#include "lbp16/flash_file.hpp"
 #include "remote/nv_store.hpp"
 #include "remote/remote_device.hpp"
 
@@ -147,8 +151,12 @@ int runSim(const SimCommandOptions& o) {
   if (!o.config.empty()) {
     config::loadConfig(o.config, s.card);
     s.configDescription = o.config;
+    // Its [[fault]] entries: the sim checks each against the card at start.
+    for (auto& f : config::loadFaultScript(o.config))
+      s.faultScript.push_back({f.at, f.fault, nlohmann::json::parse(f.body),
+                               f.lasts ? std::optional<lbp::SimTime>(*f.lasts) : std::nullopt, f.where});
   } else {
-    s.configDescription = "built-in default: a 7I92 with one 7I77, 24 V field power";
+    s.configDescription = "built-in default: a 7I92 (Mesa's two-7I77 firmware) with one 7I77, 24 V field power";
   }
   // What the EEPROM files say (models cannot log): every refused write is
   // logged, and so is a file that cannot be used.
@@ -182,6 +190,16 @@ int runSim(const SimCommandOptions& o) {
     probe.load();
     if (!probe.refusal().empty()) throw lbpkit::Error(probe.refusal());
   }
+  // The 7I92's configuration flash (what mesaflash --write programs), next
+  // to the EEPROM: FILE.flash. Checked the same way.
+  s.flashFile = state.string() + ".flash";
+  {
+    std::vector<std::uint8_t> probe(2 * 1024 * 1024);
+    const auto loaded = net::loadFlashFile(s.flashFile, probe);
+    if (loaded.status == net::FlashFileLoad::Status::Refused) throw lbpkit::Error(loaded.message);
+    if (loaded.status == net::FlashFileLoad::Status::Corrupt && warn)
+      fmt::print(stderr, "lbpkit sim: warning: {}\n", loaded.message);
+  }
   net::SimDaemon daemon(s);
   app::installSignalHandlers();
   fmt::print("{}", daemon.banner());
@@ -191,7 +209,8 @@ int runSim(const SimCommandOptions& o) {
   std::fflush(stdout);
   daemon.run(app::gStop);
   fmt::print("lbpkit sim: stopped; server time per datagram: {}\n", daemon.latencySummary());
-  fmt::print("lbpkit sim: the 7I77's EEPROM state is in {}\n", state.string());
+  fmt::print("lbpkit sim: the 7I77's EEPROM state is in {}, the 7I92's configuration flash in {}\n", state.string(),
+             s.flashFile.string());
   if (!o.record.empty()) fmt::print("lbpkit sim: the servo-cycle trace is in {}\n", o.record);
   return 0;
 }
@@ -203,7 +222,8 @@ void addSimCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("sim", "Run a virtual 7I92 with a 7I77 on the network (LBP16, UDP port 27181)");
   cmd->add_option("--bind", o->bind, "ADDR[:PORT] to serve LBP16 on (127.0.0.1:27181 unless you say otherwise)")
       ->capture_default_str();
-  cmd->add_option("--config", o->config, "TOML file: daughtercards, field voltage, 7I77 or 7I77D, jumpers, unit numbers");
+  cmd->add_option("--config", o->config,
+                  "TOML file: firmware pinout, daughtercards, field voltage, 7I77 or 7I77D, jumpers, unit numbers");
   cmd->add_option("--state", o->state, "EEPROM file of the 7I77 (non-volatile parameters)");
   cmd->add_option("--api", o->api, "[ADDR:]PORT of the HTTP control API (0: any free port)")->capture_default_str();
   cmd->add_flag("--no-api", o->noApi, "No control API");

@@ -89,4 +89,18 @@ Card openCard(const CardOptions& o) {
   return c;
 }
 
+ApiAddress parseApiAddress(const std::string& text, const std::string& host) {
+  ApiAddress a{host, 27182};
+  if (text.empty()) return a;
+  const auto colon = text.rfind(':');
+  const auto portText = colon == std::string::npos ? text : text.substr(colon + 1);
+  if (colon != std::string::npos) a.host = text.substr(0, colon);
+  if (a.host.empty()) a.host = "127.0.0.1";
+  if (portText.empty() || portText.size() > 5 || portText.find_first_not_of("0123456789") != std::string::npos ||
+      std::stoul(portText) < 1 || std::stoul(portText) > 65535)
+    throw lbpkit::Error(fmt::format("--api: \"{}\" is not [ADDR:]PORT (a port is 1..65535)", text));
+  a.port = static_cast<int>(std::stoul(portText));
+  return a;
+}
+
 }  // namespace app

@@ -42,6 +42,14 @@ Card openCard(const CardOptions& o);
 
 std::filesystem::path defaultStateDir();
 
+// A sim's control API: --api [ADDR:]PORT (ADDR defaults to `host`).
+struct ApiAddress {
+  std::string host;
+  int port = 27182;  // `lbpkit sim --api`'s default
+};
+// Throws lbpkit::Error naming what is wrong with `text`.
+ApiAddress parseApiAddress(const std::string& text, const std::string& host);
+
 }  // namespace app
 
 void addRemoteCommand(CLI::App& app);
@@ -50,3 +58,4 @@ void addDiscoverCommand(CLI::App& app);
 void addParameterCommands(CLI::App& app);
 void addMonitorCommand(CLI::App& app);
 void addSimCommand(CLI::App& app);
+void addFaultCommand(CLI::App& app);

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   addMonitorCommand(app);
   addSimCommand(app);
   addRemoteCommand(app);
+  addFaultCommand(app);
   CLI11_PARSE(app, argc, argv);
   try {
     return app::gRun ? app::gRun() : 0;

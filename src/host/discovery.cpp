@@ -146,12 +146,12 @@ std::string canonicalParameterName(const std::string& name) {
 
 unsigned RemoteDescription::bytewiseReads() const {
   std::size_t n = 0;
-  const std::size_t records = processData.size() + modes.size();
-  n += 2 * (records + 1);                      // PTOC
-  n += 2 * (records + parameters.size() + 1);  // GTOC
+  n += 2 * (processData.size() + modes.size() + 1);  // PTOC
+  n += 2 * (static_cast<std::size_t>(gtocEntries) + 1);  // GTOC
   for (const auto* list : {&processData, &parameters})
     for (const auto& e : *list) n += wire::lbp::pdd::kStrings + e.unit.size() + 1 + e.name.size() + 1;
-  for (const auto& m : modes) n += wire::lbp::mode_record::kName + m.name.size() + 1;
+  // Mode records: the GTOC's (all the remote's modes, the PTOC's among them) when it has any.
+  for (const auto& m : gtocModes.empty() ? modes : gtocModes) n += wire::lbp::mode_record::kName + m.name.size() + 1;
   return static_cast<unsigned>(n);
 }
 
@@ -238,10 +238,14 @@ RemoteDescription discover(RemoteAccess& remote, std::uint16_t ptoc, std::uint16
 
   if (gtoc != 0) {
     const auto gtocEntries = readToc(r, remote, gtoc, "GTOC", limits);
+    d.gtocEntries = static_cast<unsigned>(gtocEntries.size());
     for (unsigned i = 0; i < gtocEntries.size(); ++i) {
       ProcessDataElement e;
       ModeDescriptor m;
-      if (!record(gtocEntries[i], "GTOC", i, e, m)) continue;
+      if (!record(gtocEntries[i], "GTOC", i, e, m)) {
+        d.gtocModes.push_back(std::move(m));
+        continue;
+      }
       // A GTOC entry at a PTOC element's address is that process data (as LinuxCNC decides).
       const bool inPtoc = std::any_of(d.processData.begin(), d.processData.end(),
                                       [&](const ProcessDataElement& p) { return p.address == e.address; });

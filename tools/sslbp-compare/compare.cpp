@@ -41,6 +41,8 @@ struct Backend {
   virtual std::uint64_t now() = 0;
   virtual void cable(int ch, bool connected) = 0;
   virtual void fieldVoltage(double volts) = 0;  // the field I/O processor's field supply
+  virtual void fieldInput(unsigned input, double volts) = 0;  // a field input's terminal
+  virtual void driverHot(unsigned chip, bool hot) = 0;        // an output driver's over-temperature
   virtual int channels() = 0;
   virtual std::string remoteInfo() = 0;
 };
@@ -54,9 +56,16 @@ remote::FieldIoProcessor::Options fieldIoOptions() {
   o.vin = 24.0;
   return o;
 }
+// The same channel count as the oracle build: 3 (one 7I77, GPIO on the second connector) unless
+// it is the 6-channel one (two 7I77 connectors, PIN_7I77x2_34, lbpkit's default card).
 hm2::HostMot2Card::Options cardOptions() {
   hm2::HostMot2Card::Options o;
   o.first.fieldIo = fieldIoOptions();
+#if defined(ORACLE_PORTS) && ORACLE_PORTS == 6
+  o.pinout = hm2::HostMot2Card::Pinout::SevenI77x2;
+#else
+  o.pinout = hm2::HostMot2Card::Pinout::SevenI77Gpio;
+#endif
   return o;
 }
 
@@ -81,6 +90,8 @@ struct LbpkitBackend : Backend {
   std::uint64_t now() override { return static_cast<std::uint64_t>(t); }
   void cable(int ch, bool c) override { card.smartSerial().link(static_cast<unsigned>(ch)).setConnected(c); }
   void fieldVoltage(double v) override { card.daughtercard(0).fieldIo.setFieldVoltage(v, lbp::SimTime{t}); }
+  void fieldInput(unsigned i, double v) override { card.daughtercard(0).fieldIo.setInputVoltage(i, v); }
+  void driverHot(unsigned chip, bool hot) override { card.daughtercard(0).fieldIo.setDriverOverTemperature(chip, hot); }
   int channels() override { return static_cast<int>(card.smartSerial().channels()); }
   std::string remoteInfo() override {
     auto& d = card.daughtercard(0);
@@ -149,6 +160,8 @@ struct OracleBackend : Backend {
     }
   }
   void fieldVoltage(double v) override { fio.setFieldVoltage(v, lbp::SimTime{static_cast<std::int64_t>(s.now)}); }
+  void fieldInput(unsigned i, double v) override { fio.setInputVoltage(i, v); }
+  void driverHot(unsigned chip, bool hot) override { fio.setDriverOverTemperature(chip, hot); }
   int channels() override { return s.ports; }
   std::string remoteInfo() override {
     char b[200];
@@ -438,6 +451,161 @@ struct Host {
     }
   }
 
+  // Issue 11: interface 0..2 after STOP ALL (and after STOP of one channel) that follows a
+  // normal-run DOIT with field inputs 16..23 on, i.e. with byte 2 of interface 0 set
+  // (SSLBP.MAC `initchannel` writes bytes 0, 1 and 3 of interface 0, not byte 2).
+  void stopAfterNormalRun() {
+    for (unsigned i = 16; i < 24; ++i) b.fieldInput(i, 24.0);
+    for (const std::uint32_t stop : {0x0800U, 0x0801U}) {
+      command(0x0800);
+      b.wr(csA(0), 0);
+      b.wr(csA(1), 0);
+      long long t = command(0x0903);
+      op(stop == 0x0800 ? "normal START, inputs 16..23 on" : "normal START again", t, regs(0x3));
+      b.wr(ifA(0, 0), 0);
+      t = command(0x1003);
+      op("DOIT, inputs 16..23 on", t, regs(0x3));
+      t = command(stop);
+      const char* name = stop == 0x0800 ? "STOP ALL after a normal DOIT" : "STOP 0x0801 after a normal DOIT";
+      op(name, t, regs(0x3));
+      b.idle(100000);
+      op(stop == 0x0800 ? "100 us after STOP ALL (normal run)" : "100 us after STOP 0x0801", -1, regs(0x3));
+      b.idle(900000);
+      op(stop == 0x0800 ? "1 ms after STOP ALL (normal run)" : "1 ms after STOP 0x0801", -1, regs(0x3));
+    }
+    for (unsigned i = 16; i < 24; ++i) b.fieldInput(i, 0.0);
+  }
+
+  // Issue 12 item 3: a remote fault held for n DOITs of the normal run. Prints the sequence of
+  // (DATA, channel 0's CS) after each DOIT, run-length encoded, and whether TooManyErrors (CS
+  // bit 7) ever set.
+  template <typename Set>
+  void faultHeld(const char* what, int n, Set set) {
+    char buf[256];
+    command(0x0800);
+    b.wr(csA(0), 0);
+    b.wr(csA(1), 0);
+    long long t = command(0x0903);
+    snprintf(buf, sizeof buf, "normal START before %s", what);
+    op(buf, t, regs(0x3));
+    set(true);
+    std::string runs;
+    std::uint32_t last = 0;
+    std::uint8_t lastData = 0;
+    int count = 0, tooMany = -1, bad = 0;
+    std::uint64_t sum = 0;
+    auto flush = [&] {
+      if (count == 0) return;
+      snprintf(buf, sizeof buf, "%sDATA=%02X CS=%08X x%d", runs.empty() ? "" : ", ", lastData, last, count);
+      runs += buf;
+    };
+    for (int k = 0; k < n; ++k) {
+      b.wr(ifA(0, 0), 0x00FF);
+      t = command(0x1003);
+      sum += static_cast<std::uint64_t>(t < 0 ? 0 : t);
+      const auto data = static_cast<std::uint8_t>(b.rd(kData) & 0xFF);
+      const auto cs = b.rd(csA(0));
+      if (data != 0 || t < 0) ++bad;
+      if ((cs & 0x80U) && tooMany < 0) tooMany = k + 1;
+      if (k > 0 && cs == last && data == lastData) {
+        ++count;
+        continue;
+      }
+      flush();
+      last = cs;
+      lastData = data;
+      count = 1;
+    }
+    flush();
+    snprintf(buf, sizeof buf, "%d DOITs, %s held", n, what);
+    char head[128];
+    snprintf(head, sizeof head, "failed=%d toomany-at=%d | ", bad, tooMany);
+    op(buf, static_cast<long long>(sum), head + runs);
+    set(false);
+    for (int k = 0; k < 2; ++k) {
+      t = command(0x1003);
+      snprintf(buf, sizeof buf, "DOIT %d after %s", k + 1, what);
+      op(buf, t, regs(0x3));
+    }
+    op("remotes", -1, b.remoteInfo());
+  }
+
+  // Issue 12 item 7: the M bit (COMMAND bit 14, sserialwa.vhd `romwrena`) holds the processor in
+  // reset; while it is set, DATA reads and writes the program ROM word addressed by COMMAND bits
+  // 10..0 (16 bits). Only our own pattern is printed, not the ROM's contents (the one exception:
+  // the word at 0x7FF, which SSLBP.ASM fills with a "rom cookie" constant). Releasing M boots the
+  // processor (SSLBP.ASM: initmem, then commandcomplete).
+  void romAccess() {
+    char buf[512];
+    command(0x0800);
+    // Local RAM changed before the reset: channel 0's baud rate (local 0x9A..0x9D) to 115200.
+    for (int k = 0; k < 4; ++k) {
+      b.wr(kData, (115200U >> (8 * k)) & 0xFF);
+      command(0xA000U | static_cast<std::uint16_t>(0x9A + k));
+    }
+    std::uint32_t baud = 0;
+    for (int k = 3; k >= 0; --k) baud = (baud << 8) | local(static_cast<std::uint16_t>(0x9A + k));
+    snprintf(buf, sizeof buf, "ch0 baud=%u", baud);
+    op("local write ch0 baud 115200", -1, buf);
+
+    b.wr(kCmd, 0x47FF);
+    const auto cookie = b.rd(kData);
+    snprintf(buf, sizeof buf, "CMD=%04X DATA(ROM 0x7FF)=%08X", b.rd(kCmd), cookie);
+    op("M set, ROM word 0x7FF", -1, buf);
+    b.wr(kCmd, 0x4123);
+    const auto orig = b.rd(kData);
+    const std::uint32_t pattern = (orig & 0xFFFF) == 0xC3A5 ? 0x5A3C : 0xC3A5;
+    b.wr(kData, 0xFFFF0000U | pattern);  // bits 31..16 are not ROM bits
+    const auto rb1 = b.rd(kData);
+    b.idle(100);
+    const auto rb2 = b.rd(kData);
+    b.wr(kCmd, 0x4124);
+    const auto other = b.rd(kData);
+    b.wr(kCmd, 0x4123);
+    const auto rb3 = b.rd(kData);
+    b.wr(kData, orig);
+    b.idle(100);
+    const auto rb4 = b.rd(kData);
+    auto show = [&](std::uint32_t v) {
+      static char r[4][32];
+      static int i = 0;
+      char* o = r[i++ & 3];
+      if (v == pattern) snprintf(o, 32, "pattern");
+      else if (v == orig) snprintf(o, 32, "original");
+      else snprintf(o, 32, "other(hi=%04X)", v >> 16);
+      return o;
+    };
+    snprintf(buf, sizeof buf, "DATA after write: at once %s, 100 ns later %s, back from 0x124 %s; 0x124 %s; restored %s",
+             show(rb1), show(rb2), show(rb3), other == pattern ? "pattern" : "not pattern", show(rb4));
+    op("M set, ROM word 0x123 write/read", -1, buf);
+    // Not regs(): its DATA read would show a ROM word.
+    snprintf(buf, sizeof buf, "CMD=%04X ch0:CS=%08X IF0=%08X ch1:CS=%08X IF0=%08X", b.rd(kCmd), b.rd(csA(0)),
+             b.rd(ifA(0, 0)), b.rd(csA(1)), b.rd(ifA(0, 1)));
+    op("M set, registers", -1, buf);
+
+    // Release with a command: is it run (a local read of the version, 0x2003) or dropped?
+    b.wr(kCmd, 0x2003);
+    const auto t0 = b.now() - 10;
+    const auto cmd0 = b.rd(kCmd);
+    const long long t = waitcmd(t0);
+    const auto d0 = b.rd(kData) & 0xFF;
+    b.idle(200000);
+    const auto d1 = b.rd(kData) & 0xFF;
+    snprintf(buf, sizeof buf, "CMD at once=%04X, DATA at clear=%02X, 200 us later DATA=%02X", cmd0, d0, d1);
+    op("M released by 0x2003", t, buf);
+    baud = 0;
+    for (int k = 3; k >= 0; --k) baud = (baud << 8) | local(static_cast<std::uint16_t>(0x9A + k));
+    snprintf(buf, sizeof buf, "version=%d ch0 baud=%u | ", local(3), baud);
+    op("after M release", -1, buf + regs(0x3));
+    // A normal START at the default baud rate works again.
+    b.wr(csA(0), 0);
+    b.wr(csA(1), 0);
+    long long ts = command(0x0903);
+    op("normal START after M release", ts, regs(0x3));
+    ts = command(0x1003);
+    op("DOIT after M release", ts, regs(0x3));
+  }
+
   void run(int ndoits) {
     // Reset and clear, as LinuxCNC does, then wait for the version.
     b.wr(kCmd, 0x4000);
@@ -632,6 +800,11 @@ struct Host {
 
     mesaflash();
     op("remotes after mesaflash", -1, b.remoteInfo());
+
+    stopAfterNormalRun();
+    faultHeld("field power off", 1100, [this](bool on) { b.fieldVoltage(on ? 0.0 : 24.0); });
+    faultHeld("driver 0 over-temperature", 1100, [this](bool on) { b.driverHot(0, on); });
+    romAccess();
   }
 };
 

@@ -13,10 +13,15 @@ namespace config {
 void loadConfig(const std::string& path, hm2::HostMot2Card::Options& card) {
   const toml::table t = parseFile(path, "a TOML configuration file");
   const ConfigReader r(path);
-  r.onlyKeys(t, "", {"card", "daughtercard"});
+  r.onlyKeys(t, "", {"card", "daughtercard", "fault"});  // fault: config/fault_script
   if (const toml::table* cardTable = r.table(t, "", "card")) {
-    r.onlyKeys(*cardTable, "card.", {"name"});
+    r.onlyKeys(*cardTable, "card.", {"name", "pinout"});
     (void)r.text(*cardTable, "card.", "name", "7I92", {"7I92"});  // the only card modelled
+    // The FPGA's firmware: Mesa's two-7I77 one (PIN_7I77x2_34.vhd) whatever
+    // is plugged in, or lbpkit's one 7I77 with GPIO on the second connector.
+    card.pinout = r.text(*cardTable, "card.", "pinout", "7I77x2", {"7I77x2", "7I77+GPIO"}) == "7I77x2"
+                      ? hm2::HostMot2Card::Pinout::SevenI77x2
+                      : hm2::HostMot2Card::Pinout::SevenI77Gpio;
   }
   const toml::array* boards = r.tables(t, "", "daughtercard");
   if (boards == nullptr) return;
@@ -28,6 +33,9 @@ void loadConfig(const std::string& path, hm2::HostMot2Card::Options& card) {
     r.onlyKeys(b, prefix,
                {"type", "field_voltage", "w1", "vin", "w12_setup", "w4_setup", "field_io_unit", "analog_unit"});
     const auto type = r.text(b, prefix, "type", "7I77", {"7I77", "7I77D", "none"});
+    if (i == 1 && type != "none" && card.pinout != hm2::HostMot2Card::Pinout::SevenI77x2)
+      r.fail(b.get("type") != nullptr ? b.get("type") : &b, prefix + "type",
+             "the 7I77+GPIO pinout has GPIO on the second connector: use pinout = \"7I77x2\" for a second 7I77");
     if (type == "none") {
       if (i == 0) r.fail(b.get("type"), prefix + "type", "the first connector must carry a 7I77");
       continue;

@@ -1,6 +1,7 @@
 #include "hostmot2/card.hpp"
 
 #include <algorithm>
+#include <stdexcept>
 
 namespace hm2 {
 
@@ -40,20 +41,28 @@ std::string_view accessKindName(AccessKind kind) {
 }
 
 HostMot2Card::HostMot2Card(Options options) : options_(std::move(options)) {
+  const bool x2 = options_.pinout == Pinout::SevenI77x2;
+  if (options_.second && !x2)
+    throw std::invalid_argument("the 7I77 + GPIO pinout has no second 7I77 connector (use the 7I77x2 pinout)");
   sevenI77s_.push_back(std::make_unique<SevenI77>(options_.first.fieldIo, options_.first.analog));
   if (options_.second) sevenI77s_.push_back(std::make_unique<SevenI77>(options_.second->fieldIo, options_.second->analog));
-  const auto n = static_cast<unsigned>(sevenI77s_.size());
   const auto& b = options_.board;
+  // The modules of the firmware, not of what is plugged in: PIN_7I77x2_34.vhd
+  // declares 12 MuxedQCount and one SSerial instance with 6 channels (its
+  // highest SSerial pin, SS5 on IO17..19; LinuxCNC counts channels from the
+  // pins). Each 7I77 uses three channels (field I/O, analog, and the TB6
+  // RS-422 expansion port with nothing attached) and six muxed counters.
+  const unsigned connectors7I77 = x2 ? 2 : 1;
 
   ioport_ = std::make_unique<IoPort>(b.ioPorts, b.portWidth);
   watchdog_ = std::make_unique<Watchdog>(b.clockLow, [this] { ioport_->releaseOutputs(); });
-  encoders_ = std::make_unique<MuxedEncoder>(6 * n, b.clockLow);
+  encoders_ = std::make_unique<MuxedEncoder>(6 * connectors7I77, b.clockLow);
   encoderSelect_ = std::make_unique<MuxedEncoderSelect>();
-  // Each 7I77 uses three SSerial channels: field I/O, analog, and the TB6
-  // RS-422 expansion port (nothing attached).
-  sserial_ = std::make_unique<SmartSerial>(3 * n);
+  sserial_ = std::make_unique<SmartSerial>(3 * connectors7I77);
   led_ = std::make_unique<Led>(4);  // CR1..CR4 on a 7I92
-  for (unsigned i = 0; i < n; ++i) {
+  // A connector without a 7I77 leaves its channels unattached: START finds
+  // no remote there.
+  for (unsigned i = 0; i < sevenI77s_.size(); ++i) {
     sserial_->link(3 * i + 0).attach(&sevenI77s_[i]->fieldIo);
     sserial_->link(3 * i + 1).attach(&sevenI77s_[i]->analog);
   }
@@ -69,8 +78,11 @@ HostMot2Card::HostMot2Card(Options options) : options_(std::move(options)) {
 
   std::vector<PinDescriptor> pins;
   for (unsigned connector = 0; connector < b.ioPorts; ++connector) {
-    if (connector < n) {
-      const auto p = sevenI77Pins(3 * connector, 3 * connector, connector);
+    if (connector < connectors7I77) {
+      // PIN_7I77x2_34.vhd gives the second connector's ENCMUX the unit 6 (the
+      // firmware drives every select pin from the one select line whatever
+      // its unit; LinuxCNC claims it only with num_encoders > 6).
+      const auto p = sevenI77Pins(3 * connector, 3 * connector, 6 * connector);
       pins.insert(pins.end(), p.begin(), p.end());
     } else {
       pins.insert(pins.end(), b.portWidth, PinDescriptor{});  // GPIO only
@@ -83,8 +95,6 @@ HostMot2Card::HostMot2Card(Options options) : options_(std::move(options)) {
 std::vector<ModuleDescriptor> HostMot2Card::moduleDescriptors() const {
   std::vector<ModuleDescriptor> v;
   for (const Module* m : modules_) v.push_back(m->descriptor());
-  // Two 7I77s: two select outputs.
-  if (sevenI77s_.size() > 1) v[3].instances = static_cast<std::uint8_t>(sevenI77s_.size());
   return v;
 }
 

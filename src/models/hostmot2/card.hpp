@@ -83,10 +83,23 @@ class HostMot2Card {
     remote::FieldIoProcessor::Options fieldIo;
     remote::AnalogProcessor::Options analog;
   };
+  // The firmware the FPGA runs: its IDROM (module counts and pin functions).
+  enum class Pinout : std::uint8_t {
+    // Mesa's two-7I77 firmware for 34-pin cards (hostmot2-firmware
+    // PIN_7I77x2_34.vhd, shipped as 7i92_7i77x2): 12 muxed encoders, 6
+    // SSerial channels, the second 7I77's signals on IO17..33 whether or not
+    // one is plugged in there (its channels then answer "no remote").
+    SevenI77x2,
+    // One 7I77 on IO0..16 and 17 plain GPIO on IO17..33 (6 encoders, 3
+    // channels): lbpkit's own layout, not a firmware Mesa ships; for a second
+    // connector used as GPIO.
+    SevenI77Gpio,
+  };
   struct Options {
     BoardIdentity board;
+    Pinout pinout = Pinout::SevenI77x2;
     // A 7I77 on the first connector (IO0..16) always; on the second
-    // (IO17..33) optionally, else those pins are plain GPIO.
+    // (IO17..33) optionally (SevenI77x2 only).
     DaughterOptions first;
     std::optional<DaughterOptions> second;
   };
@@ -128,6 +141,7 @@ class HostMot2Card {
   Led& led() { return *led_; }
   SevenI77& daughtercard(unsigned connector) { return *sevenI77s_.at(connector); }
   [[nodiscard]] unsigned daughtercards() const { return static_cast<unsigned>(sevenI77s_.size()); }
+  [[nodiscard]] Pinout pinout() const { return options_.pinout; }
   [[nodiscard]] const BoardIdentity& board() const { return options_.board; }
   [[nodiscard]] const std::array<std::uint32_t, idrom::kWords>& idromWords() const { return idrom_; }
   [[nodiscard]] std::vector<ModuleDescriptor> moduleDescriptors() const;

@@ -53,7 +53,8 @@ std::array<std::uint32_t, idrom::kWords> buildIdrom(const BoardIdentity& board,
 // IO0 SS2TXEN, IO1 SS2TX, IO2 SS2RX, IO3 SS1TX, IO4 SS1RX, IO5 SS0TX,
 // IO6 SS0RX, IO7 ENCMUX, IO8..IO16 QCMUX A/B/I for pairs 01, 23, 45.
 // `firstChannel` and `firstUnit` place it (0 on the first connector, 3 on
-// the second).
+// the second); `selectUnit` is its ENCMUX pin's unit byte (0 and 6 in
+// PIN_7I77x2_34.vhd).
 std::array<PinDescriptor, 17> sevenI77Pins(unsigned firstChannel, unsigned firstUnit, unsigned selectUnit);
 
 }  // namespace hm2

@@ -25,10 +25,12 @@ MuxedEncoder::MuxedEncoder(unsigned counters, std::uint32_t clockLow)
 
 void MuxedEncoder::reset() {
   settle();
-  // Power-up mux rate: about 8 MHz ticks (10 at 100 MHz, the value LinuxCNC
-  // also writes for its default 8 MHz muxed-sample-frequency;
-  // docs/protocol-facts.md#muxed-encoders).
-  rateDivisor_ = clockLow_ / 8'000'000U - 2;
+  // Power-up mux rate: the firmware's round(ClockLow / 8 MHz) - 2
+  // (qcounteratesk.vhd, VHDL round: halves away from zero), 11 at 100 MHz:
+  // a tick every 13 ClockLow, 7.69 MHz. LinuxCNC writes its own at load:
+  // ClockLow / muxed-sample-frequency (8 MHz) - 2, truncated, 10 at 100 MHz
+  // (8.33 MHz; encoder.c).
+  rateDivisor_ = std::max((clockLow_ + 4'000'000U) / 8'000'000U, 2U) - 2;
   setSamplePeriod();
   tsDivisor_ = 0;
   // Counts, CCRs and latches cleared; the filters start from the inputs as

@@ -1,5 +1,7 @@
 #include "hostmot2/serial_link.hpp"
 
+#include <algorithm>
+
 namespace hm2 {
 
 unsigned SerialLink::damage(Faults& f, std::uint8_t& byte) {
@@ -23,10 +25,35 @@ unsigned SerialLink::extras(Faults& f) {
   return n;
 }
 
+void SerialLink::consumeOutbox(std::size_t count) {
+  count = std::min(count, outboxSize_);
+  std::copy(outbox_.begin() + static_cast<std::ptrdiff_t>(count),
+            outbox_.begin() + static_cast<std::ptrdiff_t>(outboxSize_), outbox_.begin());
+  outboxSize_ -= count;
+}
+
 SerialLink::Reply SerialLink::exchange(std::span<const std::uint8_t> frame, SimTime start, std::uint32_t baud) {
   Reply reply;
   const SimTime ch = lbp::characterTime(baud);
   SimTime t = start;
+  if (external_) {
+    // The other process's reply comes later (SmartSerial::remoteBytes); the
+    // frame leaves now, through the same faults as to a model.
+    auto post = [&](std::uint8_t b) {
+      t += ch;
+      ++counters_.toRemote;
+      if (!connected_) return;
+      if (outboxSize_ < outbox_.size())
+        outbox_[outboxSize_++] = b;
+      else
+        ++counters_.outboxOverflows;
+    };
+    for (std::uint8_t b : frame)
+      if (damage(toRemote_, b)) post(b);
+    for (unsigned k = extras(toRemote_); k > 0; --k) post(kNoise);
+    reply.lastByteAt = t;
+    return reply;
+  }
   // A receiver only understands characters at its own baud rate: across a
   // mismatch (or a cut cable, or an unpowered remote) nothing comes back.
   const bool heard = connected_ && remote_ != nullptr && remote_->powered() && remote_->baud() == baud;

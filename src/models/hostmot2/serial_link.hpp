@@ -39,7 +39,23 @@ class SerialLink {
     bool breakSeen = false;
   };
   // Sends `frame` starting at `start` at `baud` and collects what comes back.
+  // On an external link the frame goes to the outbox and no reply comes back.
   Reply exchange(std::span<const std::uint8_t> frame, SimTime start, std::uint32_t baud);
+
+  // --- External remote (lbpkit sim --remote CH=pty) ------------------------
+  // The remote is another process: frames the channel sends wait in a fixed
+  // outbox (no allocation per frame) until whoever serves the process takes
+  // them; its reply comes back through SmartSerial::remoteBytes. Fault
+  // injection applies to the frames sent; replies arrive as they are.
+  static constexpr std::size_t kOutboxSize = 1024;
+  void setExternal(bool external) {
+    external_ = external;
+    outboxSize_ = 0;
+  }
+  [[nodiscard]] bool external() const { return external_; }
+  [[nodiscard]] std::span<const std::uint8_t> outbox() const { return {outbox_.data(), outboxSize_}; }
+  // The first `count` outbox bytes have been taken.
+  void consumeOutbox(std::size_t count);
 
   // --- Fault injection -------------------------------------------------------
   void setConnected(bool connected) { connected_ = connected; }
@@ -59,6 +75,7 @@ class SerialLink {
     std::uint64_t dropped = 0;
     std::uint64_t added = 0;
     std::uint64_t breaks = 0;
+    std::uint64_t outboxOverflows = 0;  // external: bytes lost, nobody took the outbox
   };
   [[nodiscard]] const Counters& counters() const { return counters_; }
 
@@ -77,6 +94,9 @@ class SerialLink {
 
   remote::RemoteDevice* remote_ = nullptr;
   bool connected_ = true;
+  bool external_ = false;
+  std::array<std::uint8_t, kOutboxSize> outbox_{};
+  std::size_t outboxSize_ = 0;
   bool breakNext_ = false;
   Faults toRemote_;
   Faults fromRemote_;

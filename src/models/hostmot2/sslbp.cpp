@@ -30,6 +30,19 @@ constexpr SimTime kStartLatency = SimTime{18'000};
 // before the firmware's channel check: SSLBP 43 completes it 18.3-18.5 us after
 // the command (18.29 us as the comparison's host polls).
 constexpr SimTime kNoChannelStart = SimTime{18'400};
+// M released: the processor boots and its initmem clears the RAM before the
+// command register is cleared (SSLBP.ASM; SSLBP 43: COMMAND clears 21.5-21.6 us
+// after the write that releases M, for LinuxCNC's 0x4000, 0x0001 and
+// mesaflash's 0x4800, 0x0800 alike).
+constexpr SimTime kBoot = SimTime{21'500};
+// A host write of a ROM word (M set) reaches the ROM a few processor clocks
+// after the DATA write (sserialwa.vhd: on the trailing edge of the
+// synchronised write request). SSLBP 43: a DATA read 20 ns after the write
+// still returns the old word, 100 ns after it the new one.
+constexpr SimTime kRomWriteDelay = SimTime{50};
+constexpr std::uint16_t kRomAddressMask = SmartSerial::kRomWords - 1;  // COMMAND bits 10..0
+// initmem clears the RAM up to here only (SSLBP.MAC: until X's high byte is 1).
+constexpr std::uint16_t kInitMemEnd = 0x100;
 // STOP ALL: the global init's time, per channel and fixed (measured on SSLBP 43).
 constexpr SimTime kUartInit = SimTime{15'180};
 constexpr SimTime kStopAllBase = SimTime{1'350};
@@ -78,9 +91,9 @@ SmartSerial::SmartSerial(unsigned channels, unsigned instance)
 
 void SmartSerial::reset() {
   // A freshly configured FPGA: every channel variable (the host-written
-  // halves of CS and the interface registers too, and the byte of interface
-  // 0 that STOP leaves alone), the command state and the local RAM start
-  // from zero. The cable to each remote is not the card's and stays; the
+  // halves of CS and the interface registers too, and the remote fault byte
+  // that STOP and, for channels 3.., the boot leave alone), the command state
+  // and the local RAM start from zero. The cable to each remote is not the card's and stays; the
   // counters are the simulator's and keep counting.
   for (auto& c : channels_) {
     const SerialLink link = c.link;
@@ -98,8 +111,25 @@ void SmartSerial::reset() {
   immediateData_ = 0;
   immediateDone_ = SimTime{};
   lost_ = false;
+  // The configured FPGA: the ROM holds the bitfile's program (the placeholder,
+  // see kRomWords), the RAM its initial values (0 here: the firmware's
+  // pre-initialised strings are not modelled).
+  rom_.fill(0);
+  rom_[kRomCookieAddress] = kRomCookie;
+  romWrite_ = RomWrite{};
   ram_.fill(0);
-  // initmem: identity and the per-channel baud rates, at power-up only.
+  initMem();
+  globalInit();
+  wake_ = nextEvent();
+}
+
+void SmartSerial::initMem() {
+  std::fill(ram_.begin(), ram_.begin() + kInitMemEnd, std::uint8_t{0});
+  // The channels' remote fault bytes live in that RAM (chanremfault, block
+  // offset 0x25): cleared for the channels whose block starts below 0x100
+  // (0..2 with SSLBP's 0x70 + 0x32 per channel), kept for the others.
+  for (unsigned i = 0; i < channelCount_; ++i)
+    if (local::kChannelBlock + i * local::kChannelBlockStride + 0x25 < kInitMemEnd) channels_[i].remoteFault = 0;
   ram_[local::kInterfaceType] = 0x12;
   ram_[local::kInterfaceWidth] = 8;
   ram_[local::kMajorRev] = kMajorRevision;
@@ -115,8 +145,6 @@ void SmartSerial::reset() {
     const auto at = local::kChannelBlock + c * local::kChannelBlockStride + local::kBaudOffset;
     for (unsigned i = 0; i < 4; ++i) ram_[at + i] = static_cast<std::uint8_t>(kDefaultBaud >> (8 * i));
   }
-  globalInit();
-  wake_ = nextEvent();
 }
 
 ModuleDescriptor SmartSerial::descriptor() const {
@@ -161,7 +189,9 @@ std::uint32_t SmartSerial::read(std::uint16_t address, SimTime now) {
   const std::uint16_t block = address & 0xFF00U;
   const unsigned ch = (address & 0x3FU) / 4;
   if (block == kCommand) return command_;
-  if (block == kData) return dataOut_;
+  // M set: DATA reads the ROM word COMMAND bits 10..0 address, 16 bits
+  // (sserialwa.vhd: romwrena selects romdata for host DATA reads).
+  if (block == kData) return inReset_ ? rom_[command_ & kRomAddressMask] : dataOut_;
   if (ch >= channelCount_) return 0;
   if (block == kCs) return csRegister(ch);
   return channels_[ch].ifIn[static_cast<unsigned>(block - kInterface0) / kRegisterStride];
@@ -183,24 +213,37 @@ WriteResult SmartSerial::writeRegister(std::uint16_t address, std::uint32_t valu
     const auto cmd = static_cast<std::uint16_t>(value & 0xFFFFU);
     ++counters_.commands;
     if (cmd & command::kReset) {
-      // M bit: the processor is held in reset until a write without it.
+      // M (manual: COMMAND REGISTER, "ROM enable/reset bit"; sserialwa.vhd
+      // romwrena): the processor is held in reset while it is set, stopped
+      // where it stands: the command running is abandoned, no channel steps,
+      // and CS and the interface registers keep what they read (SSLBP 43: CS
+      // 0x0400C100, the remote's fault byte too, while M is held). COMMAND
+      // bits 10..0 address the ROM for DATA accesses.
       inReset_ = true;
       command_ = cmd;
       busy_ = Busy::Idle;
-      // The reset (LinuxCNC's 0x4000, mesaflash's 0x4800) reruns initmem,
-      // which clears the firmware's RAM: the only thing that clears the
-      // remote's fault byte in CS byte 3 (SSLBP 43: CS 0x00400000 at the next
-      // setup START after a LowVoltageFault; see initChannel).
-      for (unsigned i = 0; i < channelCount_; ++i) {
-        initChannel(channels_[i]);
-        channels_[i].remoteFault = 0;
-      }
+      lost_ = false;
+      for (auto& c : channels_) c.scheduled = false;
       return WriteResult::Accepted;
     }
     if (inReset_) {
+      // Released: the processor boots (SSLBP.ASM: initmem, then
+      // commandcomplete, then the global init). The command written with M
+      // clear is never run: the boot clears it (SSLBP 43: 0x2003 written to
+      // release M reads back until COMMAND clears 21.6 us later; DATA is then
+      // 0xAA, not the version).
       inReset_ = false;
-      globalInit();  // the firmware boots, then sees the command
-      busy_ = Busy::Idle;
+      command_ = cmd;
+      busy_ = Busy::Boot;
+      immediateDone_ = now + kBoot;
+      return WriteResult::Accepted;
+    }
+    if (busy_ == Busy::Boot) {
+      // Written while the processor boots: the boot's command clear (or its
+      // global init, which clears the doorbell) drops it.
+      command_ = cmd;
+      ++counters_.lostCommands;
+      return WriteResult::LostCommand;
     }
     if (busy_ != Busy::Idle) {
       // "The command register should not be written when non-zero": the
@@ -222,6 +265,11 @@ WriteResult SmartSerial::writeRegister(std::uint16_t address, std::uint32_t valu
   }
   if (block == kData) {
     dataIn_ = static_cast<std::uint8_t>(value & 0xFFU);
+    // M set: the write also goes to the ROM word COMMAND bits 10..0 address
+    // (16 bits; sserialwa.vhd hloadrom/loadrom), a few clocks later.
+    if (inReset_)
+      romWrite_ = RomWrite{true, static_cast<std::uint16_t>(command_ & kRomAddressMask),
+                           static_cast<std::uint16_t>(value & 0xFFFFU), now + kRomWriteDelay};
     return WriteResult::Accepted;
   }
   if (ch >= channelCount_) return WriteResult::Unmapped;
@@ -283,6 +331,19 @@ void SmartSerial::complete(std::uint8_t data, SimTime) {
   busy_ = Busy::Idle;
 }
 
+void SmartSerial::finishBoot() {
+  // initmem (the RAM, the remote fault bytes, the default baud rates), the
+  // command cleared, then the global init (every channel stopped, DATA 0xAA).
+  // lbpkit runs the global init at once: a command written right after
+  // COMMAND clears is run, where the firmware, still in its global init
+  // (about 47 us with 3 channels), would lose it (docs/sslbp-vs-firmware.md).
+  initMem();
+  command_ = 0;
+  lost_ = false;
+  busy_ = Busy::Idle;
+  globalInit();
+}
+
 void SmartSerial::globalInit() {
   for (unsigned i = 0; i < channelCount_; ++i) {
     auto& c = channels_[i];
@@ -303,14 +364,19 @@ void SmartSerial::initChannel(Channel& c) {
   // CS byte 3, the remote's fault byte, is left alone: the firmware's stop and
   // channel init rewrite CS bytes 2..0 only (SSLBP 43 after a LowVoltageFault:
   // CS 0x2000C100 after STOP 0x0803 and after STOP ALL, 0x20400000 after the
-  // next SETUP START). Only the reset clears it (write(), command::kReset).
+  // next SETUP START). Only the boot after the M bit clears it (initMem).
   c.errorCounts.fill(0);
   c.ready = c.startPending = c.requested = c.invalid = c.doitSeen = c.leftover = false;
-  c.scheduled = false;
+  c.scheduled = c.awaiting = false;
+  c.externalSize = 0;
   c.rxSize = c.txSize = 0;
-  // The firmware clears the host-read interface registers but, by a slip in
-  // its source, leaves byte 2 of interface 0 alone.
-  c.ifIn[0] &= 0x00FF0000U;
+  // The host-read interface registers are cleared, all of them: initchannel
+  // (SSLBP.MAC) skips byte 2 of interface 0, but sserialwa.vhd's 8-to-32-bit
+  // shim writes a register only with its byte 3, taking bytes 0..2 from a
+  // latch that each register write clears, so byte 2 is written 0 too (SSLBP
+  // 43: interface 0 0x00FF0000, inputs 16..23 on, reads 0 after STOP 0x0801
+  // and 100 us after STOP ALL).
+  c.ifIn[0] = 0;
   c.ifIn[1] = 0;
   c.ifIn[2] = 0;
 }
@@ -382,7 +448,8 @@ void SmartSerial::schedule(Channel& c, SimTime at) {
 }
 
 SimTime SmartSerial::nextEvent() const {
-  SimTime t = busy_ == Busy::Immediate ? immediateDone_ : SimTime::max();
+  SimTime t = busy_ == Busy::Immediate || busy_ == Busy::Boot ? immediateDone_ : SimTime::max();
+  if (romWrite_.pending && romWrite_.at < t) t = romWrite_.at;
   for (unsigned i = 0; i < channelCount_; ++i)
     if (channels_[i].scheduled && channels_[i].due < t) t = channels_[i].due;
   return t;
@@ -392,8 +459,12 @@ void SmartSerial::runEvents(SimTime now) {
   // Events in time order; at equal times a finishing command goes first.
   for (;;) {
     SimTime at = now;
-    int which = -2;  // -1: the running immediate command; >= 0: a channel
-    if (busy_ == Busy::Immediate && immediateDone_ <= at) {
+    int which = -2;  // -1: the running immediate command or boot; >= 0: a channel
+    if (romWrite_.pending && romWrite_.at <= now) {
+      rom_[romWrite_.address] = romWrite_.value;
+      romWrite_.pending = false;
+    }
+    if ((busy_ == Busy::Immediate || busy_ == Busy::Boot) && immediateDone_ <= at) {
       at = immediateDone_;
       which = -1;
     }
@@ -406,9 +477,17 @@ void SmartSerial::runEvents(SimTime now) {
     }
     if (which == -2) break;
     if (which == -1) {
-      complete(immediateData_, at);
+      if (busy_ == Busy::Boot)
+        finishBoot();
+      else
+        complete(immediateData_, at);
     } else {
-      channels_[static_cast<unsigned>(which)].scheduled = false;
+      auto& c = channels_[static_cast<unsigned>(which)];
+      c.scheduled = false;
+      if (c.awaiting) {  // an external reply's timeout: what came stays in the FIFO
+        c.awaiting = false;
+        if (c.externalSize > 0) c.leftover = true;
+      }
       step(static_cast<unsigned>(which), at);
     }
   }
@@ -465,30 +544,68 @@ void SmartSerial::transact(Channel& c, std::span<const std::uint8_t> body, unsig
   ++counters_.transactions;
   c.sentAt = now;
   c.state = waitState;
+  if (c.link.external()) {
+    // Another process answers, later (remoteBytes); until the relaxed
+    // timeout the channel waits as it would for the cable.
+    c.outcome = Outcome::Timeout;
+    c.awaiting = true;
+    c.expect = static_cast<std::uint8_t>(std::min<unsigned>(expect, c.external.size() - 1));
+    c.externalSize = 0;
+    c.deadline = now + timeout * kExternalTimeoutFactor;
+    schedule(c, c.deadline);
+    return;
+  }
   const std::size_t need = expect + 1;
   const SimTime ch = lbp::characterTime(c.baud);
+  const SimTime arrival =
+      reply.size >= need ? reply.lastByteAt - ch * static_cast<std::int64_t>(reply.size - need) : reply.lastByteAt;
+  judge(c, {reply.bytes.data(), reply.size}, reply.breakSeen, arrival, expect, now + timeout);
+}
+
+void SmartSerial::judge(Channel& c, std::span<const std::uint8_t> reply, bool breakSeen, SimTime arrival,
+                        unsigned expect, SimTime deadline) {
+  const std::size_t need = expect + 1;
   c.outcome = Outcome::Timeout;
-  SimTime due = now + timeout;
-  if (reply.size >= need) {
-    const SimTime arrival = reply.lastByteAt - ch * static_cast<std::int64_t>(reply.size - need);
-    if (reply.breakSeen) {
+  SimTime due = deadline;
+  if (reply.size() >= need) {
+    if (breakSeen) {
       setError(c, cs::kSerialBreak, kBreak);  // the reply is discarded
       c.outcome = Outcome::Break;
-    } else if (arrival > now + timeout) {
+    } else if (arrival > deadline) {
       c.leftover = true;  // too late: it lands in the FIFO after the timeout
-    } else if (lbp::crc8({reply.bytes.data(), need}) != 0) {
+    } else if (lbp::crc8(reply.first(need)) != 0) {
       setError(c, cs::kCrcError, kCrc);  // discarded; the channel then times out
       c.outcome = Outcome::CrcError;
     } else {
       c.outcome = Outcome::Ok;
-      std::copy_n(reply.bytes.begin(), std::min(expect, static_cast<unsigned>(c.reply.size())), c.reply.begin());
-      c.leftover = reply.size > need;
-      due = std::max(arrival, now) + kPass;
+      std::copy_n(reply.begin(), std::min(expect, static_cast<unsigned>(c.reply.size())), c.reply.begin());
+      c.leftover = reply.size() > need;
+      due = std::max(arrival, c.sentAt) + kPass;
     }
-  } else if (reply.size > 0) {
+  } else if (!reply.empty()) {
     c.leftover = true;  // a partial reply stays in the FIFO
   }
   schedule(c, due);
+}
+
+void SmartSerial::remoteBytes(unsigned channel, std::span<const std::uint8_t> bytes, SimTime now) {
+  // A timeout due by now happens first: bytes after it came too late.
+  advance(now);
+  Channel& c = channels_.at(channel);
+  if (bytes.empty()) return;
+  if (!c.awaiting) {
+    c.leftover = true;  // nobody waits for them: they sit in the receive FIFO
+    return;
+  }
+  for (std::uint8_t b : bytes) {
+    if (c.externalSize < c.external.size()) c.external[c.externalSize++] = b;
+  }
+  if (c.externalSize < c.expect + 1U) return;
+  c.awaiting = false;
+  // Everything in this batch arrived together: any bytes past the reply are
+  // extra characters, as on the cable.
+  judge(c, {c.external.data(), c.externalSize}, false, now, c.expect, c.deadline);
+  wake_ = nextEvent();
 }
 
 // --- The per-channel state machine (SSLBP.JMP's "dochannel") -----------------------
@@ -718,12 +835,12 @@ void SmartSerial::startSequence(unsigned index, SimTime now) {
       if (c.reply[0] != 0) return sendStartRow(c, row, now);
       break;
     case OnReply::FaultsClear:
-      // The fault byte read here goes to CS byte 3, replacing one left from
-      // before the STOP (STOP no longer clears it), so a normal START whose
-      // remote reads no fault shows 0 there as before. Not covered by the
-      // SSLBP 43 comparison rows (docs/sslbp-vs-firmware.md).
-      c.remoteFault = c.reply[0];
+      // A fault byte read here goes to CS byte 3; one that reads 0 leaves
+      // CS byte 3 as it was (SSLBP.JMP dochkgenfaults stores only a non-zero
+      // byte; SSLBP 43: CS 0x203B0000 while chattering after a normal START
+      // whose remote's LowVoltageFault was cleared, 0x20 left from before).
       if (c.reply[0] != 0) {
+        c.remoteFault = c.reply[0];
         // Faults that do not clear: report them and keep asking until too many.
         setError(c, cs::kRemoteFault, kRemFault);
         if (c.errorLog & cs::kTooManyErrors) return restart(c, now);
@@ -790,8 +907,13 @@ void SmartSerial::runNormal(Channel& c, SimTime now) {
   if (!timedOut(c)) {
     c.remoteFault = c.reply[0];
     if (c.remoteFault != 0) {
-      c.status = static_cast<std::uint8_t>(c.status | cs::kStatusRemoteFault);
-      setError(c, cs::kRemoteFault, kRemFault);
+      // Reported in CS but not counted: the normal run's receive path sets the
+      // error without the dead-end counter (SSLBP.JMP dorecvgeneric: setstatus
+      // and seterror, no deadendincatX), so a fault held for any number of
+      // DOITs never raises TooManyErrors (SSLBP 43: CS 0x20422140 after each
+      // of 1100 DOITs with field power off, 0x04422140 with a driver hot).
+      c.status = static_cast<std::uint8_t>(c.status | cs::kStatusRemoteFault | cs::kStatusCommunicationError);
+      c.errorLog = static_cast<std::uint8_t>(c.errorLog | cs::kRemoteFault);
     }
     // Incoming process data: reply bytes 1.. into interface 0..2.
     for (unsigned r = 0; r < 3; ++r) {

@@ -4,7 +4,8 @@
 //
 // Registers (per instance, base + i*0x40; channel c at +4c):
 //   0x5A00 COMMAND  W M R D S T T T | N..N (16 bits; writes with bit 31 set are ignored)
-//   0x5B00 DATA     8 bits; what the host writes is not what it reads back
+//   0x5B00 DATA     8 bits; what the host writes is not what it reads back.
+//                   While M is set: the 16-bit program ROM word COMMAND bits 10..0 address
 //   0x5C00 CS       per channel control (host writes: mode / setup LBP command)
 //                   and status (reads: local faults, status, COM_STATE, remote faults)
 //   0x5D00..0x5F00  interface 0..2, per channel, independent in and out data
@@ -53,6 +54,13 @@ class SmartSerial final : public Module {
   static constexpr std::uint8_t kMinorRevision = 0x2B;  // 43, the ROM Mesa ships
   static constexpr std::uint32_t kDefaultBaud = 2500000;
   static constexpr std::uint32_t kInterfaceClockHz = 100000000;  // the 7I92's SSerial clock
+  // The processor's program ROM (sserialwa.vhd: 2k x 16, host access with M set).
+  // lbpkit does not contain Mesa's SSLBP program: the ROM is a placeholder, all
+  // zero but for the ROM cookie SSLBP.ASM puts in its last word, and what the
+  // host downloads is kept but not executed (the model is the firmware).
+  static constexpr unsigned kRomWords = 2048;
+  static constexpr std::uint16_t kRomCookieAddress = 0x7FF;
+  static constexpr std::uint16_t kRomCookie = 0xABCD;
 
   explicit SmartSerial(unsigned channels, unsigned instance = 0);
 
@@ -66,12 +74,31 @@ class SmartSerial final : public Module {
   void advance(SimTime now) override {
     if (now >= wake_) runEvents(now);
   }
-  // Power-up: the firmware's initmem and init (local RAM, baud rates,
-  // every channel stopped, DATA 0xAA). The cables (links) stay attached.
+  // Power-up: the FPGA's configuration (the ROM holds the bitfile's program,
+  // here the placeholder), then the firmware's initmem and init (local RAM,
+  // baud rates, every channel stopped, DATA 0xAA). The cables (links) stay
+  // attached.
   void reset() override;
 
   [[nodiscard]] unsigned channels() const { return channelCount_; }
   SerialLink& link(unsigned channel) { return channels_.at(channel).link; }
+
+  // --- External remotes (lbpkit sim --remote CH=pty) -------------------------
+  // A channel whose link is external (SerialLink::setExternal) sends its
+  // frames to the link's outbox and waits for another process to answer.
+  // That process answers through a pseudo-terminal, scheduled by the
+  // operating system: milliseconds, where a remote on the cable answers in
+  // microseconds. So every reply timeout of an external channel (the START
+  // steps' 400 us / 1.2 ms, chatter's 400 us, the DOIT timeout of measured
+  // round trip + 40 us, setup mode's 50 ms) is kExternalTimeoutFactor times
+  // the firmware's: 40 ms for a START step, enough for a process woken by
+  // the kernel on a loaded machine, or behind a USB-RS422 adapter with a
+  // 1..16 ms latency timer. The quiet periods (not reply timeouts) stay.
+  static constexpr std::int64_t kExternalTimeoutFactor = 100;
+  // Reply bytes from the external remote on `channel`, arrived at `now`:
+  // judged as a model's reply once the expected count is in (CRC, late);
+  // bytes nobody waits for land in the receive FIFO as leftovers.
+  void remoteBytes(unsigned channel, std::span<const std::uint8_t> bytes, SimTime now);
 
   // Observation (what the registers would read, without side effects).
   [[nodiscard]] std::uint16_t commandRegister() const { return command_; }
@@ -82,6 +109,11 @@ class SmartSerial final : public Module {
   }
   [[nodiscard]] bool channelRunning(unsigned channel) const { return channels_.at(channel).ready; }
   [[nodiscard]] std::uint32_t channelBaud(unsigned channel) const { return channels_.at(channel).baud; }
+  // M set: the processor is held in reset.
+  [[nodiscard]] bool processorInReset() const { return inReset_; }
+  // A program ROM word as written so far (a host write lands 50 ns after
+  // its DATA write).
+  [[nodiscard]] std::uint16_t romWord(unsigned address) const { return rom_.at(address); }
   struct Counters {
     std::uint64_t commands = 0;
     std::uint64_t doits = 0;
@@ -143,6 +175,12 @@ class SmartSerial final : public Module {
     Outcome outcome = Outcome::Ok;
     std::array<std::uint8_t, 16> reply{};
     SimTime sentAt{};
+    // External link: the reply collected so far, until judged or timed out.
+    bool awaiting = false;
+    std::uint8_t expect = 0;
+    std::uint8_t externalSize = 0;
+    std::array<std::uint8_t, 24> external{};
+    SimTime deadline{};
   };
 
   void runEvents(SimTime now);
@@ -153,6 +191,10 @@ class SmartSerial final : public Module {
   void execute(std::uint16_t cmd, SimTime now);
   void complete(std::uint8_t data, SimTime now);
   void globalInit();
+  // SSLBP.MAC initmem: RAM 0x000..0x0FF cleared, identity and default baud
+  // rates written (at power-up and when M is released).
+  void initMem();
+  void finishBoot();
   void initChannel(Channel& c);
   void startChannels(std::uint8_t mask, Mode mode, SimTime now);
   void doit(std::uint8_t mask, SimTime now);
@@ -169,6 +211,12 @@ class SmartSerial final : public Module {
   bool timedOut(Channel& c);
   void transact(Channel& c, std::span<const std::uint8_t> frame, unsigned expect, SimTime timeout,
                 std::uint8_t waitState, SimTime now);
+  // What the channel makes of a reply whose `expect` data bytes and CRC were
+  // complete at `arrival` (any bytes past them are extra), sent at c.sentAt
+  // and due by `deadline`; schedules the channel's next step. Both the
+  // cable's synchronous replies and an external remote's come through here.
+  void judge(Channel& c, std::span<const std::uint8_t> reply, bool breakSeen, SimTime arrival, unsigned expect,
+             SimTime deadline);
   void setError(Channel& c, std::uint8_t bit, unsigned counter);
   void restart(Channel& c, SimTime now);
   void schedule(Channel& c, SimTime at);
@@ -187,8 +235,17 @@ class SmartSerial final : public Module {
   std::uint16_t command_ = 0;
   std::uint8_t dataIn_ = 0;   // host-written
   std::uint8_t dataOut_ = 0;  // firmware-written
-  bool inReset_ = false;
-  enum class Busy : std::uint8_t { Idle, Start, Doit, Immediate } busy_ = Busy::Idle;
+  bool inReset_ = false;  // M set: the processor held in reset
+  // Boot: M released, the processor's initmem runs (immediateDone_ is its end).
+  enum class Busy : std::uint8_t { Idle, Start, Doit, Immediate, Boot } busy_ = Busy::Idle;
+  std::array<std::uint16_t, kRomWords> rom_{};
+  // A host ROM write in flight (sserialwa.vhd synchronises it to the processor clock).
+  struct RomWrite {
+    bool pending = false;
+    std::uint16_t address = 0;
+    std::uint16_t value = 0;
+    SimTime at{};
+  } romWrite_;
   std::uint8_t commandMask_ = 0;
   std::uint8_t immediateData_ = 0;
   SimTime immediateDone_{};

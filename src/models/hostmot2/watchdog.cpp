@@ -28,9 +28,9 @@ void Watchdog::start(SimTime now) {
   biteAt_ = now + SimTime{static_cast<std::int64_t>(ns)};
 }
 
-void Watchdog::bite() {
+void Watchdog::bite(std::uint32_t timer) {
   running_ = false;
-  reload_ = 0xFFFFFFFFU;
+  reload_ = timer;
   bitten_ = true;
   if (onBite_) onBite_();
 }
@@ -47,26 +47,41 @@ std::uint32_t Watchdog::read(std::uint16_t address, SimTime now) {
 void Watchdog::reset() {
   // Power-up (HostMot2 regmap, watchdog; docs/protocol-facts.md#hostmot2-watchdog):
   // disarmed (bit 31 set) and not bitten.
-  reload_ = kDisarmed;
+  reload_ = time_ = kDisarmed;
   loadedAt_ = SimTime{};
   running_ = false;
   bitten_ = false;
+}
+
+void Watchdog::load(std::uint32_t value, SimTime now) {
+  // watchdog.vhd bites on the timer's MSB going from 0 to 1, whatever set
+  // it: counting past zero, or loading a value with bit 31 set while it
+  // runs (so 0x80000000 written to a running watchdog bites; it disarms only
+  // one that is not running, as LinuxCNC uses it before its first pet).
+  const bool wasRunning = running_;
+  reload_ = value;
+  loadedAt_ = now;
+  running_ = false;
+  if ((value & kDisarmed) == 0)
+    start(now);
+  else if (wasRunning)
+    bite(value);
 }
 
 WriteResult Watchdog::write(std::uint16_t address, std::uint32_t value, SimTime now) {
   advance(now);
   switch (address & 0xFF00U) {
     case kTimer:
-      reload_ = value;
-      loadedAt_ = now;
-      running_ = false;
-      if ((value & kDisarmed) == 0) start(now);
+      time_ = value;
+      load(value, now);
       break;
     case kStatus:
       bitten_ = (value & 1U) != 0;
       break;
     case kReset:
-      if ((value >> 24) == 0x5A && (reload_ & kDisarmed) == 0) start(now);
+      // A pet loads the timer from the value last written (wdtime), also
+      // after a bite: the timer runs again (the status bit stays).
+      if ((value >> 24) == 0x5A) load(time_, now);
       break;
     default:
       return WriteResult::Unmapped;

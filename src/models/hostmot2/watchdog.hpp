@@ -1,9 +1,12 @@
 // HostMot2 watchdog (HostMot2 regmap; watchdog.vhd; docs/protocol-facts.md#hostmot2-watchdog).
 //   0x0C00 timer   32 bits, counts down at ClockLow while bit 31 is 0; a write
-//                  loads the timer and its reload value (0x80000000: disarmed)
+//                  loads the timer and its reload value (0x80000000: disarmed
+//                  when it is not running; written while it runs, bit 31
+//                  rising bites, as watchdog.vhd's edge detector does)
 //   0x0D00 status  bit 0: bitten (read/write)
-//   0x0E00 reset   a write whose top byte is 0x5A reloads the timer ("pet")
-// When the timer passes zero the watchdog bites: the status bit is set and
+//   0x0E00 reset   a write whose top byte is 0x5A reloads the timer with the
+//                  value last written to 0x0C00 ("pet"; after a bite too)
+// When the timer's bit 31 rises (it passes zero) the watchdog bites: the status bit is set and
 // the card's GPIO is reset (the owner is told through onBite).
 #pragma once
 
@@ -49,10 +52,17 @@ class Watchdog final : public Module {
 
  private:
   void start(SimTime now);
-  void bite();
+  void load(std::uint32_t value, SimTime now);  // the timer register takes `value`
+  // The MSB edge: status bit set, GPIO released; the timer stops at `timer`
+  // (0xFFFFFFFF when it counted past zero, else the value written).
+  void bite(std::uint32_t timer = 0xFFFFFFFFU);
   std::uint32_t clockLow_;
   std::function<void()> onBite_;
+  // The timer's value when it was loaded (running) or where it stands (stopped).
   std::uint32_t reload_ = kDisarmed;
+  // watchdog.vhd's wdtime: the value last written to the timer register,
+  // which a pet (0x5A in the top byte of a cookie write) loads the timer with.
+  std::uint32_t time_ = kDisarmed;
   SimTime loadedAt_{};
   // While running: the first time the timer has passed zero (timer() reads
   // 0xFFFFFFFF from then on), so advance() is one comparison until then.

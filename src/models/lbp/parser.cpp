@@ -8,6 +8,8 @@ namespace lbp {
 
 namespace {
 
+constexpr std::uint8_t kTrue = 0xFF;
+
 // Walks the RPC list of `header` in the table at 0..rpcSize-1, calling
 // `visit` for each stored command. The list ends at a 0 byte, at a byte that
 // is not a data command, or at the end of the table; it is linear, so the
@@ -32,6 +34,15 @@ void walkRpcList(Target& target, std::uint16_t rpcSize, std::uint8_t header, Vis
     }
     visit(s);
   }
+}
+
+// A data command sent on its own, not stored in an RPC list: RID is "RPC
+// only, ignored for non RPC commands" (manual: LBP DATA READ/WRITE COMMAND),
+// so a write's data always follows its header (and address).
+DataCommand direct(std::uint8_t header) {
+  DataCommand cmd = DataCommand::decode(header);
+  cmd.rpcIncludesData = false;
+  return cmd;
 }
 
 }  // namespace
@@ -91,7 +102,7 @@ void Parser::startCommand(std::uint8_t header) {
       ++discarded_;
       return;
     case CommandType::Data:
-      body = DataCommand::decode(header).streamBytes();
+      body = direct(header).streamBytes();
       break;
     case CommandType::Local:
       if (header == local_write::kResetParser) return;  // a lone 0xFF resets the parser
@@ -153,7 +164,7 @@ void Parser::execute(SimTime now) {
   const std::uint8_t* body = command_.data() + 1;
   switch (commandType(header)) {
     case CommandType::Data: {
-      const DataCommand cmd = DataCommand::decode(header);
+      const DataCommand cmd = direct(header);
       std::uint16_t address = address_;
       if (cmd.hasAddress) {
         address = static_cast<std::uint16_t>(body[0] | (body[1] << 8));
@@ -163,6 +174,13 @@ void Parser::execute(SimTime now) {
       break;
     }
     case CommandType::Local:
+      if (header == local_write::kResetProcessor && body[0] == kResetKey) {
+        // The processor restarts (a power-up without losing power): it
+        // answers nothing, not even the CRC, and the parser is idle.
+        target_.resetProcessor();
+        responseLength_ = 0;
+        return;
+      }
       executeLocal(header, (header & 0x20U) ? body[0] : 0);
       break;
     case CommandType::Rpc:
@@ -213,9 +231,10 @@ void Parser::executeLocal(std::uint8_t header, std::uint8_t value) {
   namespace w = local_write;
   switch (header) {
     case r::kStatus: emit(status_); return;
-    case r::kCrcEnable: emit(crcEnabled_ ? 1 : 0); return;
+    // Flags read back as the firmware stores true: 0xFF (LBP.INC).
+    case r::kCrcEnable: emit(crcEnabled_ ? kTrue : 0); return;
     case r::kCrcErrorCount: emit(crcErrors_); return;
-    case r::kRpcMemEnable: emit(rpcMem_ ? 1 : 0); return;
+    case r::kRpcMemEnable: emit(rpcMem_ ? kTrue : 0); return;
     case r::kCommandTimeout: emit(timeout_); return;
     case r::kAddressLow: emit(static_cast<std::uint8_t>(address_ & 0xFFU)); return;
     case r::kAddressHigh: emit(static_cast<std::uint8_t>(address_ >> 8)); return;
@@ -238,8 +257,7 @@ void Parser::executeLocal(std::uint8_t header, std::uint8_t value) {
     case w::kAddressHigh: address_ = static_cast<std::uint16_t>((address_ & 0x00FFU) | (static_cast<unsigned>(value) << 8)); return;
     case w::kAddToAddress: address_ = static_cast<std::uint16_t>(address_ + value); return;
     case w::kUnitId: unitId_ = value; return;
-    case w::kResetProcessor:
-      if (value == kResetKey) target_.resetProcessor();
+    case w::kResetProcessor:  // any other data byte: nothing (the key 0x5A is handled in execute())
       return;
     default: break;
   }

@@ -5,7 +5,8 @@
 // A gap between characters longer than the command timeout resets the parser,
 // so it is ready for the next command even after noise. Every complete
 // command with a good CRC is answered with its read data plus a CRC byte; a
-// command without read data gets the lone CRC byte 0x00. A bad CRC is counted
+// command without read data gets the lone CRC byte 0x00, except 0xFE 0x5A,
+// which restarts the processor and answers nothing. A bad CRC is counted
 // and flagged in the status, and nothing is executed or answered (the host
 // sees a timeout, which is how SSLBP notices it).
 #pragma once

@@ -6,9 +6,10 @@ namespace remote {
 
 namespace {
 
-// Process data and parameters of the analog processor, declared once. Names
-// are the ones real 7I77s report (analogout0..5, analogena, spinena;
-// hwrevision as a GTOC parameter; docs/protocol-facts.md#unit-numbers-and-names). Packing: six 13-bit
+// Process data of the analog processor, declared once (its GTOC parameters
+// are the rows of kGtocParameters for both processors). Names are the pins
+// public 7I77 configurations use (analogout0..5, analogena, spinena;
+// docs/protocol-facts.md#unit-numbers-and-names). Packing: six 13-bit
 // outputs in bits 0..77, AnalogEna bit 78, SpinEna bit 79 (mesaflash's
 // 7I77 analog layout agrees): 10 bytes from the host, the fault byte back.
 enum Element : ElementId {
@@ -20,7 +21,6 @@ enum Element : ElementId {
   kAnalogOut5,
   kAnalogEna,
   kSpinEna,
-  kHwRevision,
 };
 
 constexpr ProcessDataDescriptor kElements[] = {
@@ -30,27 +30,22 @@ constexpr ProcessDataDescriptor kElements[] = {
     {"AnalogOut3", "V", DataType::Signed, Direction::Output, 13, -10.0F, 10.0F},
     {"AnalogOut4", "V", DataType::Signed, Direction::Output, 13, -10.0F, 10.0F},
     {"AnalogOut5", "V", DataType::Signed, Direction::Output, 13, -10.0F, 10.0F},
-    {"AnalogEna", "none", DataType::Boolean, Direction::Output, 1, 0.0F, 1.0F},
-    {"SpinEna", "none", DataType::Boolean, Direction::Output, 1, 0.0F, 1.0F},
-    {"HwRevision", "none", DataType::Unsigned, Direction::Input, 16, 0.0F, 65535.0F},  // mesaflash reads 16 bits
+    {"AnalogEna", "None", DataType::Boolean, Direction::Output, 1, 0.0F, 1.0F},
+    {"SpinEna", "None", DataType::Boolean, Direction::Output, 1, 0.0F, 1.0F},
 };
 
 constexpr ElementId kMode0[] = {kAnalogOut0, kAnalogOut1, kAnalogOut2, kAnalogOut3,
                                 kAnalogOut4, kAnalogOut5, kAnalogEna,  kSpinEna};
 constexpr SoftwareMode kModes[] = {{"Analog", kMode0}};
-constexpr ElementId kParameters[] = {kHwRevision};
-constexpr std::uint8_t kHardwareRevision = 1;
 
 }  // namespace
 
 AnalogProcessor::AnalogProcessor(Options options, SimTime now)
-    : RemoteDevice({"7I77", options.unitNumber, 14, 0, "Standard"}, kElements, kModes, kParameters,
+    : RemoteDevice({"7I77", options.unitNumber, 14, 0, "Standard", kAnalogProcessor}, kElements, kModes,
                    options.nvFile, options.nvOwner, options.nvReport) {
   setSetupJumper(options.setupMode);
   powerUp(now);
 }
-
-void AnalogProcessor::onPowerUp() { setRaw(kHwRevision, kHardwareRevision); }
 
 void AnalogProcessor::setLogicPower(bool on, SimTime now) {
   if (on && !powered()) powerUp(now);

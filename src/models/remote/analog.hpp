@@ -59,7 +59,6 @@ class AnalogProcessor final : public RemoteDevice {
  protected:
   void sampleInputs() override {}
   void driveOutputs() override;
-  void onPowerUp() override;
 
  private:
   std::array<double, kChannels> volts_{};

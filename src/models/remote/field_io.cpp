@@ -8,11 +8,13 @@ namespace remote {
 
 namespace {
 
-// Process data and parameters of the field I/O processor, declared once.
-// Names: pins real 7I77s report (input-NN, output-NN) and the GTOC
-// parameters seen on real boards (analogin0..3, fieldvoltage, encmode0/1,
-// nvencmode0/1); MPG names from the sibling 7I76E (docs/protocol-facts.md#unit-numbers-and-names). Units and
-// the exact case of names are not attested: our choice.
+// Process data of the field I/O processor, declared once (its GTOC
+// parameters, NVEncMode0/1 among them, are rows of kGtocParameters). Names:
+// the pins public 7I77 configurations use (input-NN, output-NN); the mode
+// 1..3 names follow pncconf's smart-serial pin names (analoginN, encN;
+// LinuxCNC: pncconf.py) and the 7I76's and 7I70's fieldvoltage (sserial(9))
+// (docs/protocol-facts.md#unit-numbers-and-names).
+// Units and the exact case of names are not attested: our choice.
 enum Element : ElementId {
   kInput,
   kOutput,
@@ -23,17 +25,13 @@ enum Element : ElementId {
   kFieldVoltage,
   kEnc0,
   kEnc1,
-  kEncMode0,
-  kEncMode1,
-  kNvEncMode0,
-  kNvEncMode1,
 };
 
 constexpr float kFullScale = static_cast<float>(FieldIoProcessor::kAnalogFullScale);
 
 constexpr ProcessDataDescriptor kElements[] = {
-    {"Input", "none", DataType::Bits, Direction::Input, 32, 0.0F, 0.0F},
-    {"Output", "none", DataType::Bits, Direction::Output, 16, 0.0F, 0.0F},
+    {"Input", "None", DataType::Bits, Direction::Input, 32, 0.0F, 0.0F},
+    {"Output", "None", DataType::Bits, Direction::Output, 16, 0.0F, 0.0F},
     {"AnalogIn0", "V", DataType::Unsigned, Direction::Input, 8, 0.0F, kFullScale},
     {"AnalogIn1", "V", DataType::Unsigned, Direction::Input, 8, 0.0F, kFullScale},
     {"AnalogIn2", "V", DataType::Unsigned, Direction::Input, 8, 0.0F, kFullScale},
@@ -41,10 +39,6 @@ constexpr ProcessDataDescriptor kElements[] = {
     {"FieldVoltage", "V", DataType::Unsigned, Direction::Input, 8, 0.0F, kFullScale},
     {"Enc0", "count", DataType::Encoder, Direction::Input, 8, 0.0F, 1.0F},
     {"Enc1", "count", DataType::Encoder, Direction::Input, 8, 0.0F, 1.0F},
-    {"EncMode0", "none", DataType::Unsigned, Direction::Bidirectional, 8, 0.0F, 2.0F},
-    {"EncMode1", "none", DataType::Unsigned, Direction::Bidirectional, 8, 0.0F, 2.0F},
-    {"NVEncMode0", "none", DataType::NonVolUnsigned, Direction::Bidirectional, 8, 0.0F, 2.0F},
-    {"NVEncMode1", "none", DataType::NonVolUnsigned, Direction::Bidirectional, 8, 0.0F, 2.0F},
 };
 
 // SOFTWARE PROCESS DATA MODES, PTOC order. Sizes to the host (fault byte
@@ -60,24 +54,24 @@ constexpr SoftwareMode kModes[] = {
     {"IO+AnalogIn+FieldVoltage", kMode2},
     {"IO+AnalogIn+FieldVoltage+MPG", kMode3},
 };
-// GTOC parameters besides the standard ones (as real boards list in mode 0).
-constexpr ElementId kParameters[] = {kAnalogIn0, kAnalogIn1,   kAnalogIn2, kAnalogIn3, kFieldVoltage, kEncMode0,
-                                     kEncMode1,  kNvEncMode0, kNvEncMode1, kOutput,    kInput};
 
-// MPG inputs: A on 16/18, B on 17/19.
-constexpr unsigned kMpgA[] = {16, 18};
-constexpr unsigned kMpgB[] = {17, 19};
+// MPG inputs in mode 3 as pncconf's 7I77 mode-3 table assigns them
+// (LinuxCNC: pncconf private_data.py, "7i77-m3": input 16 ENCB 0, 17 ENCA 0,
+// 18 ENCB 1, 19 ENCA 1); the manual says only "inputs 16,17,18 and 19".
+constexpr unsigned kMpgA[] = {17, 19};
+constexpr unsigned kMpgB[] = {16, 18};
 
 }  // namespace
 
 FieldIoProcessor::FieldIoProcessor(Options options, SimTime now)
-    : RemoteDevice({"7I77", options.unitNumber, 14, 0, "Standard"}, kElements, kModes, kParameters,
+    : RemoteDevice({"7I77", options.unitNumber, 14, 0, "Standard", kFieldIoProcessor}, kElements, kModes,
                    options.nvFile, options.nvOwner, options.nvReport),
       outputType_(options.outputs),
       vinFromField_(options.vinFromField),
       fieldVolts_(options.fieldVoltage),
       vinVolts_(options.vin) {
   loadOhms_.fill(std::numeric_limits<double>::infinity());
+  nvEncMode_ = {parameter("NVEncMode0"), parameter("NVEncMode1")};
   setSetupJumper(options.setupMode);
   applyPower(now);
 }
@@ -122,8 +116,9 @@ void FieldIoProcessor::onPowerUp() {
   mpgCounts_.fill(0);
   tripped_ = 0;
   chipOff_ = chipHot_;
-  setRaw(kEncMode0, raw(kNvEncMode0));  // NV to working copy at power-up only
-  setRaw(kEncMode1, raw(kNvEncMode1));
+  // NV to working copy at power-up only (manual: NON-VOLATILE FIELD I/O
+  // PARAMETERS); no sibling lists the working copy as a parameter.
+  for (unsigned n = 0; n < kMpgs; ++n) encMode_[n] = static_cast<std::uint8_t>(raw(nvEncMode_[n]));
 }
 
 void FieldIoProcessor::checkSupply() {
@@ -204,7 +199,7 @@ void FieldIoProcessor::countMpg(unsigned n, bool oldA, bool oldB, bool newA, boo
   if (oldA == newA && oldB == newB) return;
   // Quadrature, A leading B counts up. EncMode: 0 = 1X (rising A only, the
   // default for 100 PPR MPGs), 1 = 2X (both A edges), 2 = 4X (every edge).
-  const auto mode = raw(n == 0 ? kEncMode0 : kEncMode1);
+  const auto mode = encMode_[n];
   int dir = 0;
   if (oldA != newA) dir = (newA != newB) ? +1 : -1;
   else dir = (newA == newB) ? +1 : -1;

@@ -144,6 +144,9 @@ class FieldIoProcessor final : public RemoteDevice {
   std::array<bool, kChips> chipOff_{};
   std::array<bool, kChips> chipHot_{};
   std::array<std::int32_t, kMpgs> mpgCounts_{};
+  std::array<ElementId, kMpgs> nvEncMode_{};  // NVEncMode0/1 (gtoc_parameters.hpp)
+  // Counter modes (0 = 1X, 1 = 2X, 2 = 4X), from NVEncMode0/1 at power-up.
+  std::array<std::uint8_t, kMpgs> encMode_{};
 };
 
 }  // namespace remote

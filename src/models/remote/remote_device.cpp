@@ -13,19 +13,21 @@ namespace status = lbp::status;
 
 namespace {
 
-// Declared once: the parameters every remote here reports in its GTOC after
-// its process data. Names as sibling Mesa remotes spell them (docs/protocol-facts.md#unit-numbers-and-names);
-// order follows the Standard enum.
-constexpr ProcessDataDescriptor kStandardParameters[] = {
-    {"SwRevision", "none", DataType::Unsigned, Direction::Input, 16, 0.0F, 65535.0F},
-    // mesaflash reads NVBaudRate as 16 bits; real 7I77s show NVUnitNumber read only.
-    {"NVBaudRate", "none", DataType::NonVolUnsigned, Direction::Bidirectional, 16, 0.0F, 11.0F},
-    {"NVUnitNumber", "none", DataType::NonVolUnsigned, Direction::Input, 32, 0.0F, 4294967295.0F},
-    {"NVWatchDogTimeout", "mS", DataType::NonVolUnsigned, Direction::Bidirectional, 16, 0.0F, 65535.0F},
-    {"UnitNumber", "none", DataType::Unsigned, Direction::Bidirectional, 32, 0.0F, 4294967295.0F},
-    {"WatchDogTime", "mS", DataType::Unsigned, Direction::Bidirectional, 16, 0.0F, 65535.0F},
-    {"Fault", "none", DataType::Bits, Direction::Input, 8, 0.0F, 0.0F},
-};
+// The Standard parameters' names, in the Standard enum's order: rows of
+// the parameter table that both processors list.
+constexpr std::string_view kStandardNames[] = {"SwRevision", "NVBaudRate",   "NVUnitNumber", "NVWatchDogTimeout",
+                                               "UnitNumber", "WatchDogTime", "Fault"};
+static_assert(std::size(kStandardNames) == kStandardParameterCount &&
+              static_cast<unsigned>(Standard::Fault) + 1 == kStandardParameterCount);
+constexpr bool everyStandardRowIsForBoth() {
+  for (const auto name : kStandardNames) {
+    bool found = false;
+    for (const auto& row : kGtocParameters) found |= row.descriptor.name == name && row.processors == kBothProcessors;
+    if (!found) return false;
+  }
+  return true;
+}
+static_assert(everyStandardRowIsForBoth(), "kGtocParameters must hold every Standard parameter, for both processors");
 
 constexpr lbp::ParserConfig parserConfig(bool setup, std::uint32_t baud) {
   return lbp::ParserConfig{memory::kRpcSize, 0x01, true, setup ? kSetupCommandTimeout : kOperateCommandTimeout, baud};
@@ -51,18 +53,18 @@ bool receivesFromHost(Direction d) { return d == Direction::Output || d == Direc
 }  // namespace
 
 RemoteDevice::RemoteDevice(Identity identity, std::span<const ProcessDataDescriptor> elements,
-                           std::span<const SoftwareMode> modes, std::span<const ElementId> parameters,
-                           std::filesystem::path nvFile, std::string nvOwner, NvReporter nvReport)
+                           std::span<const SoftwareMode> modes, std::filesystem::path nvFile, std::string nvOwner,
+                           NvReporter nvReport)
     : identity_(identity),
       modes_(modes),
       ownElements_(elements.size()),
       parser_(*this, parserConfig(false, kBaudRates[kDefaultBaudIndex])),
       nv_(memory::kEepromSize, std::move(nvFile), std::move(nvOwner), std::move(nvReport)) {
   if (modes_.empty()) throw std::logic_error("a remote needs at least one software mode");
-  buildTables(elements, parameters);
+  buildTables(elements);
 }
 
-void RemoteDevice::buildTables(std::span<const ProcessDataDescriptor> own, std::span<const ElementId> parameters) {
+void RemoteDevice::buildTables(std::span<const ProcessDataDescriptor> own) {
   // Variables: RAM for working values, EEPROM for NV ones, in table order.
   std::uint16_t ram = memory::kRam;
   std::uint16_t eeprom = memory::kEeprom;
@@ -74,7 +76,8 @@ void RemoteDevice::buildTables(std::span<const ProcessDataDescriptor> own, std::
     return at;
   };
   for (const auto& d : own) elements_.push_back({d, place(d)});
-  for (const auto& d : kStandardParameters) elements_.push_back({d, place(d)});
+  for (const auto& row : kGtocParameters)
+    if (row.processors & identity_.processor) elements_.push_back({row.descriptor, place(row.descriptor)});
   if (ram > memory::kRam + memory::kRamSize || eeprom > memory::kEeprom + memory::kEepromSize)
     throw std::logic_error("remote variables do not fit the memory map");
   // Each element's bytes, as storage() finds them (a pad has none).
@@ -89,6 +92,7 @@ void RemoteDevice::buildTables(std::span<const ProcessDataDescriptor> own, std::
       e.offset = static_cast<std::uint16_t>(e.address - memory::kEeprom);
     }
   }
+  for (std::size_t s = 0; s < kStandardParameterCount; ++s) standardIds_[s] = parameter(kStandardNames[s]);
   const Element& watchdog = elements_[standard(Standard::WatchdogTime)];
   if (watchdog.store != Store::Ram || watchdog.d.bits != 16)
     throw std::logic_error("WatchDogTime must be 16 bits of RAM");
@@ -119,11 +123,15 @@ void RemoteDevice::buildTables(std::span<const ProcessDataDescriptor> own, std::
     rom.insert(rom.end(), {lbp::kModeRecord, static_cast<std::uint8_t>(m), lbp::kSwMode, 0});
     putString(rom, modes_[m].name);
   }
-  // Per mode: PTOC = its process data, then the two mode records; GTOC = the
-  // same entries, then the device's parameters that this PTOC does not
-  // carry, then the standard parameters. Both end with a 0 sentinel. (A GTOC
-  // entry at the same PARAM_ADD as a PTOC entry is process data to LinuxCNC,
-  // so the shared pointers do not turn into duplicate HAL parameters.)
+  // Per mode: PTOC = its process data, then the two mode records (manual:
+  // MODE DESCRIPTOR: the current hardware and software modes). GTOC = the
+  // same process data, the hardware mode, every software mode the processor
+  // has (mesaflash walks each software mode it finds there; LinuxCNC only
+  // prints them, and makes pins from the PTOC alone), then its parameters.
+  // Both end with a 0 sentinel. (A GTOC entry at the same PARAM_ADD as a
+  // PTOC entry is process data to LinuxCNC, so the shared pointers do not
+  // turn into HAL parameters; other modes' process data is not listed, as
+  // no sibling board shows it as parameters.)
   for (std::size_t m = 0; m < modes_.size(); ++m) {
     ModeTables t{};
     unsigned rxBits = 0;
@@ -143,16 +151,18 @@ void RemoteDevice::buildTables(std::span<const ProcessDataDescriptor> own, std::
     t.gtoc = here();
     for (ElementId id : modes_[m].processData) putLe16(rom, pdd[id]);
     putLe16(rom, hwRecord);
-    putLe16(rom, swRecord[m]);
-    for (ElementId id : parameters) {
-      const auto& pd = modes_[m].processData;
-      if (std::find(pd.begin(), pd.end(), id) == pd.end()) putLe16(rom, pdd.at(id));
-    }
-    for (std::size_t s = 0; s < std::size(kStandardParameters); ++s) putLe16(rom, pdd[ownElements_ + s]);
+    for (const auto record : swRecord) putLe16(rom, record);
+    for (std::size_t e = ownElements_; e < elements_.size(); ++e) putLe16(rom, pdd[e]);
     putLe16(rom, 0);
     modeTables_.push_back(t);
   }
   if (rom.size() > memory::kRomSize) throw std::logic_error("discovery tables do not fit the ROM");
+}
+
+ElementId RemoteDevice::parameter(std::string_view name) const {
+  for (std::size_t e = ownElements_; e < elements_.size(); ++e)
+    if (elements_[e].d.name == name) return static_cast<ElementId>(e);
+  throw std::logic_error("no GTOC parameter row for this processor");
 }
 
 std::vector<std::uint8_t> RemoteDevice::factoryEeprom() const {
@@ -239,6 +249,7 @@ void RemoteDevice::checkWatchdog(SimTime now) {
   raiseFault(fault::kWatchdog);
   parser_.raiseStatus(status::kWatchdogTimeout);
   setRaw(standard(Standard::Fault), faults_);
+  discardOutputs();
   driveOutputs();
 }
 
@@ -267,11 +278,17 @@ void RemoteDevice::endCommand(SimTime) {
       parser_.raiseStatus(status::kInvalidWrite);
     }
   }
+  if (outputsBlocked()) discardOutputs();  // what was written while faulted is not set
   driveOutputs();  // may trip outputs: the fault byte follows
   setRaw(standard(Standard::Fault), faults_);
 }
 
 // --- Faults --------------------------------------------------------------------
+
+void RemoteDevice::discardOutputs() {
+  for (std::size_t e = 0; e < ownElements_; ++e)
+    if (elements_[e].d.direction == Direction::Output) setRaw(static_cast<ElementId>(e), 0);
+}
 
 void RemoteDevice::clearFaults() {
   faults_ = 0;

@@ -24,6 +24,7 @@
 #include "lbp/target.hpp"
 #include "lbp/protocol.hpp"
 #include "lbpkit/wire/seven_i77.hpp"
+#include "remote/gtoc_parameters.hpp"
 #include "remote/nv_store.hpp"
 
 namespace remote {
@@ -66,8 +67,8 @@ struct SoftwareMode {
   std::span<const ElementId> processData;
 };
 
-// Parameters every remote here carries after its own elements (docs/protocol-facts.md#choices-lbpkit-made:
-// the names sibling Mesa remotes report, which mesaflash and LinuxCNC match).
+// Parameters every remote here carries: the kGtocParameters rows both
+// processors list (gtoc_parameters.hpp), by name.
 enum class Standard : std::uint8_t {
   SwRevision,
   NvBaudRate,
@@ -86,15 +87,15 @@ class RemoteDevice : public lbp::Target {
     std::uint8_t swRevision;
     std::uint8_t hwMode;
     std::string_view hwModeName;
+    std::uint8_t processor;  // kFieldIoProcessor or kAnalogProcessor: its rows of kGtocParameters
   };
 
-  // `elements`: the device's own process data and parameters, declared once.
-  // `modes`: its software modes (PTOC contents). `parameters`: its own
-  // elements that the GTOC lists as parameters when the mode's PTOC does not
-  // carry them; the standard parameters are added after them.
+  // `elements`: the device's own process data, declared once. `modes`: its
+  // software modes (PTOC contents). Its GTOC parameters are its rows of
+  // kGtocParameters, added after its own elements.
   RemoteDevice(Identity identity, std::span<const ProcessDataDescriptor> elements,
-               std::span<const SoftwareMode> modes, std::span<const ElementId> parameters,
-               std::filesystem::path nvFile = {}, std::string nvOwner = {}, NvReporter nvReport = {});
+               std::span<const SoftwareMode> modes, std::filesystem::path nvFile = {}, std::string nvOwner = {},
+               NvReporter nvReport = {});
   ~RemoteDevice() override = default;
   RemoteDevice(const RemoteDevice&) = delete;
   RemoteDevice& operator=(const RemoteDevice&) = delete;
@@ -187,9 +188,7 @@ class RemoteDevice : public lbp::Target {
     return v & e.mask;
   }
   [[nodiscard]] std::int64_t rawSigned(ElementId id) const { return lbp::signExtend(raw(id), elements_[id].d.bits); }
-  [[nodiscard]] ElementId standard(Standard s) const {
-    return static_cast<ElementId>(ownElements_ + static_cast<unsigned>(s));
-  }
+  [[nodiscard]] ElementId standard(Standard s) const { return standardIds_[static_cast<unsigned>(s)]; }
   [[nodiscard]] const ProcessDataDescriptor& descriptor(ElementId id) const { return elements_[id].d; }
   [[nodiscard]] std::uint16_t address(ElementId id) const { return elements_[id].address; }
   [[nodiscard]] std::size_t elementCount() const { return elements_.size(); }
@@ -216,9 +215,17 @@ class RemoteDevice : public lbp::Target {
     for (unsigned i = 0; i < e.bytes; ++i) p[i] = static_cast<std::uint8_t>(value >> (8 * i));
   }
   void raiseFault(std::uint8_t bits) { faults_ = static_cast<std::uint8_t>(faults_ | bits); }
-  // Outputs may reach the terminals only while no watchdog (or illegal mode)
-  // fault is set: the host must clear it first (manual: WATCHDOG AND FAULTS).
+  // While the watchdog fault (or an illegal mode) is set, outputs cannot be
+  // set: they stay off, and what the host writes meanwhile is discarded, so a
+  // fault clear alone turns nothing on (manual: FIELD I/O WATCHDOG AND FAULTS,
+  // "When a fault flag is set, outputs can not longer be set and the host
+  // must first clear the fault"; ANALOG SECTION WATCHDOG). Over-current and
+  // over-temperature switch off only what they affect (SHORT CIRCUIT
+  // PROTECTION, OVER-TEMPERATURE PROTECTION): docs/protocol-facts.md#faults-and-outputs.
   [[nodiscard]] bool outputsBlocked() const { return (faults_ & (fault::kWatchdog | fault::kIllegalMode)) != 0; }
+  // The id of one of this processor's kGtocParameters rows, by name (at
+  // construction; throws std::logic_error when the table has no such row).
+  [[nodiscard]] ElementId parameter(std::string_view name) const;
 
   // The world behind the processor.
   virtual void sampleInputs() = 0;  // terminals -> input elements
@@ -246,8 +253,10 @@ class RemoteDevice : public lbp::Target {
     std::uint8_t txSize;
   };
 
-  void buildTables(std::span<const ProcessDataDescriptor> own, std::span<const ElementId> parameters);
+  void buildTables(std::span<const ProcessDataDescriptor> own);
   void clearFaults();
+  // Output elements back to 0 while outputs are blocked (outputsBlocked()).
+  void discardOutputs();
   void checkWatchdog(SimTime now);
   void catchUp(SimTime now);
   // The earliest time advance() can change anything (a framing gap ending a
@@ -304,6 +313,7 @@ class RemoteDevice : public lbp::Target {
   std::uint8_t nvAccess_ = 0;
   SimTime lastHostCommand_{};
   std::uint16_t watchdogOffset_ = 0;  // WatchDogTime's bytes in ram_
+  std::array<ElementId, kStandardParameterCount> standardIds_{};  // by Standard
   std::uint32_t processDataCount_ = 0;
 };
 

@@ -28,6 +28,8 @@
 #include <thread>
 #include <vector>
 
+#include "daemon/network_api.hpp"
+#include "daemon/request_fields.hpp"
 #include "daemon/state_json.hpp"
 
 namespace net {
@@ -37,6 +39,12 @@ using nlohmann::json;
 namespace {
 
 using Clock = std::chrono::steady_clock;
+using fields::flag;
+using fields::index;
+using fields::listed;
+using fields::number;
+using fields::text;
+using fields::whole;
 
 // --- Request validation: every complaint is an std::invalid_argument whose
 // text the client gets back with HTTP 400. Each names the key and what it
@@ -49,37 +57,6 @@ json body(const httplib::Request& req) {
   if (j.is_discarded()) throw std::invalid_argument("the request body is not valid JSON (numbers must fit a double)");
   if (!j.is_object()) throw std::invalid_argument("the request body is not a JSON object");
   return j;
-}
-
-bool flag(const json& j, const char* key) {
-  if (!j.contains(key)) throw std::invalid_argument(fmt::format("missing \"{}\"", key));
-  if (!j.at(key).is_boolean()) throw std::invalid_argument(fmt::format("\"{}\" must be true or false", key));
-  return j.at(key).get<bool>();
-}
-
-bool flag(const json& j, const char* key, bool otherwise) { return j.contains(key) ? flag(j, key) : otherwise; }
-
-// A number from lo to hi; `range` says so in words.
-double number(const json& j, const char* key, double lo, double hi, const std::string& range) {
-  if (!j.contains(key)) throw std::invalid_argument(fmt::format("missing \"{}\"", key));
-  const auto& v = j.at(key);
-  const double x = v.is_number() ? v.get<double>() : std::numeric_limits<double>::quiet_NaN();
-  if (!(x >= lo && x <= hi)) throw std::invalid_argument(fmt::format("\"{}\" must be a number {}", key, range));
-  return x;
-}
-
-// A whole number from 0 to max.
-std::uint64_t whole(const json& j, const char* key, std::uint64_t max, const std::string& range) {
-  if (!j.contains(key)) throw std::invalid_argument(fmt::format("missing \"{}\"", key));
-  const auto& v = j.at(key);
-  if (!v.is_number_unsigned() || v.get<std::uint64_t>() > max)
-    throw std::invalid_argument(fmt::format("\"{}\" must be a whole number {}", key, range));
-  return v.get<std::uint64_t>();
-}
-
-// A whole number from 0 to limit - 1.
-unsigned index(const json& j, const char* key, unsigned limit) {
-  return static_cast<unsigned>(whole(j, key, limit - 1U, fmt::format("below {}", limit)));
 }
 
 // "connector" (0 when absent), checked against the 7I77s the card carries.
@@ -112,19 +89,6 @@ using Route = std::function<Answer(const json&)>;
 struct NoMachine : std::runtime_error {
   NoMachine() : std::runtime_error("no machine is loaded (start the sim with --machine mill, lathe, gantry or FILE)") {}
 };
-
-std::string text(const json& j, const char* key) {
-  if (!j.contains(key)) throw std::invalid_argument(fmt::format("missing \"{}\"", key));
-  if (!j.at(key).is_string()) throw std::invalid_argument(fmt::format("\"{}\" must be a string", key));
-  return j.at(key).get<std::string>();
-}
-
-template <typename Names>
-std::string listed(const Names& names) {
-  std::string out;
-  for (const auto& n : names) out += (out.empty() ? "" : ", ") + std::string(n);
-  return out.empty() ? "none" : out;
-}
 
 std::string axisNames(const machine::Machine& m) {
   std::vector<std::string> names;
@@ -240,6 +204,121 @@ std::string traceJson(const TraceRing& trace, const httplib::Request& req) {
   return out;
 }
 
+// --- What a POST does: one action per kind, on the card thread. The HTTP
+// routes and a fault script's entries (SimDaemon) both carry them out.
+
+using Action = void (*)(const ApiTarget&, const json&);
+
+void networkAction(const ApiTarget& t, const json& j) {
+  if (t.udp == nullptr) throw std::invalid_argument("this sim has no network to disturb");
+  applyNetwork(t.udp->faults(), j, NetworkFaults::Clock::now());
+}
+
+void machineRouteAction(const ApiTarget& t, const json& j) {
+  if (t.machine == nullptr) throw NoMachine();
+  machineAction(*t.machine, j);
+}
+
+void inputAction(const ApiTarget& t, const json& j) {
+  auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
+  const auto n = index(j, "input", remote::FieldIoProcessor::kInputs);
+  const double v = j.contains("volts") ? number(j, "volts", 0, kMaxVolts, kVoltsRange)
+                                       : (flag(j, "on") ? io.fieldVoltage() : 0.0);
+  io.setInputVoltage(n, v);
+}
+
+void fieldAction(const ApiTarget& t, const json& j) {
+  auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
+  // Both checked before either changes anything.
+  const bool volts = j.contains("volts"), vin = j.contains("vin");
+  const double v = volts ? number(j, "volts", 0, kMaxVolts, kVoltsRange) : 0;
+  const double w = vin ? number(j, "vin", 0, kMaxVolts, kVoltsRange) : 0;
+  if (volts) io.setFieldVoltage(v, t.card.now());
+  if (vin) io.setVin(w, t.card.now());
+}
+
+void encoderAction(const ApiTarget& t, const json& j) {
+  const auto d = connector(j, t.card);
+  constexpr unsigned kPer = SimState::kEncodersPerDaughtercard;
+  const auto n = index(j, "encoder", kPer) + kPer * d;
+  const bool cpr = j.contains("counts_per_rev"), vel = j.contains("velocity");
+  const auto c = cpr ? whole(j, "counts_per_rev", kMaxCountsPerRev,
+                             fmt::format("from 0 to {} (0: no index)", kMaxCountsPerRev))
+                     : 0;
+  const double v = vel ? number(j, "velocity", -kMaxCountsPerSecond, kMaxCountsPerSecond,
+                                fmt::format("from {:g} to {:g} (counts per second)", -kMaxCountsPerSecond,
+                                            kMaxCountsPerSecond))
+                       : 0;
+  auto& enc = t.card.encoders();
+  if (cpr) enc.setIndexPeriod(n, static_cast<std::uint32_t>(c));
+  if (vel) enc.setVelocity(n, v, t.card.now());
+}
+
+void cableAction(const ApiTarget& t, const json& j) {
+  const auto ch = index(j, "channel", t.card.smartSerial().channels());
+  t.card.smartSerial().link(ch).setConnected(flag(j, "connected"));
+}
+
+void outputAction(const ApiTarget& t, const json& j) {
+  auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
+  const auto n = index(j, "output", remote::FieldIoProcessor::kOutputs);
+  double ohms = std::numeric_limits<double>::infinity();  // {} or null: an open terminal
+  if (flag(j, "short", false))
+    ohms = 0;
+  else if (j.contains("ohms") && !j.at("ohms").is_null())
+    ohms = number(j, "ohms", std::numeric_limits<double>::min(), kMaxOhms,
+                  fmt::format("above 0 and at most {:g}, or null for an open output (\"short\": true "
+                              "for a short)",
+                              kMaxOhms));
+  io.setOutputLoad(n, ohms);
+}
+
+void overtempAction(const ApiTarget& t, const json& j) {
+  auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
+  io.setDriverOverTemperature(index(j, "chip", remote::FieldIoProcessor::kChips), flag(j, "hot"));
+}
+
+void timeAction(const ApiTarget& t, const json& j) {
+  const double speed =
+      j.contains("speed")
+          ? number(j, "speed", std::numeric_limits<double>::min(), kMaxSpeed,
+                   fmt::format("above 0 and at most {:g} (simulated seconds per second)", kMaxSpeed))
+          : t.clock.speed();
+  const double step = j.contains("step_ms") ? number(j, "step_ms", 0, kMaxStepMs, "from 0 to 60000") : 0;
+  t.clock.set(speed, flag(j, "paused", t.clock.paused()));
+  if (step > 0) t.clock.advanceBy(lbp::SimTime{static_cast<std::int64_t>(step * 1e6)});
+}
+
+constexpr std::pair<std::string_view, Action> kActions[] = {
+    {"input", inputAction},
+    {"field", fieldAction},
+    {"encoder", encoderAction},
+    {"cable", cableAction},
+    {"output", outputAction},
+    {"overtemp", overtempAction},
+    {"time", timeAction},
+    {"network", networkAction},
+    {"machine", machineRouteAction},
+};
+
+}  // namespace
+
+void applyAction(const ApiTarget& t, std::string_view kind, const json& body) {
+  for (const auto& [name, action] : kActions)
+    if (name == kind) return action(t, body);
+  std::vector<std::string_view> names;
+  for (const auto& a : kActions) names.push_back(a.first);
+  throw std::invalid_argument(fmt::format("no fault or action \"{}\" (there are {})", kind, listed(names)));
+}
+
+std::vector<std::string> actionKinds() {
+  std::vector<std::string> names;
+  for (const auto& a : kActions) names.emplace_back(a.first);
+  return names;
+}
+
+namespace {
+
 void addMachineRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner& run) {
   // Whether there is a machine never changes: said at once, without the card thread.
   auto answer = [](httplib::Response& res, int status, const std::string& content) {
@@ -266,7 +345,7 @@ void addMachineRoutes(httplib::Server& http, const ApiTarget& t, const CardThrea
   http.Post("/api/machine", guarded([t, run](const httplib::Request& req) {
               if (t.machine == nullptr) throw NoMachine();
               return run([t, j = body(req)] {
-                machineAction(*t.machine, j);
+                machineRouteAction(t, j);
                 return t.machineState();
               });
             }));
@@ -297,76 +376,27 @@ void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner
   // happen at the card's own time (it may lag the clock while it catches up).
   http.Get("/api/state", handle([t](const json&) { return t.state(); }));
   addMachineRoutes(http, t, run);
-  http.Post("/api/input", handle([t](const json& j) {
-              auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
-              const auto n = index(j, "input", remote::FieldIoProcessor::kInputs);
-              const double v = j.contains("volts") ? number(j, "volts", 0, kMaxVolts, kVoltsRange)
-                                                   : (flag(j, "on") ? io.fieldVoltage() : 0.0);
-              io.setInputVoltage(n, v);
-              return t.state();
+  // The network (issue 13): what is set and what it did.
+  auto network = [t] {
+    if (t.udp == nullptr) throw std::invalid_argument("this sim has no network to disturb");
+    const auto now = NetworkFaults::Clock::now();
+    NetworkSnapshot s{t.udp->faults().settings(), t.udp->faults().counters(), t.udp->faults().silentFor(now),
+                      t.udp->held()};
+    return Answer{[s] { return toJson(s).dump(); }};
+  };
+  http.Get("/api/network", handle([network](const json&) { return network(); }));
+  http.Post("/api/network", handle([t, network](const json& j) {
+              networkAction(t, j);
+              return network();
             }));
-  http.Post("/api/field", handle([t](const json& j) {
-              auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
-              // Both checked before either changes anything.
-              const bool volts = j.contains("volts"), vin = j.contains("vin");
-              const double v = volts ? number(j, "volts", 0, kMaxVolts, kVoltsRange) : 0;
-              const double w = vin ? number(j, "vin", 0, kMaxVolts, kVoltsRange) : 0;
-              if (volts) io.setFieldVoltage(v, t.card.now());
-              if (vin) io.setVin(w, t.card.now());
-              return t.state();
-            }));
-  http.Post("/api/encoder", handle([t](const json& j) {
-              const auto d = connector(j, t.card);
-              constexpr unsigned kPer = SimState::kEncodersPerDaughtercard;
-              const auto n = index(j, "encoder", kPer) + kPer * d;
-              const bool cpr = j.contains("counts_per_rev"), vel = j.contains("velocity");
-              const auto c = cpr ? whole(j, "counts_per_rev", kMaxCountsPerRev,
-                                         fmt::format("from 0 to {} (0: no index)", kMaxCountsPerRev))
-                                 : 0;
-              const double v = vel ? number(j, "velocity", -kMaxCountsPerSecond, kMaxCountsPerSecond,
-                                            fmt::format("from {:g} to {:g} (counts per second)", -kMaxCountsPerSecond,
-                                                        kMaxCountsPerSecond))
-                                   : 0;
-              auto& enc = t.card.encoders();
-              if (cpr) enc.setIndexPeriod(n, static_cast<std::uint32_t>(c));
-              if (vel) enc.setVelocity(n, v, t.card.now());
-              return t.state();
-            }));
-  http.Post("/api/cable", handle([t](const json& j) {
-              const auto ch = index(j, "channel", t.card.smartSerial().channels());
-              t.card.smartSerial().link(ch).setConnected(flag(j, "connected"));
-              return t.state();
-            }));
-  http.Post("/api/output", handle([t](const json& j) {
-              auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
-              const auto n = index(j, "output", remote::FieldIoProcessor::kOutputs);
-              double ohms = std::numeric_limits<double>::infinity();  // {} or null: an open terminal
-              if (flag(j, "short", false))
-                ohms = 0;
-              else if (j.contains("ohms") && !j.at("ohms").is_null())
-                ohms = number(j, "ohms", std::numeric_limits<double>::min(), kMaxOhms,
-                              fmt::format("above 0 and at most {:g}, or null for an open output (\"short\": true "
-                                          "for a short)",
-                                          kMaxOhms));
-              io.setOutputLoad(n, ohms);
-              return t.state();
-            }));
-  http.Post("/api/overtemp", handle([t](const json& j) {
-              auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
-              io.setDriverOverTemperature(index(j, "chip", remote::FieldIoProcessor::kChips), flag(j, "hot"));
-              return t.state();
-            }));
-  http.Post("/api/time", handle([t](const json& j) {
-              const double speed =
-                  j.contains("speed")
-                      ? number(j, "speed", std::numeric_limits<double>::min(), kMaxSpeed,
-                               fmt::format("above 0 and at most {:g} (simulated seconds per second)", kMaxSpeed))
-                      : t.clock.speed();
-              const double step = j.contains("step_ms") ? number(j, "step_ms", 0, kMaxStepMs, "from 0 to 60000") : 0;
-              t.clock.set(speed, flag(j, "paused", t.clock.paused()));
-              if (step > 0) t.clock.advanceBy(lbp::SimTime{static_cast<std::int64_t>(step * 1e6)});
-              return t.state();
-            }));
+  // Every other POST /api/KIND carries out its action and answers the state.
+  for (const auto& [name, action] : kActions) {
+    if (name == "network" || name == "machine") continue;
+    http.Post("/api/" + std::string(name), handle([t, action = action](const json& j) {
+                action(t, j);
+                return t.state();
+              }));
+  }
 }
 
 // --- Who may use the API (checked before anything is read or done).

@@ -12,9 +12,13 @@
 #include <cstddef>
 #include <functional>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "daemon/sim_clock.hpp"
+#include "lbp16/udp_server.hpp"
 #include "daemon/trace_ring.hpp"
 #include "hostmot2/card.hpp"
 #include "machine/machine.hpp"
@@ -61,6 +65,8 @@ struct ApiTarget {
   machine::Machine* machine = nullptr;
   std::function<Answer()> machineState;  // GET /api/machine's answer
   const TraceRing* trace = nullptr;      // GET /api/machine/trace reads it on the API's threads
+  // The network between host and card: /api/network sets its faults.
+  UdpServer* udp = nullptr;
 };
 
 // Runs a job on the card thread and returns its answer's text, made on the
@@ -68,6 +74,14 @@ struct ApiTarget {
 // (std::invalid_argument: a bad request); it throws std::runtime_error when
 // the card thread does not get to it in time or the sim is stopping.
 using CardThreadRunner = std::function<std::string(std::function<Answer()>)>;
+
+// Carries out POST /api/KIND's request (its action, without the answer) on
+// the card thread: what a fault script's entry does at its time. Throws
+// std::invalid_argument naming what is wrong (an unknown kind included).
+void applyAction(const ApiTarget& t, std::string_view kind, const nlohmann::json& body);
+// The kinds there are: input, field, encoder, cable, output, overtemp,
+// time, network, machine.
+std::vector<std::string> actionKinds();
 
 class ControlApi {
  public:

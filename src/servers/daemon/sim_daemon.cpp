@@ -17,6 +17,9 @@ namespace net {
 
 SimDaemon::SimDaemon(SimOptions options)
     : options_(std::move(options)), card_(options_.card), clock_(options_.speed, options_.paused) {
+  // First: a script that cannot run stops the sim before it binds anything.
+  if (!options_.faultScript.empty())
+    script_ = std::make_unique<FaultScript>(std::move(options_.faultScript), options_.card, options_.machine);
   if (options_.machine) {
     if (options_.demo) throw std::invalid_argument("a machine and the demo world both want the 7I77's terminals");
     machine_ = std::make_unique<machine::Machine>(*options_.machine, card_, card_.now(), 0);
@@ -53,14 +56,15 @@ SimDaemon::SimDaemon(SimOptions options)
         },
         this);
 
+  target_ = std::make_unique<ApiTarget>(ApiTarget{card_, clock_, [this] { return stateAnswer(); }, machine_.get(),
+                                                  [this] { return machineAnswer(); }, trace_.get(), udp_.get()});
+  scriptLog_ = [this](const std::string& text) { log(LogLevel::Info, text); };
   if (options_.apiPort >= 0) {
     ApiOptions api;
     api.address = options_.apiAddress;
     api.port = options_.apiPort;
     api.token = options_.apiToken;
-    api_ = std::make_unique<ControlApi>(api,
-                                        ApiTarget{card_, clock_, [this] { return stateAnswer(); }, machine_.get(),
-                                                  [this] { return machineAnswer(); }, trace_.get()},
+    api_ = std::make_unique<ControlApi>(api, *target_,
                                         [this](std::function<Answer()> job) { return runJob(std::move(job)); });
     apiPort_ = api_->port();
   }
@@ -179,6 +183,7 @@ std::string SimDaemon::banner() const {
                      b.fieldIo.nvStore().file().empty() ? "" : ", EEPROM " + b.fieldIo.nvStore().file().string());
   }
   s += fmt::format("  configuration: {}\n", options_.configDescription);
+  if (script_) s += fmt::format("  fault script: {} entries, from {}\n", script_->size(), options_.configDescription);
   if (machine_) {
     const auto& d = machine_->description();
     std::string axes;
@@ -287,11 +292,14 @@ void SimDaemon::run(const std::atomic<bool>& stop) {
       latency_.add(udp_->sinceReceived());
       queueing_.add(udp_->lastQueueing());
     }
+    // A reply the network would not take: the card's TX error (space 6).
+    for (; sendFailuresSeen_ < udp_->sendFailures(); ++sendFailuresSeen_) lbp16.noteSendFailed();
     // A datagram that queued for long says more may be waiting: they come
     // first, each at its own time, before the card runs on to the clock.
     constexpr std::chrono::milliseconds kBacklog{1};
     if (!served || udp_->lastQueueing() < kBacklog) catchUp();
     if (machine_) record();
+    if (script_) script_->runDue(card_.now(), *target_, scriptLog_);
     if (options_.demo) {
       auto& io = card_.daughtercard(0).fieldIo;
       for (unsigned i = 0; i < remote::FieldIoProcessor::kOutputs; ++i) {

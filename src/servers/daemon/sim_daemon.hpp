@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "daemon/api_routes.hpp"
+#include "daemon/fault_script.hpp"
 #include "daemon/sim_clock.hpp"
 #include "daemon/trace_file.hpp"
 #include "daemon/trace_ring.hpp"
@@ -62,6 +63,8 @@ struct SimOptions {
   // empty: in memory, blank at every start.
   std::filesystem::path flashFile;
   std::string configDescription = "built-in default";
+  // Faults at set simulated times (the TOML's [[fault]] entries, issue 13).
+  std::vector<ScriptedFault> faultScript;
 };
 
 struct SimState;
@@ -117,6 +120,11 @@ class SimDaemon {
   std::unique_ptr<TraceFile> traceFile_;  // after trace_: it reads it until it goes
   std::unique_ptr<Lbp16Card> lbp16_;
   std::unique_ptr<UdpServer> udp_;
+  // What the API's routes and the fault script act on.
+  std::unique_ptr<ApiTarget> target_;
+  std::unique_ptr<FaultScript> script_;
+  std::uint64_t sendFailuresSeen_ = 0;
+  std::function<void(const std::string&)> scriptLog_;
   SimClock clock_;
   std::string interface_;
   std::string schedule_ = "normal scheduling";

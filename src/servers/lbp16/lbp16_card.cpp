@@ -2,32 +2,61 @@
 
 #include <algorithm>
 #include <cstring>
+#include <stdexcept>
 
 namespace net {
 
 namespace {
-constexpr std::uint8_t k8 = 1, k16 = 2, k32 = 4, k64 = 8;
+constexpr std::uint8_t k8 = 1, k16 = 2, k32 = 4;
 // Flash: a 16 Mbit SPI part, as on a real 7I92 (ID low byte 0x14).
 constexpr std::uint32_t kFlashId = 0x00164014;
 using lbp16::kEepromWriteEnableKey;
 using lbp16::kFlashWriteEnableKey;
 constexpr std::uint32_t kFlashBytes = 2 * 1024 * 1024;  // 16 Mbit
 constexpr std::uint32_t kFlashSector = 64 * 1024;
+// The EEPROM's first 16 words (MAC, reserved words, card name) cannot be
+// written with the public write enable 0x5A02 (LBPPARSE.ASM lbpwrite2: word
+// address 15 or below is a write error).
+constexpr std::uint32_t kEepromFirstWritable = 0x20;
+
+// Space 4 (ETHERHM2.INC mem4; LinuxCNC's lbp_timers_area), word addresses.
+namespace timer {
+constexpr unsigned kTimestamp = 0;     // microseconds; writes do nothing
+constexpr unsigned kWaitUs = 1;        // a write waits that many us; reads give the last wait
+constexpr unsigned kHm2Timeout = 2;    // us the WaitForHM2 registers wait at most
+constexpr unsigned kWaitForHm2 = 3;    // 3 RefTime, 4..7 Timer1..4: wait for that timer's edge
+constexpr unsigned kScratchWords = 8;  // words 8..15 (0x10..0x1F)
+}  // namespace timer
+// Space 6 (ETHERHM2.INC mem6; LinuxCNC's lbp_status_area; mesaflash), word addresses.
+namespace status {
+constexpr unsigned kError = 0, kParseErrors = 1, kMemErrors = 2, kWriteErrors = 3;
+constexpr unsigned kRxPackets = 4, kRxUdp = 5, kRxBad = 6, kTxPackets = 7, kTxUdp = 8, kTxBad = 9;
+constexpr unsigned kWriteEnable = lbp16::comm::kEepromWriteEnable / 2;  // 0x1A
+}  // namespace status
 
 std::uint16_t le16(const std::uint8_t* p) { return static_cast<std::uint16_t>(p[0] | (p[1] << 8)); }
+// The firmware's counters stop at 0xFFFF rather than wrap.
+void bump(std::uint16_t& counter) {
+  if (counter != 0xFFFF) ++counter;
+}
 }  // namespace
 
 const Lbp16Card::Area* Lbp16Card::area(std::uint8_t space) {
-  // Declared once: every LBP16 space this card has.
+  // Names, size words and ranges as Mesa's Ethernet firmware sets them up
+  // (ETHERHM2.INC LBPMemSpaceN / LBPMemRangesN, ETHERINI.ASM): bit 15 of the
+  // size word is "writable", 14..8 the type (1 registers, 2 memory, 0x0E
+  // EEPROM, 0x0F flash), 3..0 the widths allowed. Ranges are log2 of the
+  // size (the flash's also page and erase sizes: 256 B, 64 KB); spaces 4, 6
+  // and 7 say 4 but hold 16 words.
   static constexpr Area kAreas[8] = {
-      {"HostMot2", 0x10000, k32 | k64, 1, true},  // 0
-      {"ENetChip", 0x100, k16, 1, false},         // 1
-      {"EEPROM", 0x80, k8 | k16, 14, true},       // 2
-      {"SPIFlash", 0x10, k32, 15, true},          // 3
-      {"Timers", 0x20, k16, 1, true},             // 4
-      {nullptr, 0, 0, 0, false},                  // 5: none
-      {"LBPStat", 0x20, k16, 1, true},            // 6
-      {"BoardID", 0x20, k8 | k16, 2, false},      // 7
+      {"HostMot2", 0x8100 | k32, 0x0010, 0x10000},      // 0
+      {"KSZ8851", 0x8100 | k16, 0x0008, 0x100},         // 1
+      {"EtherEEP", 0x8E00 | k16, 0x0007, 0x80},         // 2
+      {"FPGAFlsh", 0x8F00 | k32, 0x8200 | 21, 0x10},    // 3: 2^21 bytes, 2^8 pages, 2^16 erase
+      {"Timers", 0x8200 | k16, 0x0004, 0x20},           // 4
+      {nullptr, 0, 0, 0},                               // 5: none
+      {"LBP16RW", 0x8200 | k16, 0x0004, 0x20},          // 6
+      {"LBP16RO", 0x0200 | k16, 0x0004, 0x20},          // 7
   };
   return space < 8 && kAreas[space].name ? &kAreas[space] : nullptr;
 }
@@ -44,19 +73,26 @@ Lbp16Card::Lbp16Card(hm2::HostMot2Card& card, Identity identity)
               eeprom_.begin() + lbp16::eeprom::kCardName);
   const auto& ip = identity_.ip;
   for (unsigned i = 0; i < 4; ++i) eeprom_[lbp16::eeprom::kIp + i] = ip[3 - i];
+  if (!identity_.flashFile.empty()) {
+    const auto loaded = loadFlashFile(identity_.flashFile, flash_);
+    if (loaded.status == FlashFileLoad::Status::Refused) throw std::runtime_error(loaded.message);
+    saver_ = std::make_unique<FlashSaver>(identity_.flashFile, [this](std::vector<std::uint8_t>& into) {
+      const std::lock_guard<std::mutex> l(flashMutex_);
+      into.assign(flash_.begin(), flash_.end());
+    });
+    // A file of the wrong size or CRC starts blank: written at the first change.
+  }
 }
 
+Lbp16Card::~Lbp16Card() = default;  // the saver saves what changed since its last save
+
 std::uint8_t Lbp16Card::infoByte(std::uint8_t space, std::uint32_t offset) const {
-  // Area info: cookie, size (RW, type, widths), range (log2 sizes), address, name[8].
+  // Area info (ETHERHM2.INC memNc): cookie 0x5A0n, size word, ranges, the
+  // space's address pointer, name (8 characters, NUL padded).
   const Area* a = area(space);
   if (a == nullptr) return 0;
-  unsigned log2 = 0;
-  while ((1U << log2) < a->bytes) ++log2;
-  std::uint16_t words[4] = {
-      static_cast<std::uint16_t>(lbp16::kInfoAreaCookie | space),
-      static_cast<std::uint16_t>((a->writable ? 0x8000 : 0) | (a->type << 8) | a->widths),
-      static_cast<std::uint16_t>(space == 3 ? (21U | (8U << 6) | (16U << 11)) : log2),  // flash: 2 MB, 256 B pages, 64 KB erase
-      0};
+  const std::uint16_t words[4] = {static_cast<std::uint16_t>(lbp16::kInfoAreaCookie | space), a->sizeWord, a->ranges,
+                                  pointer_[space]};
   if (offset < 8) return static_cast<std::uint8_t>(words[offset / 2] >> (8 * (offset % 2)));
   if (offset < 16) {
     const std::size_t i = offset - 8;
@@ -76,30 +112,45 @@ Lbp16Card::Eeprom Lbp16Card::eeprom() const {
   return e;
 }
 
+void Lbp16Card::error(std::uint16_t bit) {
+  status_[status::kError] |= bit;
+  switch (bit) {
+    case ErrorBit::kParse: ++counters_.parseErrors; bump(status_[status::kParseErrors]); break;
+    case ErrorBit::kMemory: ++counters_.memoryErrors; bump(status_[status::kMemErrors]); break;
+    case ErrorBit::kWrite: ++counters_.writeErrors; bump(status_[status::kWriteErrors]); break;
+    case ErrorBit::kRx: ++counters_.rxErrors; bump(status_[status::kRxBad]); break;
+    case ErrorBit::kTx: ++counters_.txErrors; bump(status_[status::kTxBad]); break;
+    case ErrorBit::kHm2Timeout: ++counters_.hm2Timeouts; break;
+    default: break;
+  }
+}
+
+void Lbp16Card::noteSendFailed() { error(ErrorBit::kTx); }
+
+void Lbp16Card::waitForHm2() {
+  // WaitForHM2RefTime / Timer1..4 wait for the rising edge of a HostMot2
+  // timer (the HM2DPLL module's) or HM2Timeout us. This firmware
+  // (PIN_7I77x2_34) has no DPLL, so every wait ends by the timeout and sets
+  // the HostMot2-timeout error (LBPPARSE.ASM waitforhtimer).
+  const std::uint16_t us = timer_[timer::kHm2Timeout];
+  wait(std::chrono::microseconds(us));
+  error(ErrorBit::kHm2Timeout);
+  timer_[timer::kWaitForHm2] = us;  // a read returns how long it waited
+}
+
 std::uint16_t Lbp16Card::readWord16(std::uint8_t space, std::uint32_t address, hm2::SimTime now) {
-  const auto us = static_cast<std::uint64_t>(now.count() / 1000);
+  const unsigned word = address / 2;
   switch (space) {
+    case 1: return ethernetChip_[word % ethernetChip_.size()];
     case 2: return static_cast<std::uint16_t>(eeprom_[address & 0x7F] | (eeprom_[(address + 1) & 0x7F] << 8));
     case 4:
-      if (address >= lbp16::timer::kScratch && address < lbp16::timer::kScratchEnd)
-        return scratch_[(address - lbp16::timer::kScratch) / 2];
-      if (address == lbp16::timer::kMicroseconds) return static_cast<std::uint16_t>(us);  // microsecond timestamp
-      return 0;
-    case 6:
-      switch (address) {
-        case 0x00: return static_cast<std::uint16_t>(counters_.parseErrors || counters_.memoryErrors || counters_.writeErrors);
-        case 0x02: return static_cast<std::uint16_t>(counters_.parseErrors);
-        case 0x04: return static_cast<std::uint16_t>(counters_.memoryErrors);
-        case 0x06: return static_cast<std::uint16_t>(counters_.writeErrors);
-        case 0x08:
-        case 0x0A: return static_cast<std::uint16_t>(counters_.packets);  // RX packets / good UDP
-        case 0x0C: return static_cast<std::uint16_t>(counters_.parseErrors);
-        case 0x0E:
-        case 0x10: return static_cast<std::uint16_t>(counters_.replies);
-        case 0x14: return ledMode_;
-        case lbp16::comm::kScratch: return commScratch_;
-        default: return 0;
+      if (word == timer::kTimestamp) return static_cast<std::uint16_t>(now.count() / 1000);  // microseconds
+      if (word >= timer::kWaitForHm2 && word < timer::kWaitForHm2 + 5) {
+        waitForHm2();
+        return timer_[timer::kWaitForHm2];
       }
+      return timer_[word % timer_.size()];
+    case 6: return status_[word % status_.size()];
     case 7: {
       if (address < 0x10) {
         auto ch = [&](std::uint32_t i) {
@@ -116,15 +167,40 @@ std::uint16_t Lbp16Card::readWord16(std::uint8_t space, std::uint32_t address, h
   }
 }
 
+void Lbp16Card::writeWord16(std::uint8_t space, std::uint32_t address, std::uint16_t value) {
+  const unsigned word = address / 2;
+  switch (space) {
+    case 1: ethernetChip_[word % ethernetChip_.size()] = value; return;
+    case 2:
+      // The public write enable opens the EEPROM from 0x20 on (IP, LED
+      // debug and the rest); the MAC and board name stay as they are.
+      if (status_[status::kWriteEnable] != kEepromWriteEnableKey || address < kEepromFirstWritable) {
+        error(ErrorBit::kWrite);
+        return;
+      }
+      eeprom_[address & 0x7F] = static_cast<std::uint8_t>(value);
+      eeprom_[(address + 1) & 0x7F] = static_cast<std::uint8_t>(value >> 8);
+      return;
+    case 4:
+      timer_[word % timer_.size()] = value;  // stored, as the firmware does, whatever the register
+      if (word == timer::kWaitUs) wait(std::chrono::microseconds(value));
+      if (word >= timer::kWaitForHm2 && word < timer::kWaitForHm2 + 5) waitForHm2();
+      return;
+    case 6:
+      // Every word is the host's to write (the counters and the error
+      // register too: writing 0 clears them); 0x1C reset and 0x1E ICAP
+      // reload do nothing for a virtual FPGA.
+      status_[word % status_.size()] = value;
+      return;
+    default: error(ErrorBit::kWrite); return;
+  }
+}
+
 std::uint64_t Lbp16Card::read(std::uint8_t space, std::uint32_t address, unsigned size, hm2::SimTime now) {
   switch (space) {
-    case 0: {
-      const std::uint64_t lo = card_.read32(static_cast<std::uint16_t>(address), now);
-      if (size == 4) return lo;
-      return lo | (static_cast<std::uint64_t>(card_.read32(static_cast<std::uint16_t>(address + 4), now)) << 32);
-    }
+    case 0: return card_.read32(static_cast<std::uint16_t>(address), now);
     case 3:
-      switch (address & 0xC) {
+      switch (address) {
         case 0: return flashAddress_;
         case 4: {
           std::uint32_t v = 0;
@@ -133,126 +209,149 @@ std::uint64_t Lbp16Card::read(std::uint8_t space, std::uint32_t address, unsigne
           return v;
         }
         case 8: return kFlashId;
-        default: return 0;
+        default: error(ErrorBit::kMemory); return 0;  // the erase register is write only
       }
     default: {
       std::uint64_t v = 0;
       for (unsigned i = 0; i < size; i += 2) v |= static_cast<std::uint64_t>(readWord16(space, address + i, now)) << (8 * i);
-      return size == 1 ? v & 0xFF : v;
+      return v;
     }
   }
 }
 
 void Lbp16Card::write(std::uint8_t space, std::uint32_t address, unsigned size, std::uint64_t value, hm2::SimTime now) {
   switch (space) {
-    case 0:
-      card_.write32(static_cast<std::uint16_t>(address), static_cast<std::uint32_t>(value), now);
-      if (size == 8) card_.write32(static_cast<std::uint16_t>(address + 4), static_cast<std::uint32_t>(value >> 32), now);
-      return;
-    case 2:
-      if (writeEnable_ != kEepromWriteEnableKey) {
-        ++counters_.writeErrors;
-        return;
-      }
-      for (unsigned i = 0; i < size; ++i) eeprom_[(address + i) & 0x7F] = static_cast<std::uint8_t>(value >> (8 * i));
-      return;
-    case 3:
-      if ((address & 0xC) == 0) {
+    case 0: card_.write32(static_cast<std::uint16_t>(address), static_cast<std::uint32_t>(value), now); return;
+    case 3: {
+      if (address == 0) {
         flashAddress_ = static_cast<std::uint32_t>(value) % kFlashBytes;
         return;
       }
-      if (writeEnable_ != kFlashWriteEnableKey || (address & 0xC) == 8) {
-        ++counters_.writeErrors;  // programming needs the write enable; the ID is read only
+      if (address == 8) {
+        error(ErrorBit::kMemory);  // the ID cannot be written (LBPPARSE.ASM lbpwrite3)
         return;
       }
-      if ((address & 0xC) == 0xC) {
-        // Sector erase: the 64 KB sector holding the flash address reads 0xFF.
-        const auto start = flashAddress_ / kFlashSector * kFlashSector;
-        std::fill_n(flash_.begin() + start, kFlashSector, std::uint8_t{0xFF});
+      if (status_[status::kWriteEnable] != kFlashWriteEnableKey) {
+        error(ErrorBit::kWrite);  // programming and erasing need the write enable
         return;
       }
-      // Page program: NOR flash only clears bits; the address advances.
-      for (unsigned i = 0; i < 4; ++i) {
-        auto& b = flash_[(flashAddress_ + i) % kFlashBytes];
-        b = static_cast<std::uint8_t>(b & (value >> (8 * i)));
+      {
+        const std::lock_guard<std::mutex> l(flashMutex_);
+        if (address == 0xC) {
+          // Sector erase: the 64 KB sector holding the flash address reads 0xFF.
+          const auto start = flashAddress_ / kFlashSector * kFlashSector;
+          std::fill_n(flash_.begin() + start, kFlashSector, std::uint8_t{0xFF});
+        } else {
+          // Page program: NOR flash only clears bits; the address advances.
+          for (unsigned i = 0; i < 4; ++i) {
+            auto& b = flash_[(flashAddress_ + i) % kFlashBytes];
+            b = static_cast<std::uint8_t>(b & (value >> (8 * i)));
+          }
+          flashAddress_ = (flashAddress_ + 4) % kFlashBytes;
+        }
       }
-      flashAddress_ = (flashAddress_ + 4) % kFlashBytes;
+      flashChanged();
       return;
-    case 4:
-      if (address >= lbp16::timer::kScratch && address < lbp16::timer::kScratchEnd) {
-        for (unsigned i = 0; i < size; i += 2)
-          if (address + i < lbp16::timer::kScratchEnd) scratch_[(address + i - lbp16::timer::kScratch) / 2] = static_cast<std::uint16_t>(value >> (8 * i));
-      }
-      return;
-    case 6:
-      if (address == 0x14) ledMode_ = static_cast<std::uint16_t>(value);
-      else if (address == lbp16::comm::kScratch) commScratch_ = static_cast<std::uint16_t>(value);
-      else if (address == lbp16::comm::kEepromWriteEnable) writeEnable_ = static_cast<std::uint16_t>(value);
-      // 0x1C reset and 0x1E ICAP reload: nothing to do for a virtual FPGA
-      return;
+    }
     default:
-      ++counters_.writeErrors;
+      for (unsigned i = 0; i < size; i += 2) writeWord16(space, address + i, static_cast<std::uint16_t>(value >> (8 * i)));
       return;
   }
 }
 
 std::size_t Lbp16Card::handle(std::span<const std::uint8_t> request, std::span<std::uint8_t> reply, hm2::SimTime now) {
   ++counters_.packets;
-  writeEnable_ = 0;
+  bump(status_[status::kRxPackets]);
+  status_[status::kWriteEnable] = 0;  // each datagram starts without the write enable
+  waited_ = std::chrono::microseconds{0};
   if (request.size() > kMaxDatagram) {
-    ++counters_.parseErrors;  // bigger than one frame: a real card never sees it
+    error(ErrorBit::kRx);  // bigger than one frame: a real card never receives it whole
     return 0;
   }
   const std::size_t limit = std::min(reply.size(), kMaxDatagram);
   std::size_t pos = 0, out = 0;
+  bool clean = true;
   while (pos < request.size()) {
     if (pos + 2 > request.size()) {
-      ++counters_.parseErrors;
+      error(ErrorBit::kParse);
+      clean = false;
       break;
     }
     const auto cmd = lbp16::Command::decode(le16(&request[pos]));
     pos += 2;
-    std::uint32_t address = pointer_[cmd.space];
+    std::uint16_t& pointer = cmd.infoArea ? infoPointer_ : pointer_[cmd.space];
+    std::uint32_t address = pointer;
     if (cmd.hasAddress) {
       if (pos + 2 > request.size()) {
-        ++counters_.parseErrors;
+        error(ErrorBit::kParse);
+        clean = false;
         break;
       }
       address = le16(&request[pos]);
       pos += 2;
     }
     const unsigned bytes = cmd.dataBytes();
+    if (cmd.count == 0) {
+      error(ErrorBit::kParse);  // a null command ends the datagram (LBPPARSE.ASM)
+      clean = false;
+      break;
+    }
     if (cmd.write ? pos + bytes > request.size() : out + bytes > limit) {
-      ++counters_.parseErrors;  // missing write data, or a reply bigger than a frame
+      // Missing write data; or a reply bigger than a frame (the firmware's
+      // send buffer limit: a memory error).
+      error(cmd.write ? ErrorBit::kParse : ErrorBit::kMemory);
+      clean = false;
       break;
     }
     const Area* a = area(cmd.space);
-    const bool widthOk = a && (cmd.infoArea || (a->widths & cmd.size));
-    if (!widthOk) ++counters_.memoryErrors;
+    // A space the card lacks, or a width it does not take (info areas are
+    // 16-bit): a parse error in the firmware, which answers nothing; here
+    // the command still gets its length (zeros), so a client never waits.
+    const bool widthOk = a && (cmd.infoArea ? cmd.size == 2 : (a->sizeWord & cmd.size) != 0);
+    if (!widthOk) {
+      error(ErrorBit::kParse);
+      clean = false;
+    }
+    // The flash space's registers do not move: its data register advances
+    // the flash address itself (LBPPARSE.ASM parse_3 keeps lbpaddr3).
+    const bool advance = cmd.autoIncrement && (cmd.infoArea || cmd.space != 3);
     for (unsigned i = 0; i < cmd.count; ++i) {
-      const std::uint32_t at = address + (cmd.autoIncrement ? i * cmd.size : 0);
+      const std::uint32_t at = address + (advance ? i * cmd.size : 0);
       const bool inRange = a && at + cmd.size <= (cmd.infoArea ? 16U : a->bytes);
-      if (!inRange && widthOk) ++counters_.memoryErrors;
+      if (!inRange && widthOk) {
+        error(ErrorBit::kMemory);
+        clean = false;
+      }
+      // Waits (timer space) make what follows happen later.
+      const hm2::SimTime t = now + std::chrono::duration_cast<hm2::SimTime>(waited_);
       if (cmd.write) {
         std::uint64_t v = 0;
         for (unsigned b = 0; b < cmd.size; ++b) v |= static_cast<std::uint64_t>(request[pos + b]) << (8 * b);
         pos += cmd.size;
-        if (cmd.infoArea) ++counters_.writeErrors;
-        else if (widthOk && inRange) write(cmd.space, at, cmd.size, v, now);
-        else if (a && !a->writable) ++counters_.writeErrors;
+        if (cmd.infoArea || (a && (a->sizeWord & 0x8000) == 0)) {
+          error(ErrorBit::kWrite);  // info areas and read-only spaces
+          clean = false;
+        } else if (widthOk && inRange) {
+          write(cmd.space, at, cmd.size, v, t);
+        }
       } else {
         std::uint64_t v = 0;
-        if (cmd.infoArea && inRange) {
+        if (cmd.infoArea && inRange && widthOk) {
           for (unsigned b = 0; b < cmd.size; ++b) v |= static_cast<std::uint64_t>(infoByte(cmd.space, at + b)) << (8 * b);
         } else if (widthOk && inRange) {
-          v = read(cmd.space, at, cmd.size, now);
+          v = read(cmd.space, at, cmd.size, t);
         }
         for (unsigned b = 0; b < cmd.size; ++b) reply[out++] = static_cast<std::uint8_t>(v >> (8 * b));
       }
     }
-    pointer_[cmd.space] = static_cast<std::uint16_t>(cmd.autoIncrement ? address + bytes : address);
+    pointer = static_cast<std::uint16_t>(advance ? address + bytes : address);
   }
-  if (out > 0) ++counters_.replies;
+  if (clean) bump(status_[status::kRxUdp]);  // a datagram parsed without error
+  if (out > 0) {
+    ++counters_.replies;
+    bump(status_[status::kTxPackets]);
+    bump(status_[status::kTxUdp]);
+  }
   return out;
 }
 

@@ -42,9 +42,13 @@ UdpServer::~UdpServer() {
   if (fd_ >= 0) ::close(fd_);
 }
 
-long UdpServer::receive(std::chrono::milliseconds timeout) {
+long UdpServer::receive(std::chrono::nanoseconds timeout) {
   pollfd p{fd_, POLLIN, 0};
-  if (::poll(&p, 1, static_cast<int>(timeout.count())) <= 0) return -1;
+  // ppoll: a delayed datagram's time is kept to the microsecond, not
+  // rounded up to poll()'s millisecond.
+  const auto ns = std::max<std::int64_t>(timeout.count(), 0);
+  const timespec ts{static_cast<time_t>(ns / 1'000'000'000), static_cast<long>(ns % 1'000'000'000)};
+  if (::ppoll(&p, 1, &ts, nullptr) <= 0) return -1;
   // MSG_TRUNC gives the datagram's real length; one bigger than the buffer
   // is passed on as a full buffer, which the handler refuses as oversized.
   iovec iov{in_.data(), in_.size()};
@@ -81,7 +85,89 @@ std::chrono::nanoseconds UdpServer::sinceReceived() const {
 }
 
 void UdpServer::send(std::size_t len) {
-  ::sendto(fd_, out_.data(), len, MSG_DONTWAIT, reinterpret_cast<sockaddr*>(&peer_), sizeof peer_);
+  if (::sendto(fd_, out_.data(), len, MSG_DONTWAIT, reinterpret_cast<sockaddr*>(&peer_), sizeof peer_) < 0)
+    ++sendFailures_;
+}
+
+void UdpServer::reply(std::size_t len) {
+  const auto fate = faults_.decide(NetworkFaults::Kind::Reply, len, NetworkFaults::Clock::now());
+  if (fate.lost) return;
+  if (fate.corruptAt >= 0) NetworkFaults::damage(out_[static_cast<std::size_t>(fate.corruptAt)]);
+  if (fate.delay.count() > 0 || fate.holdBehindNext) {
+    // A reply held back behind this one has been overtaken all the same.
+    releaseBehindNext(NetworkFaults::Kind::Reply);
+    sendDueReplies(NetworkFaults::Clock::now());
+    for (unsigned k = 0; k < fate.copies; ++k) hold(NetworkFaults::Kind::Reply, {out_.data(), len}, fate);
+    return;
+  }
+  for (unsigned k = 0; k < fate.copies; ++k) send(len);
+  releaseBehindNext(NetworkFaults::Kind::Reply);
+  sendDueReplies(NetworkFaults::Clock::now());
+}
+
+void UdpServer::hold(NetworkFaults::Kind kind, std::span<const std::uint8_t> bytes, const NetworkFaults::Fate& fate) {
+  for (auto& h : held_) {
+    if (h.used) continue;
+    h.used = true;
+    h.kind = kind;
+    h.behindNext = fate.holdBehindNext;
+    h.due = NetworkFaults::Clock::now() + fate.delay;
+    h.order = heldOrder_++;
+    h.peer = peer_;
+    h.size = std::min(bytes.size(), h.bytes.size());
+    std::copy_n(bytes.begin(), h.size, h.bytes.begin());
+    ++heldCount_;
+    return;
+  }
+  faults_.countOverflow(kind);
+}
+
+void UdpServer::releaseBehindNext(NetworkFaults::Kind kind) {
+  // The one behind has now been overtaken: it goes when its delay is up.
+  for (auto& h : held_)
+    if (h.used && h.kind == kind && h.behindNext) h.behindNext = false;
+}
+
+void UdpServer::sendDueReplies(NetworkFaults::Clock::time_point now) {
+  while (heldCount_ > 0) {
+    Held* next = nullptr;
+    for (auto& h : held_)
+      if (h.used && h.kind == NetworkFaults::Kind::Reply && !h.behindNext && h.due <= now &&
+          (next == nullptr || h.order < next->order))
+        next = &h;
+    if (next == nullptr) return;
+    if (::sendto(fd_, next->bytes.data(), next->size, MSG_DONTWAIT, reinterpret_cast<sockaddr*>(&next->peer),
+                 sizeof next->peer) < 0)
+      ++sendFailures_;
+    next->used = false;
+    --heldCount_;
+  }
+}
+
+long UdpServer::takeDueRequest(NetworkFaults::Clock::time_point now) {
+  Held* next = nullptr;
+  for (auto& h : held_)
+    if (h.used && h.kind == NetworkFaults::Kind::Request && !h.behindNext && h.due <= now &&
+        (next == nullptr || h.order < next->order))
+      next = &h;
+  if (next == nullptr) return -1;
+  std::copy_n(next->bytes.begin(), next->size, in_.begin());
+  peer_ = next->peer;
+  // The card receives it now: the time it was held is the network's.
+  timespec t{};
+  ::clock_gettime(CLOCK_REALTIME, &t);
+  receivedNs_ = t.tv_sec * 1'000'000'000LL + t.tv_nsec;
+  queued_ = std::chrono::nanoseconds{0};
+  next->used = false;
+  --heldCount_;
+  return static_cast<long>(next->size);
+}
+
+std::chrono::nanoseconds UdpServer::untilNextDue(NetworkFaults::Clock::time_point now) const {
+  auto soonest = std::chrono::nanoseconds::max();
+  for (const auto& h : held_)
+    if (h.used && !h.behindNext) soonest = std::min<std::chrono::nanoseconds>(soonest, std::max(h.due - now, {}));
+  return soonest;
 }
 
 bool interfaceMac(const std::string& ipv4, std::array<std::uint8_t, 6>& mac, std::string& interface) {

@@ -1,6 +1,5 @@
 #include "pty/pty_remote.hpp"
 
-#include <fcntl.h>
 #include <sys/ioctl.h>
 #include <poll.h>
 #include <termios.h>
@@ -19,43 +18,21 @@ std::runtime_error sysError(const std::string& what) {
 }
 }  // namespace
 
-PtyRemote::PtyRemote(remote::RemoteDevice& device) : device_(device) {
-  master_ = ::posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
-  if (master_ < 0) throw sysError("cannot open a pseudo-terminal");
-  if (::grantpt(master_) != 0 || ::unlockpt(master_) != 0) throw sysError("cannot unlock the pseudo-terminal");
-  const char* name = ::ptsname(master_);
-  if (name == nullptr) throw sysError("cannot name the pseudo-terminal");
-  path_ = name;
-  // Non-blocking: a client that never reads must not stop the server (or
-  // its SIGTERM handling) in write().
-  if (::fcntl(master_, F_SETFL, ::fcntl(master_, F_GETFL) | O_NONBLOCK) != 0)
-    throw sysError("cannot make the pseudo-terminal non-blocking");
-  slave_ = ::open(path_.c_str(), O_RDWR | O_NOCTTY | O_CLOEXEC);
-  if (slave_ < 0) throw sysError("cannot open " + path_);
-  // Raw 8N1 binary line, as a USB-RS422 adapter is used for LBP.
-  termios tio{};
-  if (::tcgetattr(slave_, &tio) == 0) {
-    ::cfmakeraw(&tio);
-    ::cfsetspeed(&tio, B115200);
-    ::tcsetattr(slave_, TCSANOW, &tio);
-  }
-}
+// The line is raw 8N1 at 115200, the setup-mode rate Mesa's tools use.
+PtyRemote::PtyRemote(remote::RemoteDevice& device) : device_(device) {}
 
-PtyRemote::~PtyRemote() {
-  if (slave_ >= 0) ::close(slave_);
-  if (master_ >= 0) ::close(master_);
-}
+PtyRemote::~PtyRemote() = default;
 
 int PtyRemote::unread() const {
   int n = 0;
-  if (::ioctl(slave_, FIONREAD, &n) != 0) return 0;
+  if (::ioctl(pty_.slave(), FIONREAD, &n) != 0) return 0;
   return n;
 }
 
 void PtyRemote::discardUnread() {
   const int n = unread();
   if (n <= 0) return;
-  ::tcflush(slave_, TCIFLUSH);
+  ::tcflush(pty_.slave(), TCIFLUSH);
   bytesDropped_ += static_cast<std::uint64_t>(n);
 }
 
@@ -66,7 +43,7 @@ void PtyRemote::send(std::span<const std::uint8_t> reply) {
   }
   std::size_t done = 0;
   while (done < reply.size()) {
-    const ssize_t w = ::write(master_, reply.data() + done, reply.size() - done);
+    const ssize_t w = ::write(pty_.master(), reply.data() + done, reply.size() - done);
     if (w < 0 && errno == EINTR) continue;
     if (w <= 0) break;  // EAGAIN: the line's buffer is full
     done += static_cast<std::size_t>(w);
@@ -84,9 +61,9 @@ void PtyRemote::run(const std::atomic<bool>& stop) {
   auto lastProgress = Clock::now();
   int lastUnread = 0;
   while (!stop.load()) {
-    pollfd pfd{master_, POLLIN, 0};
+    pollfd pfd{pty_.master(), POLLIN, 0};
     const int ready = ::poll(&pfd, 1, 5);
-    if (ready < 0 && errno != EINTR) throw sysError("poll on " + path_);
+    if (ready < 0 && errno != EINTR) throw sysError("poll on " + pty_.path());
     const auto t = now();
     device_.advance(t);
     // Answers waiting with no reader taking any for kAbandonedAfter belong
@@ -99,7 +76,7 @@ void PtyRemote::run(const std::atomic<bool>& stop) {
       lastUnread = 0;
     }
     if (ready <= 0 || !(pfd.revents & POLLIN)) continue;
-    const ssize_t n = ::read(master_, buffer, sizeof buffer);
+    const ssize_t n = ::read(pty_.master(), buffer, sizeof buffer);
     if (n <= 0) continue;
     if (Clock::now() - lastInput > kAbandonedAfter) discardUnread();
     lastInput = Clock::now();

@@ -21,6 +21,7 @@
 #include <span>
 #include <string>
 
+#include "pty/pty_pair.hpp"
 #include "remote/remote_device.hpp"
 
 namespace net {
@@ -33,7 +34,7 @@ class PtyRemote {
   PtyRemote& operator=(const PtyRemote&) = delete;
 
   // The slave side: what a client opens, like /dev/ttyUSB0.
-  [[nodiscard]] const std::string& path() const { return path_; }
+  [[nodiscard]] const std::string& path() const { return pty_.path(); }
 
   // Serves until `stop` becomes true (checked at least every 10 ms).
   void run(const std::atomic<bool>& stop);
@@ -48,9 +49,7 @@ class PtyRemote {
 
  private:
   remote::RemoteDevice& device_;
-  int master_ = -1;
-  int slave_ = -1;  // kept open so the master never sees a hang-up between clients
-  std::string path_;
+  PtyPair pty_{115200};
   std::uint64_t bytesIn_ = 0;
   std::uint64_t bytesOut_ = 0;
   std::uint64_t bytesDropped_ = 0;

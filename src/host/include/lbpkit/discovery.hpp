@@ -65,7 +65,11 @@ struct ModeDescriptor {
 struct RemoteDescription {
   std::vector<ProcessDataElement> processData;  // PTOC order
   std::vector<ProcessDataElement> parameters;   // GTOC entries not in the PTOC
-  std::vector<ModeDescriptor> modes;
+  std::vector<ModeDescriptor> modes;            // the PTOC's: the current hardware and software modes
+  // The GTOC's mode records: every mode the remote has (mesaflash walks each
+  // software mode it finds there), and how many entries the GTOC holds.
+  std::vector<ModeDescriptor> gtocModes;
+  unsigned gtocEntries = 0;
   unsigned inputBits = 0;
   unsigned outputBits = 0;
 

@@ -1,0 +1,44 @@
+// A fault script (issue 13): `[[fault]]` entries in the sim's TOML
+// (`lbpkit sim --config FILE`), each a control-API request carried out at a
+// set simulated time, and perhaps undone a while later, so that a user or a
+// test replays the same bad day every run:
+//
+//   [[fault]]
+//   at = "2.5s"            # simulated time since the sim started
+//   fault = "network"      # POST /api/network ...
+//   drop = 0.01            # ... with the entry's other keys as its body
+//   for = "200ms"          # then as it was before (network, link, cable, overtemp)
+//
+// Read here (file, line and key in every error); carried out by the daemon
+// with the API's own code, so a script can do nothing the API cannot.
+#pragma once
+
+#include <chrono>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace config {
+
+struct ScriptedFault {
+  std::chrono::nanoseconds at{0};
+  std::string fault;  // the API's kind: network, link, cable, input, ...
+  std::string body;   // the request body: the entry's other keys, as JSON text
+  std::optional<std::chrono::nanoseconds> lasts;  // "for": undone after this long
+  std::string where;  // "FILE:LINE:COL", for what the daemon says about it
+};
+
+// The kinds a script may name, and those that end by themselves (`for`).
+inline constexpr const char* kFaultKinds[] = {"network", "link",  "cable",   "input", "output",
+                                              "overtemp", "field", "encoder", "machine"};
+inline constexpr const char* kUndoableFaultKinds[] = {"network", "link", "cable", "overtemp"};
+
+// The `[[fault]]` entries of `path`, in time order (entries at the same time
+// in file order). Throws FileError (config/toml_reader.hpp).
+std::vector<ScriptedFault> loadFaultScript(const std::string& path);
+
+// "2.5s", "200ms" or "150us" (a bare number is seconds), up to a day.
+// Throws std::invalid_argument saying what a duration looks like.
+std::chrono::nanoseconds parseDuration(const std::string& text);
+
+}  // namespace config
