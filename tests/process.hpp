@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -34,7 +35,9 @@ inline pid_t spawn(const std::vector<std::string>& args, int& outFd, int& errFd)
     ::close(err[0]);
     std::vector<std::string> copy = args;
     std::vector<char*> argv;
-    static std::string bin = LBPKIT_BINARY;
+    // LBPKIT_BINARY in the environment: another build's lbpkit (scripts/test
+    // runs these tests against the ThreadSanitizer build's daemon).
+    static std::string bin = std::getenv("LBPKIT_BINARY") != nullptr ? std::getenv("LBPKIT_BINARY") : LBPKIT_BINARY;
     argv.push_back(bin.data());
     for (auto& a : copy) argv.push_back(a.data());
     argv.push_back(nullptr);

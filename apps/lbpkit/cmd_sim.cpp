@@ -45,7 +45,21 @@ struct SimCommandOptions {
   bool demo = false;
   std::string machine;
   std::string record;
+  std::vector<std::string> remotes;  // --remote CH=pty, repeatable
 };
+
+// --remote CH=pty: the SSLBP channel CH brought out to a pseudo-terminal
+// (issue 12 item 10). Which channels can be is the daemon's to say.
+unsigned externalRemoteChannel(const std::string& text) {
+  const auto eq = text.find('=');
+  const std::string ch = text.substr(0, eq);
+  if (eq == std::string::npos || text.substr(eq + 1) != "pty" || ch.empty() || ch.size() > 1 ||
+      ch.find_first_not_of("0123456789") != std::string::npos)
+    throw lbpkit::Error(fmt::format("--remote \"{}\": give CHANNEL=pty, e.g. 2=pty (the channel, 0..7, brought out "
+                                    "to a pseudo-terminal for a remote of your own)",
+                                    text));
+  return static_cast<unsigned>(std::stoul(ch));
+}
 
 // --machine NAME|FILE: a built-in machine (mill, lathe, gantry) or a TOML
 // machine file (config::loadMachine says what is wrong with one), and where
@@ -136,6 +150,7 @@ int runSim(const SimCommandOptions& o) {
   }
   if (!o.record.empty() && o.machine.empty()) throw lbpkit::Error("--record needs --machine: it records the machine's axes");
   s.recordFile = o.record;
+  for (const auto& r : o.remotes) s.externalRemotes.push_back(externalRemoteChannel(r));
   // Simulated time is 64-bit nanoseconds: at 10000x it lasts 10 days.
   if (!(o.speed > 0) || !std::isfinite(o.speed) || o.speed > 10000)
     throw lbpkit::Error("--speed must be above 0 and at most 10000 (simulated seconds per wall-clock second)");
@@ -242,5 +257,7 @@ void addSimCommand(CLI::App& app) {
                   "CSV file: each axis' command, position and following error at every servo cycle (needs --machine)");
   cmd->add_flag("--no-realtime", o->noRealtime, "Do not ask for real-time (SCHED_FIFO) scheduling of the card thread");
   cmd->add_flag("--paused", o->paused, "Start with simulated time stopped (the API can run or step it)");
+  cmd->add_option("--remote", o->remotes,
+                  "CH=pty: SSLBP channel CH (e.g. 2, TB6) on a pseudo-terminal for a remote of your own; repeatable");
   cmd->callback([o] { app::gRun = [o] { return runSim(*o); }; });
 }

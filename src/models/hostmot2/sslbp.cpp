@@ -549,7 +549,7 @@ void SmartSerial::transact(Channel& c, std::span<const std::uint8_t> body, unsig
     // timeout the channel waits as it would for the cable.
     c.outcome = Outcome::Timeout;
     c.awaiting = true;
-    c.expect = static_cast<std::uint8_t>(std::min<unsigned>(expect, c.external.size() - 1));
+    c.expect = static_cast<std::uint8_t>(std::min<std::size_t>(expect, c.external.size() - 1));
     c.externalSize = 0;
     c.deadline = now + timeout * kExternalTimeoutFactor;
     schedule(c, c.deadline);

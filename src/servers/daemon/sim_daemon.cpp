@@ -20,6 +20,15 @@ SimDaemon::SimDaemon(SimOptions options)
   // First: a script that cannot run stops the sim before it binds anything.
   if (!options_.faultScript.empty())
     script_ = std::make_unique<FaultScript>(std::move(options_.faultScript), options_.card, options_.machine);
+  for (const unsigned ch : options_.externalRemotes) {
+    for (const auto& p : ptyChannels_)
+      if (p->channel() == ch) throw std::invalid_argument(fmt::format("--remote: channel {} given twice", ch));
+    try {
+      ptyChannels_.push_back(std::make_unique<PtyChannel>(card_, ch));
+    } catch (const std::invalid_argument& e) {  // a 7I77's channel, or none
+      throw std::invalid_argument(fmt::format("--remote {}=pty: {}", ch, e.what()));
+    }
+  }
   if (options_.machine) {
     if (options_.demo) throw std::invalid_argument("a machine and the demo world both want the 7I77's terminals");
     machine_ = std::make_unique<machine::Machine>(*options_.machine, card_, card_.now(), 0);
@@ -182,6 +191,9 @@ std::string SimDaemon::banner() const {
                      b.fieldIo.unitNumber(), 3 * d, b.analog.unitNumber(), 3 * d + 1, b.fieldIo.fieldVoltage(),
                      b.fieldIo.nvStore().file().empty() ? "" : ", EEPROM " + b.fieldIo.nvStore().file().string());
   }
+  for (const auto& p : ptyChannels_)
+    s += fmt::format("  channel {}: external remote on {} (LBP at {} baud; reply timeouts x{})\n", p->channel(),
+                     p->path(), p->baud(), hm2::SmartSerial::kExternalTimeoutFactor);
   s += fmt::format("  configuration: {}\n", options_.configDescription);
   if (script_) s += fmt::format("  fault script: {} entries, from {}\n", script_->size(), options_.configDescription);
   if (machine_) {
@@ -205,7 +217,19 @@ std::string SimDaemon::banner() const {
 }
 
 std::string SimDaemon::runJob(std::function<Answer()> job) {
-  std::packaged_task<Answer()> task(std::move(job));
+  // What the job throws does not cross threads as an exception object (the
+  // card thread may free the task's state while the API thread still reads
+  // the exception's text): its kind and text do, and the API thread throws
+  // its own copy.
+  std::packaged_task<Answer()> task([job = std::move(job)]() -> Answer {
+    try {
+      return job();
+    } catch (const std::invalid_argument& e) {
+      return [why = std::string(e.what())]() -> std::string { throw std::invalid_argument(why); };
+    } catch (const std::exception& e) {
+      return [why = std::string(e.what())]() -> std::string { throw std::runtime_error(why); };
+    }
+  });
   auto result = task.get_future();
   {
     std::lock_guard<std::mutex> lock(jobsMutex_);
@@ -308,6 +332,7 @@ void SimDaemon::run(const std::atomic<bool>& stop) {
       }
     }
     drainJobs();
+    for (auto& p : ptyChannels_) p->pump(card_, card_.now());
     // Bad datagrams: logged, at most once a second, with how many.
     const auto& c = lbp16.counters();
     const std::uint64_t errors = c.parseErrors + c.memoryErrors + c.writeErrors;

@@ -30,6 +30,7 @@
 #include "hostmot2/card.hpp"
 #include "lbp16/lbp16_card.hpp"
 #include "machine/machine.hpp"
+#include "pty/pty_channel.hpp"
 
 namespace net {
 
@@ -65,6 +66,9 @@ struct SimOptions {
   std::string configDescription = "built-in default";
   // Faults at set simulated times (the TOML's [[fault]] entries, issue 13).
   std::vector<ScriptedFault> faultScript;
+  // SSLBP channels brought out to a pseudo-terminal each, for a remote of
+  // the user's own (`--remote 2=pty`, issue 12 item 10; pty/pty_channel.hpp).
+  std::vector<unsigned> externalRemotes;
 };
 
 struct SimState;
@@ -123,6 +127,9 @@ class SimDaemon {
   // What the API's routes and the fault script act on.
   std::unique_ptr<ApiTarget> target_;
   std::unique_ptr<FaultScript> script_;
+  // The external remotes' channels, pumped on the card thread (after card_:
+  // they go first).
+  std::vector<std::unique_ptr<PtyChannel>> ptyChannels_;
   std::uint64_t sendFailuresSeen_ = 0;
   std::function<void(const std::string&)> scriptLog_;
   SimClock clock_;

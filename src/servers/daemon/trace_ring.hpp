@@ -3,7 +3,7 @@
 // GET /api/machine/trace, the --record CSV writer).
 //
 // The card thread must never wait for a reader nor allocate per row: the
-// storage is allocated once, rows are written with relaxed atomic stores,
+// storage is allocated once, rows are written with atomic (release) stores,
 // and readers check afterwards (a sequence lock) that the row they copied
 // was not overwritten meanwhile. A reader that falls a whole ring behind
 // loses the rows it missed, never the card thread its time.

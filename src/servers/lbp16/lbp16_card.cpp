@@ -7,7 +7,7 @@
 namespace net {
 
 namespace {
-constexpr std::uint8_t k8 = 1, k16 = 2, k32 = 4;
+constexpr std::uint8_t k16 = 2, k32 = 4;  // the access widths the spaces take (no space takes bytes)
 // Flash: a 16 Mbit SPI part, as on a real 7I92 (ID low byte 0x14).
 constexpr std::uint32_t kFlashId = 0x00164014;
 using lbp16::kEepromWriteEnableKey;
@@ -25,7 +25,7 @@ constexpr unsigned kTimestamp = 0;     // microseconds; writes do nothing
 constexpr unsigned kWaitUs = 1;        // a write waits that many us; reads give the last wait
 constexpr unsigned kHm2Timeout = 2;    // us the WaitForHM2 registers wait at most
 constexpr unsigned kWaitForHm2 = 3;    // 3 RefTime, 4..7 Timer1..4: wait for that timer's edge
-constexpr unsigned kScratchWords = 8;  // words 8..15 (0x10..0x1F)
+// words 8..15 (0x10..0x1F): scratch, kept as written
 }  // namespace timer
 // Space 6 (ETHERHM2.INC mem6; LinuxCNC's lbp_status_area; mesaflash), word addresses.
 namespace status {

@@ -26,7 +26,7 @@ unsigned checked(hm2::HostMot2Card& card, unsigned channel) {
 }  // namespace
 
 PtyChannel::PtyChannel(hm2::HostMot2Card& card, unsigned channel)
-    : channel_(checked(card, channel)), pty_(card.smartSerial().channelBaud(channel)) {
+    : channel_(checked(card, channel)), baud_(card.smartSerial().channelBaud(channel)), pty_(baud_) {
   card.smartSerial().link(channel_).setExternal(true);
 }
 

@@ -28,6 +28,8 @@ class PtyChannel {
   [[nodiscard]] unsigned channel() const { return channel_; }
   // The slave side, what the remote's program opens.
   [[nodiscard]] const std::string& path() const { return pty_.path(); }
+  // The channel's baud rate when the pty was made (its termios speed).
+  [[nodiscard]] std::uint32_t baud() const { return baud_; }
 
   // Moves the channel's outgoing frames to the pty and the remote's bytes
   // to SSLBP, at simulated time `now` (the card's).
@@ -38,6 +40,7 @@ class PtyChannel {
 
  private:
   unsigned channel_;
+  std::uint32_t baud_;
   PtyPair pty_;
   std::uint64_t toRemote_ = 0;
   std::uint64_t fromRemote_ = 0;
