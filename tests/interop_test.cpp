@@ -222,6 +222,10 @@ TEST(Mesaflash, ShowsEverySoftwareModeOfBothRemotes) {
   EXPECT_NE(analogPart.find("UnitNumber = 11000AEE"), std::string::npos) << r.out;
   EXPECT_NE(fieldPart.find("NVEncMode0 [8 bits NV UNSIGNED IN | UNIT: None"), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("HwRevision"), std::string::npos) << "no sibling reports one: " << r.out;
+  // Issue 12 item 1: the SSLBP local space above 0x200 (sserialwa.vhd: the
+  // interface clock at 0x230..0x233, the channel count at 0x234).
+  EXPECT_NE(r.out.find("SSLBP Clock: 100 MHz"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("SSLBP Channels: 6"), std::string::npos) << r.out;
   EXPECT_EQ(sim.stop(), 0);
 }
 
