@@ -245,13 +245,15 @@ std::string SimDaemon::runJob(std::function<Answer()> job) {
 void SimDaemon::drainJobs() {
   // Never wait for the API threads: if they hold the lock, try next time.
   // The jobs run with the lock released, so API threads never wait on them.
-  std::deque<std::packaged_task<Answer()>> ready;
+  // `ready_` is a member: a deque allocates even when empty, and this runs
+  // after every datagram (a local one cost two allocations per loop).
   {
     std::unique_lock<std::mutex> lock(jobsMutex_, std::try_to_lock);
     if (!lock.owns_lock() || jobs_.empty()) return;
-    ready.swap(jobs_);
+    ready_.swap(jobs_);
   }
-  for (auto& task : ready) task();
+  for (auto& task : ready_) task();
+  ready_.clear();
 }
 
 void SimDaemon::log(LogLevel level, const std::string& text) const {

@@ -138,6 +138,7 @@ class SimDaemon {
   bool macFromInterface_ = false;
   std::mutex jobsMutex_;
   std::deque<std::packaged_task<Answer()>> jobs_;
+  std::deque<std::packaged_task<Answer()>> ready_;  // the jobs being run (card thread only)
   bool jobsClosed_ = false;  // the card thread has stopped: no job would run
   // Server-side time per datagram: from the kernel's receive
   // timestamp to the reply sent (latency_), and of that the time it queued
