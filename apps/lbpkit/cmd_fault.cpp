@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "common.hpp"
+#include "daemon/api_routes.hpp"
 #include "lbpkit/error.hpp"
 
 namespace app {
@@ -51,8 +52,8 @@ int run(const FaultOptions& o) {
   http.set_read_timeout(std::chrono::seconds(10));
   if (!o.apiToken.empty()) http.set_bearer_token_auth(o.apiToken);
   const std::string path = "/api/" + o.kind;
-  if (o.fields.empty() && o.kind != "network" && o.kind != "link" && o.kind != "machine")
-    throw lbpkit::Error(fmt::format("say what to set: lbpkit fault {} KEY=VALUE ... (only network, link and machine "
+  if (o.fields.empty() && o.kind != "network" && o.kind != "machine")
+    throw lbpkit::Error(fmt::format("say what to set: lbpkit fault {} KEY=VALUE ... (only network and machine "
                                     "are shown without fields; the whole board is GET /api/state)",
                                     o.kind));
   // Without fields: what is set now.
@@ -78,11 +79,10 @@ void addFaultCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "fault",
       "Set a fault on a running `lbpkit sim` (or show it, without fields): the control API's POST /api/KIND");
-  cmd->add_option("kind", o->kind,
-                  "network, link, cable, input, output, overtemp, field, encoder, machine or time")
+  // The kinds are the control API's own POST routes (net::actionKinds()).
+  cmd->add_option("kind", o->kind, "input, field, encoder, cable, output, overtemp, time, network or machine")
       ->required()
-      ->check(CLI::IsMember({"network", "link", "cable", "input", "output", "overtemp", "field", "encoder", "machine",
-                             "time"}));
+      ->check(CLI::IsMember(net::actionKinds()));
   cmd->add_option("fields", o->fields, "KEY=VALUE ... (for example drop=0.01 direction=reply, or silent_ms=200)");
   cmd->add_option("--api", o->api, "[ADDR:]PORT of the sim's control API (127.0.0.1:27182)");
   cmd->add_option("--api-token", o->apiToken, "The sim's API token, when it was started with one");

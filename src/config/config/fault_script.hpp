@@ -7,7 +7,7 @@
 //   at = "2.5s"            # simulated time since the sim started
 //   fault = "network"      # POST /api/network ...
 //   drop = 0.01            # ... with the entry's other keys as its body
-//   for = "200ms"          # then as it was before (network, link, cable, overtemp)
+//   for = "200ms"          # then as it was before (network, cable, overtemp)
 //
 // Read here (file, line and key in every error); carried out by the daemon
 // with the API's own code, so a script can do nothing the API cannot.
@@ -22,16 +22,15 @@ namespace config {
 
 struct ScriptedFault {
   std::chrono::nanoseconds at{0};
-  std::string fault;  // the API's kind: network, link, cable, input, ...
+  std::string fault;  // the API's kind: network, cable, input, ...
   std::string body;   // the request body: the entry's other keys, as JSON text
   std::optional<std::chrono::nanoseconds> lasts;  // "for": undone after this long
   std::string where;  // "FILE:LINE:COL", for what the daemon says about it
 };
 
-// The kinds a script may name, and those that end by themselves (`for`).
-inline constexpr const char* kFaultKinds[] = {"network", "link",  "cable",   "input", "output",
-                                              "overtemp", "field", "encoder", "machine"};
-inline constexpr const char* kUndoableFaultKinds[] = {"network", "link", "cable", "overtemp"};
+// The kinds that end by themselves (`for`; the daemon knows how to undo
+// them). The kinds a script may name are the API's POST routes but time.
+inline constexpr const char* kUndoableFaultKinds[] = {"network", "cable", "overtemp"};
 
 // The `[[fault]]` entries of `path`, in time order (entries at the same time
 // in file order). Throws FileError (config/toml_reader.hpp).

@@ -29,7 +29,6 @@ std::function<void(const ApiTarget&)> undoFor(const ScriptedFault& f, const ApiT
   json back = f.body;
   if (f.fault == "cable") back["connected"] = !f.body.value("connected", true);
   if (f.fault == "overtemp") back["hot"] = !f.body.value("hot", true);
-  if (f.fault == "link") back = json{{"channel", f.body.value("channel", 0)}, {"clear", true}};
   return [kind = f.fault, back](const ApiTarget& target) { applyAction(target, kind, back); };
 }
 

@@ -23,7 +23,7 @@ namespace net {
 
 struct ScriptedFault {
   lbp::SimTime at{};
-  std::string fault;  // the API's kind: network, link, cable, ...
+  std::string fault;  // the API's kind: network, cable, ...
   nlohmann::json body;
   std::optional<lbp::SimTime> lasts;  // undone this long after `at`
   std::string where;                  // "FILE:LINE:COL"
