@@ -68,10 +68,44 @@ class SerialLink {
   void addExtra(Direction dir, unsigned count = 1) { faults(dir).add += count; }
   void breakNext() { breakNext_ = true; }
 
+  // Faults at a rate (issue 13), as a noisy cable makes them: each of a
+  // character's 8 data bits flipped with probability `bitErrorRate`; a
+  // character lost with `dropRate`; a noise character after one with
+  // `extraRate`; a reply ending in a break with `breakRate`. Drawn from the
+  // link's own generator, seeded, so a run repeats exactly. Start and stop
+  // bits are not flipped: what a receiver makes of a lost stop bit (a
+  // framing error) is the break's to show.
+  struct Rates {
+    double bitErrorRate = 0;
+    double dropRate = 0;
+    double extraRate = 0;
+    bool operator==(const Rates&) const = default;
+  };
+  struct RateSettings {
+    Rates toRemote;
+    Rates fromRemote;
+    double breakRate = 0;  // per reply
+    std::uint64_t seed = 1;
+    bool operator==(const RateSettings&) const = default;
+  };
+  // Takes effect from the next character; restarts the generator from `seed`.
+  void setRates(const RateSettings& settings);
+  [[nodiscard]] const RateSettings& rates() const { return rates_; }
+  // The cable pulled at `from` and plugged back at `until` (simulated time):
+  // nothing crosses in between. Replaces an earlier cut.
+  void cut(SimTime from, SimTime until) {
+    cutFrom_ = from;
+    cutUntil_ = until;
+  }
+  [[nodiscard]] SimTime cutUntil() const { return cutUntil_; }
+  // Connected, and not within a cut, at `t`.
+  [[nodiscard]] bool connectedAt(SimTime t) const { return connected_ && (t < cutFrom_ || t >= cutUntil_); }
+
   struct Counters {
     std::uint64_t toRemote = 0;
     std::uint64_t fromRemote = 0;
-    std::uint64_t corrupted = 0;
+    std::uint64_t corrupted = 0;  // characters damaged (one bit or more)
+    std::uint64_t bitErrors = 0;  // bits flipped by the bit error rate
     std::uint64_t dropped = 0;
     std::uint64_t added = 0;
     std::uint64_t breaks = 0;
@@ -86,11 +120,25 @@ class SerialLink {
     unsigned add = 0;
   };
   Faults& faults(Direction d) { return d == Direction::ToRemote ? toRemote_ : fromRemote_; }
-  // Applies pending faults to one character; returns 0 when it is lost.
-  unsigned damage(Faults& f, std::uint8_t& byte);
+  // Applies pending faults and the rates to one character; returns 0 when
+  // it is lost.
+  unsigned damage(Direction d, std::uint8_t& byte);
   // Noise characters to add after this frame.
   unsigned extras(Faults& f);
+  // A noise character after this one (the extra rate)?
+  bool extraAfter(Direction d);
   static constexpr std::uint8_t kNoise = 0xA5;
+
+  // The rates' generator: splitmix64, small and exactly repeatable.
+  std::uint64_t nextRandom();
+  double uniform();  // [0, 1)
+  // Bits until the next flipped one: geometric in the bit error rate.
+  std::uint64_t bitsToNextError(double rate);
+  struct RateState {
+    std::uint64_t bitsToError = UINT64_MAX;
+  };
+  RateState& rateState(Direction d) { return d == Direction::ToRemote ? toRemoteRate_ : fromRemoteRate_; }
+  const Rates& ratesOf(Direction d) const { return d == Direction::ToRemote ? rates_.toRemote : rates_.fromRemote; }
 
   remote::RemoteDevice* remote_ = nullptr;
   bool connected_ = true;
@@ -100,6 +148,12 @@ class SerialLink {
   bool breakNext_ = false;
   Faults toRemote_;
   Faults fromRemote_;
+  RateSettings rates_;
+  std::uint64_t random_ = 1;
+  RateState toRemoteRate_;
+  RateState fromRemoteRate_;
+  SimTime cutFrom_{0};
+  SimTime cutUntil_{0};
   Counters counters_;
 };
 
