@@ -52,8 +52,8 @@ int run(const FaultOptions& o) {
   http.set_read_timeout(std::chrono::seconds(10));
   if (!o.apiToken.empty()) http.set_bearer_token_auth(o.apiToken);
   const std::string path = "/api/" + o.kind;
-  if (o.fields.empty() && o.kind != "network" && o.kind != "machine")
-    throw lbpkit::Error(fmt::format("say what to set: lbpkit fault {} KEY=VALUE ... (only network and machine "
+  if (o.fields.empty() && o.kind != "network" && o.kind != "link" && o.kind != "machine")
+    throw lbpkit::Error(fmt::format("say what to set: lbpkit fault {} KEY=VALUE ... (only network, link and machine "
                                     "are shown without fields; the whole board is GET /api/state)",
                                     o.kind));
   // Without fields: what is set now.
@@ -80,7 +80,7 @@ void addFaultCommand(CLI::App& app) {
       "fault",
       "Set a fault on a running `lbpkit sim` (or show it, without fields): the control API's POST /api/KIND");
   // The kinds are the control API's own POST routes (net::actionKinds()).
-  cmd->add_option("kind", o->kind, "input, field, encoder, cable, output, overtemp, time, network or machine")
+  cmd->add_option("kind", o->kind, "input, field, encoder, cable, output, overtemp, time, network, link or machine")
       ->required()
       ->check(CLI::IsMember(net::actionKinds()));
   cmd->add_option("fields", o->fields, "KEY=VALUE ... (for example drop=0.01 direction=reply, or silent_ms=200)");

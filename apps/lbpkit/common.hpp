@@ -59,3 +59,6 @@ void addParameterCommands(CLI::App& app);
 void addMonitorCommand(CLI::App& app);
 void addSimCommand(CLI::App& app);
 void addFaultCommand(CLI::App& app);
+void addPinsCommand(CLI::App& app);
+void addCheckConfigCommand(CLI::App& app);
+void addBenchCommand(CLI::App& app);

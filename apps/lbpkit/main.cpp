@@ -22,6 +22,9 @@ int main(int argc, char** argv) {
   addSimCommand(app);
   addRemoteCommand(app);
   addFaultCommand(app);
+  addPinsCommand(app);
+  addCheckConfigCommand(app);
+  addBenchCommand(app);
   CLI11_PARSE(app, argc, argv);
   try {
     return app::gRun ? app::gRun() : 0;

@@ -277,6 +277,8 @@ void SmartSerial::startNormal() {
     s.outRegs = (out + 31) / 32;
     s.ifIn = {};
     s.ifOut = {};
+    s.faultCount = 0;
+    s.running = true;
   }
   doitWord_ = kDoit | runningMask();
 }
@@ -359,6 +361,7 @@ CycleStatus SmartSerial::collectInputs() {
       st.ok = false;
       st.commandBusy = true;
       if (st.replyLost) ++lostCycles_;
+      countFaults(st);
       return st;
     }
     t_.sleep(options_.pollInterval);
@@ -369,7 +372,15 @@ CycleStatus SmartSerial::collectInputs() {
   if (st.replyLost) ++lostCycles_;
   st.ok = st.failedMask == 0 && !st.replyLost;
   for (auto& s : slots_) {
-    if (st.failedMask & (1U << s.identity.channel)) continue;  // stale data: keep the last inputs
+    const auto bit = static_cast<std::uint8_t>(1U << s.identity.channel);
+    if (st.failedMask & bit) continue;  // stale data: keep the last inputs
+    // Not running (its START failed): DOIT does not ask it, DATA does not
+    // flag it, and its interface registers hold what START left there.
+    if ((s.cs >> 8) & wire::sslbp::cs::kStatusNotReady) {
+      st.ok = false;
+      continue;
+    }
+    st.freshMask = static_cast<std::uint8_t>(st.freshMask | bit);
     std::array<std::uint8_t, 12> bytes{};
     for (unsigned r = 0; r < 3; ++r)
       for (unsigned b = 0; b < 4; ++b) bytes[4 * r + b] = static_cast<std::uint8_t>(s.ifIn[r] >> (8 * b));
@@ -378,7 +389,39 @@ CycleStatus SmartSerial::collectInputs() {
       if (pd[i].direction != Direction::Output) s.raw[i] = wire::lbp::unpackBits(bytes, s.inOffset[i], pd[i].bits);
   }
   ++cycles_;
+  countFaults(st);
   return st;
+}
+
+void SmartSerial::countFaults(CycleStatus& st) {
+  // LinuxCNC's rule (hostmot2 sserial: fault-inc, fault-dec, fault-lim), per
+  // channel: a failed DOIT adds the increment, every cycle takes off the
+  // decrement. A cycle whose COMMAND never cleared fails every channel; a
+  // cycle whose reply was lost is the transport's error, not the link's, and
+  // is not counted (its DATA and CS are not known).
+  if (st.replyLost) return;
+  std::uint8_t due = 0;  // slots autoRecover restarts
+  for (std::size_t i = 0; i < slots_.size(); ++i) {
+    auto& s = slots_[i];
+    const auto bit = static_cast<std::uint8_t>(1U << s.identity.channel);
+    if (st.commandBusy || !(st.freshMask & bit)) s.faultCount += options_.faultIncrement;
+    s.faultCount = s.faultCount > options_.faultDecrement ? s.faultCount - options_.faultDecrement : 0;
+    if (s.faultCount > options_.faultLimit) st.overLimitMask = static_cast<std::uint8_t>(st.overLimitMask | bit);
+    if (!st.commandBusy && (s.cs & wire::sslbp::cs::kTooManyErrors))
+      st.tooManyErrorsMask = static_cast<std::uint8_t>(st.tooManyErrorsMask | bit);
+    if (!options_.autoRecover || !(st.needsRecovery() & bit)) continue;
+    if (s.lastRecovery.count() >= 0 && t_.now() - s.lastRecovery < options_.recoveryInterval) continue;
+    due = static_cast<std::uint8_t>(due | (1U << i));
+  }
+  if (due == 0 || st.commandBusy) return;
+  try {
+    restart(due);
+    for (std::size_t i = 0; i < slots_.size(); ++i)
+      if (due & (1U << i))
+        st.recoveredMask = static_cast<std::uint8_t>(st.recoveredMask | (1U << slots_[i].identity.channel));
+  } catch (const Error&) {
+    st.recoveryFailed = true;  // the card did not answer: the next cycle tries again
+  }
 }
 
 CycleStatus SmartSerial::cycle() {
@@ -389,13 +432,30 @@ CycleStatus SmartSerial::cycle() {
 
 bool SmartSerial::recover(unsigned slot) {
   auto& s = slots_.at(slot);
-  const Nanoseconds now = t_.now();
-  if (s.lastRecovery.count() >= 0 && now - s.lastRecovery < options_.recoveryInterval) return false;
-  s.lastRecovery = now;
-  const auto bit = static_cast<std::uint8_t>(1U << s.identity.channel);
-  command(static_cast<std::uint16_t>(kStop | bit));  // individual stop: error recovery
-  start(bit, false);
+  if (s.lastRecovery.count() >= 0 && t_.now() - s.lastRecovery < options_.recoveryInterval) return false;
+  restart(static_cast<std::uint8_t>(1U << slot));
   return true;
+}
+
+std::uint8_t SmartSerial::restart(std::uint8_t slotMask) {
+  const Nanoseconds now = t_.now();
+  std::uint8_t channels = 0;
+  for (std::size_t i = 0; i < slots_.size(); ++i) {
+    if (!(slotMask & (1U << i))) continue;
+    auto& s = slots_[i];
+    s.lastRecovery = now;
+    s.faultCount = 0;
+    ++s.recoveries;
+    s.running = false;
+    const auto bit = static_cast<std::uint8_t>(1U << s.identity.channel);
+    channels = static_cast<std::uint8_t>(channels | bit);
+    command(static_cast<std::uint16_t>(kStop | bit));  // individual stop: error recovery
+  }
+  // One START for them all: the channels start side by side.
+  const std::uint8_t failed = start(channels, false);
+  for (std::size_t i = 0; i < slots_.size(); ++i)
+    if (slotMask & (1U << i)) slots_[i].running = !(failed & (1U << slots_[i].identity.channel));
+  return failed;
 }
 
 }  // namespace lbpkit

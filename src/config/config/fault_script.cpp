@@ -76,13 +76,13 @@ std::vector<ScriptedFault> loadFaultScript(const std::string& path) {
       }
     };
     f.at = duration("at");
-    f.fault = r.text(e, prefix, "fault", "", {"network", "cable", "input", "output", "overtemp", "field", "encoder",
-                                               "machine"});
+    f.fault = r.text(e, prefix, "fault", "", {"network", "link", "cable", "input", "output", "overtemp", "field",
+                                               "encoder", "machine"});
     if (e.contains("for")) {
       if (std::find(std::begin(kUndoableFaultKinds), std::end(kUndoableFaultKinds), f.fault) ==
           std::end(kUndoableFaultKinds))
         r.fail(e.get("for"), prefix + "for",
-               fmt::format("a \"{}\" fault does not end by itself: only network, cable and overtemp faults "
+               fmt::format("a \"{}\" fault does not end by itself: only network, link, cable and overtemp faults "
                            "take \"for\" (end it with an entry of its own)",
                            f.fault));
       f.lasts = duration("for");

@@ -7,7 +7,7 @@
 //   at = "2.5s"            # simulated time since the sim started
 //   fault = "network"      # POST /api/network ...
 //   drop = 0.01            # ... with the entry's other keys as its body
-//   for = "200ms"          # then as it was before (network, cable, overtemp)
+//   for = "200ms"          # then as it was before (network, link, cable, overtemp)
 //
 // Read here (file, line and key in every error); carried out by the daemon
 // with the API's own code, so a script can do nothing the API cannot.
@@ -30,7 +30,7 @@ struct ScriptedFault {
 
 // The kinds that end by themselves (`for`; the daemon knows how to undo
 // them). The kinds a script may name are the API's POST routes but time.
-inline constexpr const char* kUndoableFaultKinds[] = {"network", "cable", "overtemp"};
+inline constexpr const char* kUndoableFaultKinds[] = {"network", "link", "cable", "overtemp"};
 
 // The `[[fault]]` entries of `path`, in time order (entries at the same time
 // in file order). Throws FileError (config/toml_reader.hpp).

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace hm2 {
 
@@ -16,6 +17,18 @@ std::int64_t stateOf(double position) {
 // More samples than this in one step are not simulated one by one: at such
 // rates the filter passes nothing and every count is lost.
 constexpr std::int64_t kMaxSimulatedSamples = 2'000'000;
+
+// The largest v > 0 whose 1 / v, as a double, is still at least `seconds`
+// (> 0). A correctly rounded 1 / v falls as v grows, so for every v > 0
+// (and NaN and infinity alike) `1.0 / v >= seconds` is `v <= this`: run()
+// makes the decision the division made, without dividing.
+double maxFilteredVelocity(double seconds) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  double v = 1.0 / seconds;
+  while (v > 0 && !(1.0 / v >= seconds)) v = std::nextafter(v, 0.0);
+  while (1.0 / std::nextafter(v, kInf) >= seconds) v = std::nextafter(v, kInf);
+  return v;
+}
 }  // namespace
 
 MuxedEncoder::MuxedEncoder(unsigned counters, std::uint32_t clockLow)
@@ -46,18 +59,13 @@ void MuxedEncoder::setSamplePeriod() {
   // Each counter sees its inputs every second mux tick.
   samplePeriod_ = SimTime{static_cast<std::int64_t>(2.0 * (rateDivisor_ + 2) * 1e9 / clockLow_)};
   samplePeriodSeconds_ = std::chrono::duration<double>(samplePeriod_).count();
+  maxFilteredVelocity_[0] = maxFilteredVelocity(samplePeriodSeconds_ * 2U);
+  maxFilteredVelocity_[1] = maxFilteredVelocity(samplePeriodSeconds_ * 8U);
 }
 
 std::uint16_t MuxedEncoder::timestampAt(SimTime t) const {
   const auto ticks = clockTicks(t, clockLow_) / (tsDivisor_ + 2);
   return static_cast<std::uint16_t>(ticks);
-}
-
-void MuxedEncoder::setVelocity(unsigned n, double countsPerSecond, SimTime now) {
-  advance(now);
-  settle(n);
-  signals_.at(n).velocity = countsPerSecond;
-  stateSeconds_[n] = 1.0 / std::abs(countsPerSecond);  // how long a quadrature state lasts (run())
 }
 
 void MuxedEncoder::setIndexPeriod(unsigned n, std::uint32_t countsPerRev, std::int64_t indexAt) {
@@ -74,19 +82,6 @@ MuxedEncoder::State MuxedEncoder::state() const {
   return s;
 }
 
-void MuxedEncoder::catchUp(unsigned n) const {
-  if (n < counters_) {
-    EncoderSignal& s = signals_[n];
-    // A standing signal: all run() would do is move it by velocity * dt, a
-    // zero of the velocity's sign (dt > 0 here), which is the velocity itself.
-    if (s.velocity == 0.0)
-      s.position += s.velocity;
-    else
-      run(n, settled_[n], pending_);
-  }
-  settled_[n] = pending_;
-}
-
 void MuxedEncoder::settle() const {
   for (unsigned n = 0; n < kMaxCounters; ++n) settle(n);
 }
@@ -100,74 +95,85 @@ void MuxedEncoder::index(Counter& c, std::int64_t countAtIndex) {
 }
 
 void MuxedEncoder::run(unsigned n, SimTime from, SimTime to) const {
+  // The common case stays short (a plant step moves each counter a few
+  // states): index pulses while clear or latch on index is armed, and rates
+  // too fast for the filter, are out of line.
   EncoderSignal& s = signals_[n];
   Counter& c = state_[n];
-  const double dt = std::chrono::duration<double>(to - from).count();
+  // Most runs are one plant step long (the machine sets every velocity each
+  // step): the span's seconds are worked out again only when it changes,
+  // as a division costs more than the rest of the common case.
+  if (to - from != lastSpan_) {
+    lastSpan_ = to - from;
+    lastSpanSeconds_ = std::chrono::duration<double>(lastSpan_).count();
+  }
+  const double dt = lastSpanSeconds_;
   const double p0 = s.position;
   const double p1 = p0 + s.velocity * dt;
   s.position = p1;
   if (s.velocity == 0.0) return;
-  const SimTime sample = samplePeriod();
-  const double stateSeconds = stateSeconds_[n];  // 1 / |velocity|
-  const double stableSeconds = samplePeriodSeconds_ * filterSamples(c);
-  const bool hasIndex = s.countsPerRev > 0;
+  // A quadrature state lasts 1 / |velocity|: shorter than the filter's
+  // time (samplePeriodSeconds_ * filterSamples(c)), and it is sampled.
+  if (std::abs(s.velocity) > maxFilteredVelocity_[(c.ccr & kFilter) ? 1 : 0]) return runSampled(s, c, from, to, p0);
+  // Slow enough for the filter: every state change is seen and counted.
+  const std::int64_t a = stateOf(p0);
+  const std::int64_t b = stateOf(p1);
+  if (a == b) return;
+  c.filtered = c.candidate = b;
+  c.stable = filterSamples(c);  // (an index does not change the filter bit)
+  // The timestamp of the last count: when the position entered state b.
+  c.stamp = Counter::Stamp::Edge;
+  c.from = from;
+  c.edgeCounts = b > a ? static_cast<double>(b) : static_cast<double>(b + 1);
+  c.p0 = p0;
+  c.velocity = s.velocity;
+  // Last, so that the common case makes no call that needs its values kept.
+  if (s.countsPerRev > 0 && (c.ccr & (kClearOnIndex | kLatchOnIndex))) return countAcrossIndexes(s, c, a, b);
+  c.count += static_cast<std::int32_t>(b - a);
+}
 
-  if (stateSeconds >= stableSeconds) {
-    // Slow enough for the filter: every state change is seen and counted.
-    const std::int64_t a = stateOf(p0);
-    const std::int64_t b = stateOf(p1);
-    if (a == b) return;
-    const std::int64_t step = b > a ? 1 : -1;
-    std::int64_t at = a;
-    if (hasIndex && (c.ccr & (kClearOnIndex | kLatchOnIndex))) {
-      // Index pulses are one count wide, every countsPerRev from indexAt. Only
-      // the first and the last one crossed while clear or latch on index is
-      // armed matter: the first may disarm it ("just once"), and between
-      // them every index does the same thing. Computed, not walked: with an
-      // index every count at MHz rates, one step can cross billions of them.
-      const auto cpr = static_cast<std::int64_t>(s.countsPerRev);
-      auto floorDiv = [](std::int64_t x, std::int64_t m) { return x >= 0 ? x / m : -((-x + m - 1) / m); };
-      const std::int64_t ia = s.indexAt;
-      const std::int64_t first =
-          step > 0 ? (floorDiv(at - ia, cpr) + 1) * cpr + ia : floorDiv(at - 1 - ia, cpr) * cpr + ia;
-      if ((step > 0 && first <= b) || (step < 0 && first >= b)) {
-        c.count += static_cast<std::int32_t>(first - at);
-        at = first;
-        index(c, c.count);
-        const std::int64_t more = (step > 0 ? b - first : first - b) / cpr;  // indexes after the first
-        if (more > 0 && (c.ccr & (kClearOnIndex | kLatchOnIndex))) {
-          const std::int64_t last = first + step * more * cpr;
-          // Counts wrap as the 32-bit counter does.
-          if (c.ccr & kClearOnIndex)
-            c.count = static_cast<std::int32_t>(step * cpr);  // one revolution since the index before
-          else
-            c.count = static_cast<std::int32_t>(static_cast<std::int64_t>(c.count) + (last - first));
-          at = last;
-          index(c, c.count);
-        }
-      }
+void MuxedEncoder::countAcrossIndexes(const EncoderSignal& s, Counter& c, std::int64_t a, std::int64_t b) {
+  // Index pulses are one count wide, every countsPerRev from indexAt. Only
+  // the first and the last one crossed while clear or latch on index is
+  // armed matter: the first may disarm it ("just once"), and between them
+  // every index does the same thing. Computed, not walked: with an index
+  // every count at MHz rates, one step can cross billions of them.
+  const std::int64_t step = b > a ? 1 : -1;
+  std::int64_t at = a;
+  const auto cpr = static_cast<std::int64_t>(s.countsPerRev);
+  auto floorDiv = [](std::int64_t x, std::int64_t m) { return x >= 0 ? x / m : -((-x + m - 1) / m); };
+  const std::int64_t ia = s.indexAt;
+  const std::int64_t first =
+      step > 0 ? (floorDiv(at - ia, cpr) + 1) * cpr + ia : floorDiv(at - 1 - ia, cpr) * cpr + ia;
+  if ((step > 0 && first <= b) || (step < 0 && first >= b)) {
+    c.count += static_cast<std::int32_t>(first - at);
+    at = first;
+    index(c, c.count);
+    const std::int64_t more = (step > 0 ? b - first : first - b) / cpr;  // indexes after the first
+    if (more > 0 && (c.ccr & (kClearOnIndex | kLatchOnIndex))) {
+      const std::int64_t last = first + step * more * cpr;
+      // Counts wrap as the 32-bit counter does.
+      if (c.ccr & kClearOnIndex)
+        c.count = static_cast<std::int32_t>(step * cpr);  // one revolution since the index before
+      else
+        c.count = static_cast<std::int32_t>(static_cast<std::int64_t>(c.count) + (last - first));
+      at = last;
+      index(c, c.count);
     }
-    c.count += static_cast<std::int32_t>(b - at);
-    c.filtered = c.candidate = b;
-    c.stable = filterSamples(c);
-    // The timestamp of the last count: when the position entered state b.
-    const double edge = step > 0 ? static_cast<double>(b) : static_cast<double>(b + 1);
-    c.stamp = Counter::Stamp::Edge;
-    c.from = from;
-    c.edgeCounts = edge;
-    c.p0 = p0;
-    c.velocity = s.velocity;
-    return;
   }
+  c.count += static_cast<std::int32_t>(b - at);
+}
 
+void MuxedEncoder::runSampled(const EncoderSignal& s, Counter& c, SimTime from, SimTime to, double p0) const {
   // Too fast for the filter: sample by sample, as the hardware does. The
   // samples fall on the free-running mux clock (multiples of the sample
   // period), not relative to `from`: what is counted does not depend on how
   // the time was split into runs.
+  const SimTime sample = samplePeriod();
   const std::int64_t firstSample = from / sample + 1;
   const std::int64_t lastSample = to / sample;
   if (lastSample - firstSample >= kMaxSimulatedSamples) {
-    c.filtered = c.candidate = stateOf(p1);  // nothing counted
+    c.filtered = c.candidate = stateOf(s.position);  // nothing counted
     return;
   }
   for (std::int64_t k = firstSample; k <= lastSample; ++k) {

@@ -92,7 +92,12 @@ class MuxedEncoder final : public Module {
   void reset() override;  // counts, CCRs and divisors at power-up; the encoders stay where they are
 
   // The world: what the encoder on input `n` does from `now` on.
-  void setVelocity(unsigned n, double countsPerSecond, SimTime now);
+  // (Inline: the machine's plant sets every encoder's at every step.)
+  void setVelocity(unsigned n, double countsPerSecond, SimTime now) {
+    advance(now);
+    settle(n);
+    signals_.at(n).velocity = countsPerSecond;
+  }
   void setIndexPeriod(unsigned n, std::uint32_t countsPerRev, std::int64_t indexAt = 0);
   [[nodiscard]] const EncoderSignal& signal(unsigned n) const {
     settle(n);
@@ -137,9 +142,25 @@ class MuxedEncoder final : public Module {
   void settle(unsigned n) const {
     if (n < kMaxCounters && settled_[n] < pending_) catchUp(n);
   }
-  void catchUp(unsigned n) const;
+  void catchUp(unsigned n) const {
+    if (n < counters_) {
+      EncoderSignal& s = signals_[n];
+      // A standing signal: all run() would do is move it by velocity * dt, a
+      // zero of the velocity's sign (dt > 0 here), which is the velocity itself.
+      if (s.velocity == 0.0)
+        s.position += s.velocity;
+      else
+        run(n, settled_[n], pending_);
+    }
+    settled_[n] = pending_;
+  }
   void settle() const;
   void run(unsigned n, SimTime from, SimTime to) const;
+  // run()'s rare cases, out of line: counting from state a to b across
+  // index pulses while clear or latch on index is armed, and a signal too
+  // fast for the filter (sample by sample).
+  [[gnu::noinline]] static void countAcrossIndexes(const EncoderSignal& s, Counter& c, std::int64_t a, std::int64_t b);
+  [[gnu::noinline]] void runSampled(const EncoderSignal& s, Counter& c, SimTime from, SimTime to, double p0) const;
   static void index(Counter& c, std::int64_t countAtIndex);
   [[nodiscard]] std::uint16_t timestampAt(SimTime t) const;
   [[nodiscard]] unsigned filterSamples(const Counter& c) const { return (c.ccr & kFilter) ? 8 : 2; }
@@ -152,13 +173,19 @@ class MuxedEncoder final : public Module {
   SimTime samplePeriod_{};
   double samplePeriodSeconds_ = 0.0;
   void setSamplePeriod();
-  // 1 / |velocity| per signal, worked out when the velocity is set (run()
-  // compares it with the filter's time at every catch-up).
-  std::array<double, kMaxCounters> stateSeconds_{};
+  // The fastest |velocity| (counts/s) the filter passes state by state,
+  // with the filter off ([0], 2 samples) and on ([1], 8): a quadrature
+  // state lasts 1 / |velocity|, and run() counts state by state while that
+  // is at least the filter's time (samplePeriodSeconds_ * samples). Worked
+  // out with the sample period so that run() compares instead of dividing
+  // (maxFilteredVelocity() in the .cpp: exactly the same decision).
+  std::array<double, 2> maxFilteredVelocity_{};
   std::uint32_t tsDivisor_ = 0;
   mutable std::array<EncoderSignal, kMaxCounters> signals_{};
   mutable std::array<Counter, kMaxCounters> state_{};
   mutable std::array<SimTime, kMaxCounters> settled_{};  // each counter is settled up to here
+  mutable SimTime lastSpan_{-1};        // run()'s last to - from
+  mutable double lastSpanSeconds_ = 0;  // and the same in seconds
   SimTime pending_{};  // the card's time: settle() brings them here
 };
 

@@ -179,7 +179,7 @@ SmartSerial::State SmartSerial::state() const {
     const auto& c = channels_[ch];
     const auto csValue = csRegister(ch);
     s.channel[ch] = {c.ready, csValue, static_cast<std::uint8_t>(csValue >> cs::kRemoteByteShift), c.baud,
-                     c.link.connected(), c.link.counters()};
+                     c.link.connected(), c.link.counters(), c.errorTotals};
   }
   return s;
 }
@@ -511,6 +511,10 @@ SimTime SmartSerial::startQuiet(const Channel& c, SimTime now) const {
 void SmartSerial::setError(Channel& c, std::uint8_t bit, unsigned counter) {
   c.errorLog = static_cast<std::uint8_t>(c.errorLog | bit);
   c.status = static_cast<std::uint8_t>(c.status | cs::kStatusCommunicationError);
+  auto& t = c.errorTotals;
+  std::uint64_t* const total[] = {&t.crc, &t.invalidCookie, &t.overrun, &t.timeout,
+                                  &t.extraCharacter, &t.serialBreak, &t.remoteFault};  // Counter's order
+  ++*total[counter];
   if (c.errorCounts[counter] < kMaxErrors)
     ++c.errorCounts[counter];
   else

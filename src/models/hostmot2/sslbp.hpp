@@ -124,6 +124,15 @@ class SmartSerial final : public Module {
 
   // What an observer sees: the registers as they would read, each channel's
   // state and its link to the remote.
+  struct ErrorTotals {
+    std::uint64_t crc = 0;
+    std::uint64_t invalidCookie = 0;
+    std::uint64_t overrun = 0;
+    std::uint64_t timeout = 0;
+    std::uint64_t extraCharacter = 0;
+    std::uint64_t serialBreak = 0;
+    std::uint64_t remoteFault = 0;
+  };
   struct State {
     struct Channel {
       bool running = false;  // started: blathering, or serving setup requests
@@ -132,6 +141,10 @@ class SmartSerial final : public Module {
       std::uint32_t baud = kDefaultBaud;
       bool cableConnected = true;
       SerialLink::Counters link;
+      // Every error the channel has judged since power-up, by kind (the CS
+      // bits are sticky until STOP, and the firmware's own counts, which
+      // raise TooManyErrors, start again at each START).
+      ErrorTotals errors;
     };
     std::uint16_t command = 0;
     std::uint8_t data = 0;
@@ -154,6 +167,7 @@ class SmartSerial final : public Module {
     std::uint8_t errorLog = 0;
     std::uint8_t remoteFault = 0;
     std::array<std::uint8_t, 7> errorCounts{};
+    ErrorTotals errorTotals;
     bool ready = false;       // started: blathering, or serving setup requests
     bool startPending = false;  // in the current START
     bool requested = false;   // DOIT request

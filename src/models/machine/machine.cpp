@@ -211,9 +211,16 @@ void Machine::step() {
   // The counters may already have run past t0 (the host's accesses advance
   // the card); the encoders aim at t1 from where they are.
   const SimTime from = std::max(t0, card_->now());
+  const SimTime minimum = h_ / 2;
+  const double seconds = std::chrono::duration<double>(t1 - from).count();
   // The field inputs from where the axes are at the start of the step.
   switches_.apply(positions_.data(), board_->fieldIo);
   const remote::AnalogProcessor& analog = board_->analog;
+  // The mechanics of every axis and the spindle first, then their
+  // encoders: each axis' step is a chain of dependent divisions, and with
+  // the axes back to back the CPU works on several chains at once. (The
+  // encoders are driven in the same order as ever, axes then spindle, and
+  // no axis' mechanics depends on any encoder.)
   for (std::size_t i = 0; i < axes_.size(); ++i) {
     AxisPlant& a = axes_[i];
     double torque = 0.0;
@@ -223,18 +230,20 @@ void Machine::step() {
       torque += drive.torque;
     }
     // The first drive's velocity command, integrated while it is enabled:
-    // the position it asked for (followingError).
+    // the position it asked for (followingError). Its amplifier has just
+    // worked the command out (commandVelocity(i), without doing it again).
     const bool commanding = commandsVelocity(a);
-    const double commanded = commandVelocity(i);
+    const double commanded =
+        commanding ? a.drives.front().amplifier.lastVelocityCommand() * a.axis.parameters().unitsPerMotorRev : 0.0;
     a.axis.step(torque, brakeEngaged(a), hSeconds_);
     a.commanded = commanding ? a.commanded + commanded * hSeconds_ : a.axis.position();
-    for (Drive& drive : a.drives) drive.encoder.drive(a.axis.motorRevs(), from, t1, h_ / 2);
     positions_[i] = a.axis.position();
   }
-  if (spindle_) {
+  if (spindle_)
     spindle_->step(analog.outputVoltage(d_.spindle->analogOutput), analog.enable(d_.spindle->enable), hSeconds_);
-    if (spindleEncoder_) spindleEncoder_->drive(spindle_->revolutions(), from, t1, h_ / 2);
-  }
+  for (AxisPlant& a : axes_)
+    for (Drive& drive : a.drives) drive.encoder.drive(a.axis.motorRevs(), from, t1, seconds, minimum);
+  if (spindleEncoder_) spindleEncoder_->drive(spindle_->revolutions(), from, t1, seconds, minimum);
   time_ = t1;
 }
 

@@ -1,6 +1,5 @@
 #include "machine/quadrature_encoder.hpp"
 
-#include <chrono>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -17,10 +16,6 @@ QuadratureEncoder::QuadratureEncoder(EncoderParameters parameters, hm2::MuxedEnc
   // at a fixed shaft angle, as on a real encoder.
   origin_ = encoders.signal(input).position - (p_.reversed ? -1.0 : 1.0) * revs * countsPerRev();
   encoders.setIndexPeriod(input, p_.index ? countsPerRev() : 0);
-}
-
-double QuadratureEncoder::trueCounts(double revs) const {
-  return origin_ + (p_.reversed ? -1.0 : 1.0) * revs * static_cast<double>(countsPerRev());
 }
 
 void QuadratureEncoder::setBroken(EncoderChannel channel, bool broken, double revs, SimTime now) {
@@ -40,22 +35,6 @@ void QuadratureEncoder::setBroken(EncoderChannel channel, bool broken, double re
   }
   encoders_->setIndexPeriod(input_, p_.index && !this->broken(EncoderChannel::Index) ? countsPerRev() : 0,
                             std::llround(slipped_));
-}
-
-void QuadratureEncoder::drive(double revs, SimTime from, SimTime until, SimTime minimum) {
-  if (broken(EncoderChannel::A) || broken(EncoderChannel::B)) return;
-  // Within this of the shaft, a standing signal stays put: a shaft at rest
-  // costs the counters nothing.
-  constexpr double kAtRest = 1e-6;  // counts
-  const double target = trueCounts(revs);
-  const hm2::EncoderSignal& signal = encoders_->signal(input_);
-  if (signal.velocity == 0.0 && std::abs(target - signal.position) < kAtRest) return;
-  if (until - from < minimum) return;
-  encoders_->advance(from);
-  const double seconds = std::chrono::duration<double>(until - from).count();
-  // The signal where the counter is at `from` (signal() settles the counters).
-  const double error = target - encoders_->signal(input_).position;
-  encoders_->setVelocity(input_, std::abs(error) < kAtRest ? 0.0 : error / seconds, from);
 }
 
 }  // namespace machine

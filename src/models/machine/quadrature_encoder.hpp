@@ -8,6 +8,8 @@
 // cannot (manual: MAXIMUM ENCODER COUNT RATE).
 #pragma once
 
+#include <chrono>
+#include <cmath>
 #include <cstdint>
 
 #include "hostmot2/muxed_encoder.hpp"
@@ -40,8 +42,24 @@ class QuadratureEncoder {
   // velocity set applies over exactly the time that is left. With less than
   // `minimum` left the signal keeps its velocity and the next step catches
   // up: aiming at the target over a sliver of time would make a velocity
-  // spike the counter's filter could drop counts on.
-  void drive(double revs, SimTime from, SimTime until, SimTime minimum);
+  // spike the counter's filter could drop counts on. `seconds` is
+  // until - from in seconds, which the plant works out once a step for all
+  // its encoders (a division each saved). Inline: the plant calls it for
+  // every encoder at every step.
+  void drive(double revs, SimTime from, SimTime until, double seconds, SimTime minimum) {
+    if (broken(EncoderChannel::A) || broken(EncoderChannel::B)) return;
+    // Within this of the shaft, a standing signal stays put: a shaft at rest
+    // costs the counters nothing.
+    constexpr double kAtRest = 1e-6;  // counts
+    const double target = trueCounts(revs);
+    const hm2::EncoderSignal& signal = encoders_->signal(input_);
+    if (signal.velocity == 0.0 && std::abs(target - signal.position) < kAtRest) return;
+    if (until - from < minimum) return;
+    encoders_->advance(from);
+    // The signal where the counter is at `from` (signal() settles the counters).
+    const double error = target - encoders_->signal(input_).position;
+    encoders_->setVelocity(input_, std::abs(error) < kAtRest ? 0.0 : error / seconds, from);
+  }
 
   // A broken channel (issue 10: a fault to rehearse). With A or B gone the
   // counter sees one channel toggle alone, up one count and back, and no
@@ -57,7 +75,9 @@ class QuadratureEncoder {
 
   [[nodiscard]] std::uint32_t countsPerRev() const { return 4 * p_.linesPerRev; }
   // Counts the shaft is at: what a perfect counter would show.
-  [[nodiscard]] double trueCounts(double revs) const;
+  [[nodiscard]] double trueCounts(double revs) const {
+    return origin_ + (p_.reversed ? -1.0 : 1.0) * revs * static_cast<double>(countsPerRev());
+  }
   // The same from the shaft's revolution 0 (the count a counter cleared there shows).
   [[nodiscard]] double shaftCounts(double revs) const { return trueCounts(revs) - origin_; }
   // The count register of the card's counter (16 bits, as the host reads it).

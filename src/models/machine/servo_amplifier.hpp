@@ -10,6 +10,9 @@
 // drive: the few parameters a servo tuning sees.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
+
 #include "lbp/sim_time.hpp"
 
 namespace machine {
@@ -45,18 +48,34 @@ class ServoAmplifier {
   }
   // The command the drive makes of `volts` at its input: rev/s or Nm, after
   // offset, deadband and saturation.
-  [[nodiscard]] double command(double volts) const;
+  [[nodiscard]] double command(double volts) const {
+    const double v = volts + p_.offsetVolts;
+    if (std::abs(v) <= p_.deadbandVolts) return 0.0;
+    // The deadband is taken out of the input, so the command is continuous
+    // just past it.
+    const double past = v > 0 ? v - p_.deadbandVolts : v + p_.deadbandVolts;
+    return std::clamp(past * p_.gain, -p_.limit, p_.limit);
+  }
   // The motor torque (Nm) over the next `h` seconds: 0 when disabled (the
   // velocity loop's integrator is cleared too, as a drive does when its
   // enable drops); `inertia` is the share of the axis' inertia this motor
   // moves (kg m^2), which scales the velocity loop to its bandwidth.
   double torque(double volts, bool enaOn, double motorRevsPerSecond, double inertia, double h);
+  // The velocity command (rev/s) the last torque() worked with: 0 when the
+  // drive was disabled or is in torque mode. The plant integrates it every
+  // step (Machine::followingError) and need not work it out again.
+  [[nodiscard]] double lastVelocityCommand() const { return velocityCommand_; }
 
   [[nodiscard]] const AmplifierParameters& parameters() const { return p_; }
 
  private:
   AmplifierParameters p_;
   double integral_ = 0.0;  // Nm, the velocity loop's integrator
+  double velocityCommand_ = 0.0;
+  // The loop's gains for the last `inertia` torque() was given (the same
+  // every step): worked out again only when it changes.
+  double gainsFor_ = -1.0;
+  double kp_ = 0.0, ki_ = 0.0;
 };
 
 }  // namespace machine

@@ -28,9 +28,11 @@
 #include <thread>
 #include <vector>
 
+#include "daemon/link_api.hpp"
 #include "daemon/network_api.hpp"
 #include "daemon/request_fields.hpp"
 #include "daemon/state_json.hpp"
+#include "daemon/web_view.hpp"
 
 namespace net {
 
@@ -209,6 +211,8 @@ std::string traceJson(const TraceRing& trace, const httplib::Request& req) {
 
 using Action = void (*)(const ApiTarget&, const json&);
 
+void linkAction(const ApiTarget& t, const json& j) { applyLink(t.card.smartSerial(), j, t.card.now()); }
+
 void networkAction(const ApiTarget& t, const json& j) {
   if (t.udp == nullptr) throw std::invalid_argument("this sim has no network to disturb");
   applyNetwork(t.udp->faults(), j, NetworkFaults::Clock::now());
@@ -298,6 +302,7 @@ constexpr std::pair<std::string_view, Action> kActions[] = {
     {"overtemp", overtempAction},
     {"time", timeAction},
     {"network", networkAction},
+    {"link", linkAction},
     {"machine", machineRouteAction},
 };
 
@@ -389,9 +394,19 @@ void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner
               networkAction(t, j);
               return network();
             }));
+  // The RS-422 links: GET and POST answer what GET /api/link shows.
+  auto link = [t] {
+    const auto s = takeLinkSnapshots(t.card.smartSerial(), t.card.now());
+    return Answer{[s] { return toJson(s).dump(); }};
+  };
+  http.Get("/api/link", handle([link](const json&) { return link(); }));
+  http.Post("/api/link", handle([t, link](const json& j) {
+              linkAction(t, j);
+              return link();
+            }));
   // Every other POST /api/KIND carries out its action and answers the state.
   for (const auto& [name, action] : kActions) {
-    if (name == "network" || name == "machine") continue;
+    if (name == "network" || name == "machine" || name == "link") continue;
     http.Post("/api/" + std::string(name), handle([t, action = action](const json& j) {
                 action(t, j);
                 return t.state();
@@ -496,6 +511,7 @@ struct Connection {
   unsigned served = 0;
   bool draining = false;  // answered and half closed: reading what still comes, then closing
   bool continued = false;  // sent "100 Continue" for this request
+  bool adopted = false;  // its socket goes to the web view's event stream (web_view.hpp)
   std::string peer, local;
   int peerPort = 0, localPort = 0;
   ~Connection() {
@@ -504,6 +520,9 @@ struct Connection {
 };
 
 using ConnectionPtr = std::unique_ptr<Connection>;
+
+// The connection a worker is answering: GET /api/events marks it adopted.
+thread_local Connection* answeringNow = nullptr;
 
 std::string addressOf(const sockaddr_in& sa, int& port) {
   char text[INET_ADDRSTRLEN] = {};
@@ -528,6 +547,7 @@ class RequestStream final : public httplib::Stream {
     return static_cast<ssize_t>(n);
   }
   ssize_t write(const char* ptr, size_t size) override {
+    if (c_.adopted) return static_cast<ssize_t>(size);  // the event stream writes its own answer
     std::size_t done = 0;
     while (done < size) {
       const ssize_t n = ::send(c_.fd, ptr + done, size - done, MSG_NOSIGNAL | MSG_DONTWAIT);
@@ -590,6 +610,7 @@ struct ControlApi::Server {
   std::vector<ConnectionPtr> returned;
   std::set<int> answering;
   std::atomic<unsigned> away{0};  // connections the poller has handed on
+  std::unique_ptr<WebView> web;  // the page and its event stream (issue 14); gone before the rest
 
   ~Server() {
     if (listenFd >= 0) ::close(listenFd);
@@ -833,12 +854,17 @@ void ControlApi::Server::work() {
     bool ok = false;
     {
       RequestStream s(*c, options.writeTimeout);
+      answeringNow = c.get();
       ok = http.answer(s, last, closed);
+      answeringNow = nullptr;
     }
     {
       std::lock_guard<std::mutex> lock(mutex);
       answering.erase(c->fd);
-      if (ok && !closed && !last && !stopping) {
+      if (c->adopted) {
+        --away;
+        web->adopt(std::exchange(c->fd, -1));
+      } else if (ok && !closed && !last && !stopping) {
         c->in.erase(0, c->requestBytes);
         c->requestBytes = 0;
         returned.push_back(std::move(c));
@@ -890,6 +916,10 @@ ControlApi::ControlApi(const ApiOptions& options, ApiTarget target, CardThreadRu
   http.set_keep_alive_timeout(std::max<time_t>(1, static_cast<time_t>(options.idleTimeout.count() / 1000)));
   addChecks(http, options, port_);
   addRoutes(http, target, run);
+  s.web = std::make_unique<WebView>(target, run);
+  s.web->addRoutes(http, [] {
+    if (answeringNow != nullptr) answeringNow->adopted = true;
+  });
   s.poller = std::thread([this] { server_->poll(); });
   for (unsigned i = 0; i < std::max(1U, options.workers); ++i) s.workers.emplace_back([this] { server_->work(); });
 }

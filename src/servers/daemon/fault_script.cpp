@@ -26,6 +26,22 @@ std::function<void(const ApiTarget&)> undoFor(const ScriptedFault& f, const ApiT
       target.udp->faults().silence(std::chrono::microseconds{0}, NetworkFaults::Clock::now());
     };
   }
+  if (f.fault == "link") {
+    // The channel's cable as it was: its rates, plugged in or not, no cut.
+    // (A bad "channel" is refused by the entry itself, just after this.)
+    const json& channel = f.body.contains("channel") ? f.body.at("channel") : json();
+    if (!channel.is_number_integer() || channel.get<std::int64_t>() < 0 ||
+        channel.get<std::int64_t>() >= static_cast<std::int64_t>(t.card.smartSerial().channels()))
+      return nullptr;
+    const auto ch = channel.get<unsigned>();
+    const auto& link = t.card.smartSerial().link(ch);
+    return [ch, rates = link.rates(), connected = link.connected()](const ApiTarget& target) {
+      auto& l = target.card.smartSerial().link(ch);
+      l.setRates(rates);
+      l.setConnected(connected);
+      l.cut(target.card.now(), target.card.now());
+    };
+  }
   json back = f.body;
   if (f.fault == "cable") back["connected"] = !f.body.value("connected", true);
   if (f.fault == "overtemp") back["hot"] = !f.body.value("hot", true);

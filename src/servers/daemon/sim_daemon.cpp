@@ -151,7 +151,12 @@ SimState SimDaemon::state() {
               static_cast<double>(latency_.maxNs) / 1000.0,
               queueing_.percentileUs(0.5),
               queueing_.percentileUs(0.99),
-              static_cast<double>(queueing_.maxNs) / 1000.0};
+              static_cast<double>(queueing_.maxNs) / 1000.0,
+              latency_.percentileUs(0.999),
+              queueing_.percentileUs(0.999),
+              {}};
+  for (std::size_t i = 0; i < s.server.atLeast.size(); ++i)
+    s.server.atLeast[i] = latency_.countAtLeastUs(SimState::Server::kAtLeastUs[i]);
   s.watchdog = card_.watchdog().state(now);
   s.cardLeds = card_.led().state();
   s.sserial = card_.smartSerial().state();
@@ -213,6 +218,9 @@ std::string SimDaemon::banner() const {
   if (apiPort_ >= 0)
     s += fmt::format("  control API: http://{}:{}/api/state{}\n", options_.apiAddress, apiPort_,
                      options_.apiToken.empty() ? "" : " (with its token: Authorization: Bearer TOKEN)");
+  if (apiPort_ >= 0)  // issue 14: the board and the machine, live
+    s += fmt::format("  web view: http://{}:{}/{}\n", options_.apiAddress, apiPort_,
+                     options_.apiToken.empty() ? "" : "#token=TOKEN");
   s += fmt::format("  time: {}{}\n", options_.paused ? "paused" : "follows the wall clock",
                    options_.speed != 1.0 ? fmt::format(" x{}", options_.speed) : "");
   return s;
@@ -283,6 +291,14 @@ double SimDaemon::Latency::percentileUs(double p) const {
                        : static_cast<double>(kFine + (i - kFine) * kCoarseUs) + static_cast<double>(kCoarseUs) / 2;
   }
   return static_cast<double>(kFine + kCoarse * kCoarseUs);
+}
+
+std::uint64_t SimDaemon::Latency::countAtLeastUs(unsigned us) const {
+  // Exact below 1 ms (1 us buckets); above, to the 100 us bucket holding `us`.
+  const std::size_t from = us < kFine ? us : kFine + (us - kFine) / kCoarseUs;
+  std::uint64_t n = 0;
+  for (std::size_t i = std::min(from, buckets.size()); i < buckets.size(); ++i) n += buckets[i];
+  return n;
 }
 
 std::string SimDaemon::latencySummary() const {

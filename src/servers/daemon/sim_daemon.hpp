@@ -152,6 +152,7 @@ class SimDaemon {
     std::uint64_t maxNs = 0;
     void add(std::chrono::nanoseconds d);
     [[nodiscard]] double percentileUs(double p) const;
+    [[nodiscard]] std::uint64_t countAtLeastUs(unsigned us) const;
   } latency_, queueing_;
   // Rate-limited logging of bad datagrams.
   std::chrono::steady_clock::time_point lastBadLog_{};

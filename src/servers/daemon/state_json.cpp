@@ -117,7 +117,15 @@ json toJson(const SimState::Server& s) {
           {"max_us", s.maxUs},
           {"queue_median_us", s.queueMedianUs},
           {"queue_p99_us", s.queueP99Us},
-          {"queue_max_us", s.queueMaxUs}};
+          {"queue_max_us", s.queueMaxUs},
+          {"p999_us", s.p999Us},
+          {"queue_p999_us", s.queueP999Us},
+          {"at_least_us", [&] {
+             json j;
+             for (std::size_t i = 0; i < s.atLeast.size(); ++i)
+               j[std::to_string(SimState::Server::kAtLeastUs[i])] = s.atLeast[i];
+             return j;
+           }()}};
 }
 
 json toJson(const SimState::Daughtercard& s, unsigned connector) {

@@ -60,6 +60,13 @@ struct SimState {
     double queueMedianUs = 0;
     double queueP99Us = 0;
     double queueMaxUs = 0;
+    // For `lbpkit bench` (issue 15): the 99.9th percentiles, and how many
+    // datagrams took at least each of kAtLeastUs (hm2_eth's read timeout, 80 %
+    // of its period, at 10, 4, 2 and 1 kHz).
+    static constexpr std::array<unsigned, 4> kAtLeastUs{80, 200, 400, 800};
+    double p999Us = 0;
+    double queueP999Us = 0;
+    std::array<std::uint64_t, kAtLeastUs.size()> atLeast{};
   } server;
   hm2::Watchdog::State watchdog;
   hm2::Led::State cardLeds;

@@ -5,6 +5,37 @@
 // Set-up (may allocate): SmartSerial(...), discover(), start(), find().
 // The cycle (no allocation, no name lookups): set()/setBit(), cycle(),
 // value()/bit(), status().
+//
+// Errors on the RS-422 link (a noisy cable, a remote that stops answering)
+// are counted per channel, as LinuxCNC's hostmot2 driver counts them per
+// port (its fault-count pin and fault-inc, fault-dec, fault-lim parameters,
+// defaults 10, 1, 200): a cycle whose DOIT failed for the channel adds the
+// increment, every cycle then takes off the decrement (not below 0), and a
+// count above the limit is reported in CycleStatus::overLimitMask. With the
+// defaults the count grows while more than one DOIT in ten fails, and 23
+// failures in a row take it over the limit. SSLBP counts too: the 21st error of
+// one kind since START sets TooManyErrors in CS (CycleStatus::
+// tooManyErrorsMask), after which its error counts say nothing more until
+// the channel is stopped and started again. Either way recover(slot) is the
+// remedy: STOP of that channel and a normal START, which clears SSLBP's
+// counts and the remote's faults, and sets the fault count to 0.
+//
+// Recovery is the caller's by default (Options::autoRecover false): a normal
+// START blocks until the channel has started or given up, and COMMAND is
+// busy meanwhile, so no channel gets a DOIT: on the in-process 7I77 about
+// 0.9 ms when the remote answers (the quiet start timeout, the start
+// sequence, the first chatter reply) and about 17 ms when it does not (the
+// sequence retried until 20 timeouts are too many). That is one to 17
+// periods of a 1 kHz servo thread, and the outputs of the restarted channel
+// are off until its next DOIT (the START clears them, manual: NORMAL
+// START). So a real-time caller chooses when (e.g. with the machine at
+// rest, or from a slower thread), as LinuxCNC stops the port and waits for
+// the user to toggle its run pin. With autoRecover, collectInputs() restarts
+// the channels that need it at once, in one START (at most once per
+// recoveryInterval per channel; CycleStatus::recoveredMask says which), and
+// that cycle overruns by the START's time. Neither path allocates unless the
+// card stops answering (the set-up commands then throw; collectInputs()
+// catches that and sets CycleStatus::recoveryFailed).
 #pragma once
 
 #include <array>
@@ -70,6 +101,24 @@ struct CycleStatus {
   // still unpacked: they are the card's registers as they are.
   bool replyLost = false;
   Nanoseconds doitTime{};       // from DOIT to COMMAND clear, as far as polling tells
+  // Channels whose inputs this cycle brought: the DOIT succeeded (DATA) and
+  // CS says the channel is running (a channel whose START failed is not
+  // asked by DOIT, so DATA alone would not flag it). The other channels'
+  // inputs are their last good values.
+  std::uint8_t freshMask = 0;
+  // Channels whose fault count is above Options::faultLimit.
+  std::uint8_t overLimitMask = 0;
+  // Channels whose CS shows TooManyErrors (sticky until STOP).
+  std::uint8_t tooManyErrorsMask = 0;
+  // Channels Options::autoRecover stopped and started again in this cycle
+  // (their START failed if they are still in failedMask next cycle).
+  std::uint8_t recoveredMask = 0;
+  // autoRecover's STOP or START got no answer from the card (Error caught).
+  bool recoveryFailed = false;
+  // Channels that need recover(): over the fault limit or TooManyErrors.
+  [[nodiscard]] std::uint8_t needsRecovery() const {
+    return static_cast<std::uint8_t>(overLimitMask | tooManyErrorsMask);
+  }
 };
 
 class SmartSerial {
@@ -81,6 +130,13 @@ class SmartSerial {
     Nanoseconds commandTimeout = std::chrono::seconds(2);
     Nanoseconds pollInterval = std::chrono::microseconds(10);
     Nanoseconds recoveryInterval = std::chrono::seconds(1);
+    // The fault count (see the top of this file): LinuxCNC's defaults.
+    std::uint32_t faultIncrement = 10;
+    std::uint32_t faultDecrement = 1;
+    std::uint32_t faultLimit = 200;
+    // Restart channels that need it from collectInputs() (see the top of
+    // this file for what that costs a cycle).
+    bool autoRecover = false;
   };
 
   SmartSerial(Transport& t, const CardInfo& card, Options options);
@@ -140,8 +196,15 @@ class SmartSerial {
   // Both, for a caller with nothing else to do.
   CycleStatus cycle();
   // A channel that keeps failing is stopped and started again, at most once
-  // per recoveryInterval. Returns true when it tried.
+  // per recoveryInterval; its fault count goes back to 0. Returns true when
+  // it tried; running() then says whether the START brought it back.
   bool recover(unsigned slot);
+  // The channel's fault count (LinuxCNC: fault-count).
+  [[nodiscard]] std::uint32_t faultCount(unsigned slot) const { return slots_.at(slot).faultCount; }
+  // Its last START (startNormal() or recover()) succeeded.
+  [[nodiscard]] bool running(unsigned slot) const { return slots_.at(slot).running; }
+  // Restarts recover() (or autoRecover) did on this channel.
+  [[nodiscard]] std::uint64_t recoveries(unsigned slot) const { return slots_.at(slot).recoveries; }
   // Cycles whose inputs were read; cycles that lost a reply.
   [[nodiscard]] std::uint64_t cycles() const { return cycles_; }
   [[nodiscard]] std::uint64_t lostCycles() const { return lostCycles_; }
@@ -158,7 +221,15 @@ class SmartSerial {
     unsigned inRegs = 0, outRegs = 0;
     std::uint32_t cs = 0;
     Nanoseconds lastRecovery{-1};
+    std::uint32_t faultCount = 0;
+    std::uint64_t recoveries = 0;
+    bool running = false;
   };
+  // The fault count and the masks of one cycle whose DATA and CS were read.
+  void countFaults(CycleStatus& st);
+  // STOP of each channel of `slots` (a mask of slot indexes), one normal
+  // START of them all; returns the channel mask that failed to start.
+  std::uint8_t restart(std::uint8_t slotMask);
   std::uint8_t waitCommand();
   std::uint8_t runningMask() const;
 

@@ -1,0 +1,101 @@
+// `lbpkit bench` (issue 15): the performance figures, measured on the machine
+// at hand, each beside what it is compared against in the same run. What the
+// parts share: the options, and the processes they start (sims, LinuxCNC in
+// a network namespace, CPU hogs), each stopped by its owner's destructor on
+// every way out, Ctrl-C included (app::gStop, checked by every wait).
+#pragma once
+
+#include <sys/types.h>
+
+#include <chrono>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+namespace bench {
+
+struct Options {
+  double seconds = 10;  // per measured point (the in-process part: simulated seconds)
+  std::vector<unsigned> rates{1000, 2000, 4000, 10000};  // LinuxCNC servo thread, Hz
+  std::vector<unsigned> boards{1, 10, 50};                // sims side by side
+  bool json = false;
+};
+
+// Ctrl-C (or SIGTERM) arrived: the part stops, its destructors clean up.
+void checkStop();
+// Sleeps `d`, waking early (and throwing) on Ctrl-C.
+void sleepFor(std::chrono::duration<double> d);
+
+// A shell command's exit status and output (through a file: rtapi_app keeps
+// a pipe open long after halcmd exits).
+struct Shell {
+  int exit = -1;
+  std::string out;
+};
+Shell sh(const std::string& command);
+bool have(const char* tool);
+
+// The bench's scratch folder (sims' EEPROM files, HAL files), removed at exit.
+const std::filesystem::path& scratch();
+
+// `lbpkit sim --bind ADDRESS --api 0` started from this very binary, stopped
+// (SIGTERM, then SIGKILL) by the destructor.
+class SimProcess {
+ public:
+  explicit SimProcess(const std::string& address, std::vector<std::string> extra = {});
+  ~SimProcess();
+  SimProcess(const SimProcess&) = delete;
+  SimProcess& operator=(const SimProcess&) = delete;
+  // GET /api/state; null when the sim does not answer.
+  [[nodiscard]] nlohmann::json state() const;
+  [[nodiscard]] pid_t pid() const { return pid_; }
+  [[nodiscard]] const std::string& address() const { return address_; }
+
+ private:
+  std::string address_;
+  std::filesystem::path stateFile_;
+  pid_t pid_ = -1;
+  int out_ = -1;
+  int apiPort_ = 0;
+};
+
+// One spinning process per CPU at normal priority: what a compile or a GUI
+// does to a commissioning laptop. Killed by the destructor.
+class CpuHog {
+ public:
+  CpuHog();
+  ~CpuHog();
+  CpuHog(const CpuHog&) = delete;
+  CpuHog& operator=(const CpuHog&) = delete;
+  [[nodiscard]] unsigned processes() const { return static_cast<unsigned>(pids_.size()); }
+
+ private:
+  std::vector<pid_t> pids_;
+};
+
+// A process's CPU time so far (user + system, /proc/PID/stat), seconds.
+double cpuSeconds(pid_t pid);
+// Its memory, kB: resident (VmRSS) and proportional (Pss: shared pages split
+// among their users, so N sims add up to what they really take).
+struct Memory {
+  long rssKb = -1;
+  long pssKb = -1;
+};
+Memory memory(pid_t pid);
+// This machine: CPU model, cores, kernel, load average.
+nlohmann::json machine();
+double loadAverage();
+
+// The parts: each returns its figures as JSON ({"skipped": why} when it
+// cannot run here) and prints them as text when not --json.
+nlohmann::json runInProcess(const Options& o);
+nlohmann::json runNetwork(const Options& o);
+nlohmann::json runDiscovery(const Options& o);
+nlohmann::json runBoards(const Options& o);
+void printInProcess(const nlohmann::json& j);
+void printNetwork(const nlohmann::json& j);
+void printDiscovery(const nlohmann::json& j);
+void printBoards(const nlohmann::json& j);
+
+}  // namespace bench

@@ -1,0 +1,270 @@
+// What `lbpkit bench`'s parts start and measure: sims, CPU hogs, shell
+// commands, /proc figures. Every process started here is stopped by the
+// object that started it, by its PID.
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/utsname.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <fmt/core.h>
+#include <httplib.h>
+
+#include <cerrno>
+#include <fstream>
+#include <thread>
+
+#include "bench.hpp"
+#include "common.hpp"
+#include "lbpkit/error.hpp"
+
+namespace bench {
+
+using namespace std::chrono_literals;
+
+void checkStop() {
+  if (app::gStop.load()) throw lbpkit::Error("interrupted: everything the bench started has been stopped");
+}
+
+void sleepFor(std::chrono::duration<double> d) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::nanoseconds>(d);
+  while (std::chrono::steady_clock::now() < end) {
+    checkStop();
+    std::this_thread::sleep_for(std::min<std::chrono::nanoseconds>(end - std::chrono::steady_clock::now(), 50ms));
+  }
+  checkStop();
+}
+
+namespace {
+
+// Waits for a child, through the EINTR of a Ctrl-C (the child got it too).
+int reap(pid_t pid) {
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  return status;
+}
+
+// SIGTERM, up to 3 s to go, then SIGKILL.
+void stopProcess(pid_t pid) {
+  if (pid <= 0) return;
+  ::kill(pid, SIGTERM);
+  for (int i = 0; i < 60; ++i) {
+    int status = 0;
+    if (::waitpid(pid, &status, WNOHANG) == pid) return;
+    std::this_thread::sleep_for(50ms);
+  }
+  ::kill(pid, SIGKILL);
+  reap(pid);
+}
+
+std::string self() {
+  std::error_code ec;
+  auto p = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (ec) throw lbpkit::Error("cannot find this program's own path (/proc/self/exe) to start sims");
+  return p.string();
+}
+
+struct Scratch {
+  std::filesystem::path dir;
+  Scratch() {
+    std::string t = (std::filesystem::temp_directory_path() / "lbpkit-bench-XXXXXX").string();
+    if (::mkdtemp(t.data()) == nullptr) throw lbpkit::Error("cannot create a scratch folder in the temp directory");
+    dir = t;
+  }
+  ~Scratch() {
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+  }
+};
+
+}  // namespace
+
+const std::filesystem::path& scratch() {
+  static Scratch s;
+  return s.dir;
+}
+
+Shell sh(const std::string& command) {
+  static int serial = 0;
+  const auto file = scratch() / fmt::format("sh-{}", serial++);
+  const pid_t pid = ::fork();
+  if (pid < 0) throw lbpkit::Error("fork failed");
+  if (pid == 0) {
+    const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    const int null = ::open("/dev/null", O_RDONLY);
+    ::dup2(null, 0);
+    ::dup2(fd, 1);
+    ::dup2(fd, 2);
+    ::execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  const int status = reap(pid);
+  Shell r;
+  r.exit = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream in(file);
+  r.out.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  std::filesystem::remove(file);
+  return r;
+}
+
+bool have(const char* tool) { return sh(std::string("command -v ") + tool).exit == 0; }
+
+SimProcess::SimProcess(const std::string& address, std::vector<std::string> extra) : address_(address) {
+  static int serial = 0;
+  stateFile_ = scratch() / fmt::format("sim-{}", serial++);
+  std::vector<std::string> args = {self(), "sim", "--bind", address, "--api", "0", "--state", stateFile_.string()};
+  args.insert(args.end(), extra.begin(), extra.end());
+  int out[2];
+  if (::pipe2(out, O_CLOEXEC) != 0) throw lbpkit::Error("pipe failed");
+  const auto log = stateFile_.string() + ".log";
+  pid_ = ::fork();
+  if (pid_ < 0) throw lbpkit::Error("fork failed");
+  if (pid_ == 0) {
+    ::prctl(PR_SET_PDEATHSIG, SIGTERM);  // a bench killed outright leaves no sim behind
+    const int err = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    ::dup2(out[1], 1);
+    ::dup2(err, 2);
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  ::close(out[1]);
+  out_ = out[0];
+  // Its banner names the control API's port; it is serving by then.
+  std::string text;
+  const std::string marker = "control API: http://127.0.0.1:";
+  const auto end = std::chrono::steady_clock::now() + 15s;
+  while (std::chrono::steady_clock::now() < end && text.find(marker) == std::string::npos) {
+    pollfd p{out_, POLLIN, 0};
+    if (::poll(&p, 1, 100) <= 0) {
+      if (app::gStop.load()) break;
+      continue;
+    }
+    char buf[1024];
+    const ssize_t n = ::read(out_, buf, sizeof buf);
+    if (n <= 0) break;
+    text.append(buf, static_cast<std::size_t>(n));
+  }
+  const auto at = text.find(marker);
+  if (at != std::string::npos) apiPort_ = std::atoi(text.c_str() + at + marker.size());
+  if (apiPort_ <= 0) {
+    std::ifstream in(log);
+    const std::string why((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    stopProcess(pid_);
+    pid_ = -1;
+    ::close(out_);
+    out_ = -1;
+    checkStop();
+    throw lbpkit::Error(fmt::format("lbpkit sim on {} did not start: {}", address, why.empty() ? text : why));
+  }
+}
+
+SimProcess::~SimProcess() {
+  stopProcess(pid_);
+  if (out_ >= 0) ::close(out_);
+  for (const char* suffix : {"", ".analog", ".flash", ".log"}) {
+    std::error_code ec;
+    std::filesystem::remove(stateFile_.string() + suffix, ec);
+  }
+}
+
+nlohmann::json SimProcess::state() const {
+  httplib::Client c("127.0.0.1", apiPort_);
+  c.set_connection_timeout(2);
+  c.set_read_timeout(5);
+  auto r = c.Get("/api/state");
+  if (!r || r->status != 200) return {};
+  return nlohmann::json::parse(r->body, nullptr, false);
+}
+
+CpuHog::CpuHog() {
+  const unsigned n = std::max(1U, std::thread::hardware_concurrency());
+  for (unsigned i = 0; i < n; ++i) {
+    const pid_t pid = ::fork();
+    if (pid < 0) throw lbpkit::Error("fork failed");
+    if (pid == 0) {
+      ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+      volatile std::uint64_t x = 0;
+      for (;;) x = x + 1;
+    }
+    pids_.push_back(pid);
+  }
+}
+
+CpuHog::~CpuHog() {
+  for (const pid_t pid : pids_) ::kill(pid, SIGKILL);
+  for (const pid_t pid : pids_) reap(pid);
+}
+
+double cpuSeconds(pid_t pid) {
+  // Every thread's time on a CPU in ns (schedstat's first field): exact,
+  // where /proc/PID/stat counts in clock ticks.
+  double ns = 0;
+  bool any = false;
+  std::error_code ec;
+  for (const auto& task : std::filesystem::directory_iterator(fmt::format("/proc/{}/task", pid), ec)) {
+    std::ifstream t(task.path() / "schedstat");
+    double run = 0;
+    if (t >> run) {
+      ns += run;
+      any = true;
+    }
+  }
+  if (any) return ns * 1e-9;
+  std::ifstream f(fmt::format("/proc/{}/stat", pid));
+  std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  // After the command name's closing parenthesis: state is field 3, utime 14, stime 15.
+  const auto close = text.rfind(')');
+  if (close == std::string::npos) return 0;
+  std::istringstream in(text.substr(close + 2));
+  std::string field;
+  double ticks = 0;
+  for (int i = 3; i <= 15 && in >> field; ++i)
+    if (i >= 14) ticks += std::atof(field.c_str());
+  return ticks / static_cast<double>(::sysconf(_SC_CLK_TCK));
+}
+
+Memory memory(pid_t pid) {
+  Memory m;
+  auto field = [](const std::string& file, const char* name) {
+    std::ifstream f(file);
+    std::string line;
+    while (std::getline(f, line))
+      if (line.rfind(name, 0) == 0) return std::atol(line.c_str() + std::strlen(name));
+    return -1L;
+  };
+  m.rssKb = field(fmt::format("/proc/{}/status", pid), "VmRSS:");
+  m.pssKb = field(fmt::format("/proc/{}/smaps_rollup", pid), "Pss:");
+  return m;
+}
+
+double loadAverage() {
+  std::ifstream f("/proc/loadavg");
+  double l = 0;
+  f >> l;
+  return l;
+}
+
+nlohmann::json machine() {
+  std::string model;
+  std::ifstream cpu("/proc/cpuinfo");
+  for (std::string line; std::getline(cpu, line);)
+    if (line.rfind("model name", 0) == 0) {
+      model = line.substr(line.find(':') + 2);
+      break;
+    }
+  utsname u{};
+  ::uname(&u);
+  return {{"cpu", model},
+          {"cpus", std::thread::hardware_concurrency()},
+          {"kernel", fmt::format("{} {}", u.sysname, u.release)},
+          {"load_average", loadAverage()},
+          {"root", ::geteuid() == 0}};
+}
+
+}  // namespace bench

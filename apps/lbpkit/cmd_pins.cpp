@@ -1,0 +1,87 @@
+// lbpkit pins: the HAL pins and parameters LinuxCNC's hostmot2 driver will
+// create for this card and its remotes in the configured modes.
+#include <fmt/core.h>
+
+#include <functional>
+#include <nlohmann/json.hpp>
+
+#include "common.hpp"
+#include "hal_card.hpp"
+#include "lbpkit/error.hpp"
+
+namespace app {
+extern std::function<int()> gRun;
+}
+
+namespace {
+
+struct PinsOptions {
+  app::CardOptions card;
+  std::string config = "sserial_port_0=00000000";
+  unsigned sevenI77s = 1;
+  bool json = false;
+  bool params = true;
+  bool pins = true;
+};
+
+int runPins(const PinsOptions& o) {
+  std::vector<std::string> problems;
+  const auto config = lbpkit::hal::parseHm2Config(o.config, &problems);
+  if (!problems.empty()) throw lbpkit::Error("--config: " + problems.front());
+  if (!o.card.modes.empty()) throw lbpkit::Error("--modes: give the modes in --config as sserial_port_0=... (as LinuxCNC)");
+  lbpkit::CardInfo info;
+  std::vector<lbpkit::hal::Remote> remotes;
+  if (!o.card.addr.empty()) {
+    if (o.sevenI77s != 1) throw lbpkit::Error("--7i77s is for the in-process card: a card on the network is what it is");
+    auto card = app::openCard(o.card);
+    info = card.info;
+    remotes = app::discoverRemotes(*card.transport, info, config);
+  } else {
+    if (o.sevenI77s < 1 || o.sevenI77s > 2) throw lbpkit::Error("--7i77s: the virtual 7I92 carries 1 or 2 7I77s");
+    auto card = app::virtualCard(o.sevenI77s, config);
+    info = card.info;
+    remotes = std::move(card.remotes);
+  }
+  const auto items = lbpkit::hal::hostmot2Items(info, config, remotes, lbpkit::hal::Driver::Eth);
+  if (o.json) {
+    nlohmann::json out;
+    out["board"] = lbpkit::hal::boardPrefix(info);
+    out["config"] = o.config;
+    out["pins"] = nlohmann::json::array();
+    out["params"] = nlohmann::json::array();
+    for (const auto& i : items) {
+      nlohmann::json j{{"name", i.name}, {"type", lbpkit::hal::typeName(i.type)}, {"dir", lbpkit::hal::dirName(i.dir)},
+                       {"origin", i.origin}};
+      if (!i.alsoNamed.empty()) j["also_named"] = i.alsoNamed;
+      out[i.kind == lbpkit::hal::Kind::Pin ? "pins" : "params"].push_back(j);
+    }
+    fmt::print("{}\n", out.dump(2));
+    return 0;
+  }
+  for (const auto kind : {lbpkit::hal::Kind::Pin, lbpkit::hal::Kind::Param}) {
+    if ((kind == lbpkit::hal::Kind::Pin && !o.pins) || (kind == lbpkit::hal::Kind::Param && !o.params)) continue;
+    fmt::print("{}:\n", kind == lbpkit::hal::Kind::Pin ? "Pins" : "Parameters");
+    for (const auto& i : items)
+      if (i.kind == kind)
+        fmt::print("  {:<5} {:<3}  {}\n", lbpkit::hal::typeName(i.type), lbpkit::hal::dirName(i.dir), i.name);
+  }
+  return 0;
+}
+
+}  // namespace
+
+void addPinsCommand(CLI::App& app) {
+  auto o = std::make_shared<PinsOptions>();
+  auto* cmd = app.add_subcommand("pins", "List the HAL pins and parameters LinuxCNC's hostmot2 driver creates for the "
+                                         "card and its smart-serial remotes (from the IDROM and each remote's "
+                                         "discovery, in the configured modes)");
+  o->card.add(*cmd);
+  cmd->add_option("--config", o->config,
+                  "hostmot2's config= string, e.g. \"num_encoders=6 sserial_port_0=00xxxx\" (default: every module, "
+                  "every channel in mode 0)");
+  cmd->add_option("--7i77s", o->sevenI77s, "With the in-process card: how many 7I77s it carries (1 or 2)");
+  cmd->add_flag("!--no-params", o->params, "Pins only");
+  cmd->add_flag("!--no-pins", o->pins, "Parameters only");
+  cmd->add_flag("--json", o->json, "Machine-readable output");
+  cmd->callback([o] { app::gRun = [o] { return runPins(*o); }; });
+}

@@ -1,0 +1,60 @@
+// lbpkit check-config: reads a LinuxCNC configuration (an INI and the HAL
+// files it names, or one HAL file) the way halcmd would, and reports every
+// reference to a hostmot2 pin or parameter that LinuxCNC would refuse or
+// that cannot work: no such name, a smart-serial channel with no remote or
+// left out, a pin that exists only in another mode, a read-only parameter,
+// two outputs on one signal, an input nothing writes. Needs no LinuxCNC.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "hal/hm2_pins.hpp"
+
+namespace lbpkit::hal {
+
+struct Finding {
+  std::string file;  // as given (relative to the INI's folder for HAL files)
+  unsigned line = 0;
+  std::string severity;  // "error" or "warning"
+  std::string name;      // the pin, parameter or signal it is about ("" for others)
+  std::string reason;
+  std::string suggestion;  // the nearest existing name, if any
+};
+
+// A board a configuration loads: its driver line and what it creates.
+struct Board {
+  std::string prefix;  // "hm2_7i92.0"
+  std::string driver;  // "hm2_eth", "hm2_pci"
+  std::string config;  // the config= string
+  std::string file;
+  unsigned line = 0;
+  std::string description;  // "7I92, 7I77 on channels 0 and 1"
+  std::vector<Item> items;
+  // The same board's items with every channel in each other mode (for "wrong
+  // mode" reasons): mode digit -> items.
+  std::map<char, std::vector<Item>> itemsInMode;
+};
+
+// What the checker asks its caller: the board `prefix` ("hm2_5i25.0") loaded
+// by `driver` with `config`, carrying `sevenI77s` 7I77s (1 or 2). Returns
+// false when lbpkit does not know that board (the description says why).
+using BoardModel = std::function<bool(Board& board, const Hm2Config& config, unsigned sevenI77s)>;
+
+struct CheckResult {
+  std::vector<Finding> findings;
+  std::vector<Board> boards;
+  unsigned references = 0;  // hostmot2 names looked up
+  std::vector<std::string> files;  // the HAL files read
+  [[nodiscard]] bool ok() const;
+};
+
+CheckResult checkConfig(const std::filesystem::path& file, const BoardModel& model);
+
+// Edit distance, for "did you mean".
+std::size_t editDistance(const std::string& a, const std::string& b);
+
+}  // namespace lbpkit::hal

@@ -1,0 +1,58 @@
+// `lbpkit bench` (issue 15) as a user runs it: the in-process part's JSON
+// has the figures the README quotes, and bad options are refused by name.
+// No timing is asserted here (benchmarks/ and the command itself measure).
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "process.hpp"
+
+namespace {
+
+using nlohmann::json;
+
+TEST(BenchCli, InProcessJsonHasEveryFigure) {
+  const auto r = testing_process::run({"bench", "--only", "inprocess", "--seconds", "1", "--json"});
+  ASSERT_EQ(r.exit, 0) << r.err;
+  const auto j = json::parse(r.out, nullptr, false);
+  ASSERT_FALSE(j.is_discarded()) << r.out;
+  ASSERT_TRUE(j.contains("machine")) << j;
+  EXPECT_TRUE(j["machine"].contains("cpu"));
+  EXPECT_GE(j["machine"]["cpus"].get<unsigned>(), 1U);
+  EXPECT_FALSE(j.contains("network")) << "only the part asked for runs";
+  EXPECT_FALSE(j.contains("boards"));
+  const auto& in = j["inprocess"];
+  ASSERT_TRUE(in["rows"].is_array()) << j;
+  ASSERT_EQ(in["rows"].size(), 2U) << "the board alone and the board with the mill, side by side";
+  EXPECT_EQ(in["rows"][0]["name"], "board alone");
+  EXPECT_EQ(in["rows"][1]["name"], "board + mill");
+  for (const auto& row : in["rows"]) {
+    EXPECT_NEAR(row["simulated_s"].get<double>(), 1.0, 1e-6) << row;
+    EXPECT_GT(row["x_real_time"].get<double>(), 0.0) << row;
+    EXPECT_GT(row["cpu_us_per_sim_ms"].get<double>(), 0.0) << row;
+    EXPECT_GT(row["cpu_s"].get<double>(), 0.0) << row;
+  }
+  EXPECT_EQ(in["goal"]["x_real_time"], 2000);
+}
+
+TEST(BenchCli, TextOutputNamesTheComparison) {
+  const auto r = testing_process::run({"bench", "--only", "inprocess", "--seconds", "0.2"});
+  ASSERT_EQ(r.exit, 0) << r.err;
+  EXPECT_NE(r.out.find("board alone"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("board + mill"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("x real time"), std::string::npos) << r.out;
+}
+
+TEST(BenchCli, RefusesUnknownPartsAndBadDurations) {
+  auto r = testing_process::run({"bench", "--only", "inprocess,warp"});
+  EXPECT_NE(r.exit, 0);
+  EXPECT_NE(r.err.find("\"warp\" is not a part"), std::string::npos) << r.err;
+  r = testing_process::run({"bench", "--only", "inprocess", "--seconds", "0"});
+  EXPECT_NE(r.exit, 0);
+  EXPECT_NE(r.err.find("--seconds"), std::string::npos) << r.err;
+  r = testing_process::run({"bench", "--only", "boards", "--boards", "1,x"});
+  EXPECT_NE(r.exit, 0);
+  EXPECT_NE(r.err.find("--boards: \"x\""), std::string::npos) << r.err;
+}
+
+}  // namespace

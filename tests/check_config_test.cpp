@@ -1,0 +1,301 @@
+// Issue 16: `lbpkit pins` and `lbpkit check-config`. The naming rules on a
+// hand-made card (lbpkit_hal alone), then the checker on the corpus in
+// tests/check_config/: every good configuration passes, every broken one is
+// caught at the line its "# expect:" comment marks, with that reason and the
+// nearest existing name. (tests/interop_test.cpp proves the names against
+// LinuxCNC itself.)
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <set>
+
+#include "hal/config_check.hpp"
+#include "hal/hm2_pins.hpp"
+#include "process.hpp"
+
+namespace {
+
+using namespace lbpkit;
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+const hal::Item* item(const std::vector<hal::Item>& items, const std::string& name) {
+  for (const auto& i : items)
+    if (i.name == name || i.alsoNamed == name) return &i;
+  return nullptr;
+}
+
+TEST(Hm2Config, ParsesCountsAndSmartSerialModes) {
+  std::vector<std::string> problems;
+  const auto c = hal::parseHm2Config("num_encoders=6  num_pwmgens=0 sserial_port_0=30xx", &problems);
+  EXPECT_TRUE(problems.empty());
+  EXPECT_EQ(c.count("num_encoders"), 6);
+  EXPECT_EQ(c.count("num_pwmgens"), 0);
+  EXPECT_EQ(c.count("num_stepgens"), -1);
+  EXPECT_EQ(c.mode(0, 0), '3');
+  EXPECT_EQ(c.mode(0, 2), 'x');
+  EXPECT_EQ(c.mode(0, 5), '0') << "channels past the string run in mode 0";
+  EXPECT_EQ(c.channelMask(0), 0xF3);
+  hal::parseHm2Config("num_encoder=6 sserial_port_7=0 num_leds=two", &problems);
+  ASSERT_EQ(problems.size(), 3U);
+  EXPECT_NE(problems[0].find("\"num_encoder\" is not a hostmot2 config= key"), std::string::npos) << problems[0];
+  EXPECT_NE(problems[1].find("N 0..3"), std::string::npos) << problems[1];
+  EXPECT_NE(problems[2].find("wants a number"), std::string::npos) << problems[2];
+}
+
+// A small card: 4 IO pins (an encoder select output, a TX, an RX, a plain
+// one), 2 muxed encoders, one SSerial port with a remote on channel 0.
+CardInfo smallCard() {
+  CardInfo c;
+  c.boardName = "MESA7I92";
+  auto module = [&](std::uint8_t tag, std::uint8_t n) {
+    ModuleInfo m;
+    m.tag = tag;
+    m.instances = n;
+    c.modules.push_back(m);
+  };
+  module(wire::hm2::tag::kWatchdog, 1);
+  module(wire::hm2::tag::kIoPort, 1);
+  module(wire::hm2::tag::kMuxedQCount, 2);
+  module(wire::hm2::tag::kMuxedQCountSel, 1);
+  module(wire::hm2::tag::kSSerial, 1);
+  module(wire::hm2::tag::kLed, 1);
+  auto pin = [&](std::uint8_t tag, std::uint8_t unit, std::uint8_t code) {
+    PinInfo p;
+    p.io = static_cast<unsigned>(c.pins.size());
+    p.secondaryTag = tag;
+    p.secondaryUnit = unit;
+    p.secondaryPin = code;
+    c.pins.push_back(p);
+  };
+  pin(wire::hm2::tag::kMuxedQCountSel, 0, 0x81);  // sel0, out
+  pin(wire::hm2::tag::kSSerial, 0, 0x81);         // tx0
+  pin(wire::hm2::tag::kSSerial, 0, 0x01);         // rx0
+  pin(0, 0, 0);                                   // GPIO
+  return c;
+}
+
+hal::Remote smallRemote() {
+  hal::Remote r;
+  r.name = "7I77";
+  auto element = [&](const char* name, DataType t, Direction d, unsigned bits) {
+    ProcessDataElement e;
+    e.name = name;
+    e.type = t;
+    e.direction = d;
+    e.bits = bits;
+    return e;
+  };
+  r.description.processData = {element("Input", DataType::Bits, Direction::Input, 4),
+                               element("Output", DataType::Bits, Direction::Output, 2),
+                               element("AnalogOut0", DataType::Signed, Direction::Output, 13),
+                               element("AnalogIn0", DataType::Unsigned, Direction::Input, 16),
+                               element("AnalogEna", DataType::Boolean, Direction::Output, 1),
+                               element("Enc0", DataType::Encoder, Direction::Input, 16),
+                               element("Pad", DataType::Pad, Direction::Input, 3)};
+  r.description.parameters = {element("NVBaudRate", DataType::NonVolUnsigned, Direction::Input, 8),
+                              element("WatchdogTime", DataType::Unsigned, Direction::Bidirectional, 16),
+                              element("Gain", DataType::Signed, Direction::Output, 16),
+                              element("Flags", DataType::Bits, Direction::Output, 8)};
+  return r;
+}
+
+TEST(HalPins, FollowHostmot2sNamingRules) {
+  const auto card = smallCard();
+  const auto items = hal::hostmot2Items(card, hal::parseHm2Config("sserial_port_0=0"), {smallRemote()}, hal::Driver::Eth);
+  ASSERT_TRUE(std::is_sorted(items.begin(), items.end(), [](auto& a, auto& b) { return a.name < b.name; }));
+  auto check = [&](const std::string& name, hal::Kind k, hal::Type t, hal::Dir d) {
+    const auto* i = item(items, "hm2_7i92.0." + name);
+    ASSERT_NE(i, nullptr) << name;
+    EXPECT_EQ(i->kind, k) << name;
+    EXPECT_EQ(i->type, t) << name;
+    EXPECT_EQ(i->dir, d) << name;
+  };
+  using K = hal::Kind;
+  using T = hal::Type;
+  using D = hal::Dir;
+  // Remote: bits in (with -not), bits out (with -invert), numeric out (three
+  // parameters), numeric in (scalemax only), boolean, encoder, GTOC params.
+  check("7i77.0.0.input-03", K::Pin, T::Bit, D::Out);
+  check("7i77.0.0.input-03-not", K::Pin, T::Bit, D::Out);
+  check("7i77.0.0.output-01", K::Pin, T::Bit, D::In);
+  check("7i77.0.0.output-01-invert", K::Param, T::Bit, D::RW);
+  check("7i77.0.0.analogout0", K::Pin, T::Float, D::In);
+  check("7i77.0.0.analogout0-minlim", K::Param, T::Float, D::RW);
+  check("7i77.0.0.analogin0", K::Pin, T::Float, D::Out);
+  check("7i77.0.0.analogin0-scalemax", K::Param, T::Float, D::RW);
+  EXPECT_EQ(item(items, "hm2_7i92.0.7i77.0.0.analogin0-maxlim"), nullptr);
+  check("7i77.0.0.analogena", K::Pin, T::Bit, D::In);
+  check("7i77.0.0.analogena-invert", K::Param, T::Bit, D::RW);
+  check("7i77.0.0.enc0.index-enable", K::Pin, T::Bit, D::IO);
+  check("7i77.0.0.enc0.counts-per-rev", K::Param, T::U32, D::RW);
+  check("7i77.0.0.nvbaudrate", K::Param, T::U32, D::RO);
+  check("7i77.0.0.watchdogtime", K::Param, T::U32, D::RW);
+  check("7i77.0.0.gain", K::Param, T::S32, D::RW);
+  EXPECT_EQ(item(items, "hm2_7i92.0.7i77.0.0.flags"), nullptr) << "bits are no parameter";
+  EXPECT_EQ(item(items, "hm2_7i92.0.7i77.0.0.pad"), nullptr);
+  EXPECT_EQ(item(items, "hm2_7i92.0.7i77.0.0.input-04"), nullptr);
+  // Card: encoders, the module's output pins under both names, GPIO.
+  check("encoder.01.velocity-rpm", K::Pin, T::Float, D::Out);
+  check("encoder.muxed-sample-frequency", K::Pin, T::U32, D::In);
+  check("encoder.00.sel0.invert_output", K::Param, T::Bit, D::RW);
+  EXPECT_EQ(item(items, "hm2_7i92.0.encoder.00.sel0.invert_output")->alsoNamed, "hm2_7i92.0.gpio.000.invert_output");
+  check("sserial.00.tx0.is_opendrain", K::Param, T::Bit, D::RW);
+  check("gpio.002.in_not", K::Pin, T::Bit, D::Out);
+  EXPECT_EQ(item(items, "hm2_7i92.0.gpio.002.invert_output"), nullptr) << "an input of SSerial";
+  check("gpio.003.out", K::Pin, T::Bit, D::In);
+  check("gpio.003.is_output", K::Param, T::Bit, D::RW);
+  check("led.CR04", K::Pin, T::Bit, D::In);
+  check("read-request.time", K::Pin, T::S32, D::Out);
+  check("packet-error-decrement", K::Param, T::S32, D::RO);
+  check("sserial.port-0.fault-lim", K::Param, T::U32, D::RW);
+
+  // Channel 0 left out: no remote pins, and its pins are plain GPIO again.
+  const auto without = hal::hostmot2Items(card, hal::parseHm2Config("num_encoders=0 sserial_port_0=x"), {smallRemote()},
+                                          hal::Driver::Pci);
+  EXPECT_EQ(item(without, "hm2_7i92.0.7i77.0.0.input-00"), nullptr);
+  EXPECT_NE(item(without, "hm2_7i92.0.gpio.001.out"), nullptr);
+  EXPECT_NE(item(without, "hm2_7i92.0.gpio.000.out"), nullptr) << "no encoder takes the select pin";
+  EXPECT_EQ(item(without, "hm2_7i92.0.encoder.00.count"), nullptr);
+  EXPECT_NE(item(without, "hm2_7i92.0.read_gpio.time"), nullptr);
+  EXPECT_EQ(item(without, "hm2_7i92.0.read-request.time"), nullptr);
+  EXPECT_EQ(item(without, "hm2_7i92.0.packet-error"), nullptr);
+}
+
+TEST(HalPins, EditDistance) {
+  EXPECT_EQ(hal::editDistance("output-01", "ouput-01"), 1U);
+  EXPECT_EQ(hal::editDistance("", "abc"), 3U);
+  EXPECT_EQ(hal::editDistance("7i77.0.4", "7i77.0.1"), 1U);
+}
+
+fs::path corpus() { return fs::path(LBPKIT_SOURCE_DIR) / "tests/check_config"; }
+
+testing_process::Result check(const fs::path& file, bool asJson = false) {
+  std::vector<std::string> args{"check-config", file.string()};
+  if (asJson) args.emplace_back("--json");
+  return testing_process::run(args);
+}
+
+TEST(CheckConfig, TheExampleMillPasses) {
+  const auto r = check(fs::path(LBPKIT_SOURCE_DIR) / "examples/linuxcnc/mill/mill.ini");
+  EXPECT_EQ(r.exit, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("hm2_7i92.0 by hm2_eth config=\"num_encoders=6 num_pwmgens=0 num_stepgens=0 sserial_port_0=00xxxx\""),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("no problems"), std::string::npos) << r.out;
+}
+
+TEST(CheckConfig, EveryGoodConfigurationPasses) {
+  int n = 0;
+  for (const auto& e : fs::directory_iterator(corpus() / "good")) {
+    const auto& p = e.path();
+    // A HAL file that an INI names is checked through the INI.
+    if (p.extension() == ".hal" && fs::exists(fs::path(p).replace_extension(".ini"))) continue;
+    if (p.extension() != ".ini" && p.extension() != ".hal") continue;
+    ++n;
+    const auto r = check(p);
+    EXPECT_EQ(r.exit, 0) << p << "\n" << r.out << r.err;
+    EXPECT_NE(r.out.find("no problems"), std::string::npos) << p << "\n" << r.out;
+  }
+  EXPECT_GE(n, 3);
+}
+
+struct Expectation {
+  unsigned line = 0;
+  std::string reason;
+  std::string nearest;
+};
+
+// The line of FILE marked "# expect: REASON | NEAREST".
+std::optional<Expectation> expectation(const fs::path& file) {
+  std::ifstream in(file);
+  std::string line;
+  unsigned n = 0;
+  while (std::getline(in, line)) {
+    ++n;
+    const auto at = line.find("# expect: ");
+    if (at == std::string::npos || at == 0) continue;
+    Expectation e{n, line.substr(at + 10), {}};
+    if (const auto bar = e.reason.find(" | "); bar != std::string::npos) {
+      e.nearest = e.reason.substr(bar + 3);
+      e.reason.resize(bar);
+    }
+    return e;
+  }
+  return std::nullopt;
+}
+
+TEST(CheckConfig, EveryBrokenConfigurationIsCaughtWhereItsCommentSays) {
+  int n = 0;
+  for (const auto& e : fs::directory_iterator(corpus() / "broken")) {
+    const auto& p = e.path();
+    if (p.extension() != ".hal") continue;
+    const auto ini = fs::path(p).replace_extension(".ini");
+    const auto checked = fs::exists(ini) ? ini : p;
+    const auto want = expectation(p);
+    ASSERT_TRUE(want) << p << " has no \"# expect:\" line";
+    ++n;
+    const auto r = check(checked, true);
+    EXPECT_EQ(r.exit, 1) << p << "\n" << r.out << r.err;
+    const auto j = json::parse(r.out, nullptr, false);
+    ASSERT_FALSE(j.is_discarded()) << r.out << r.err;
+    EXPECT_EQ(j["ok"], false);
+    bool found = false;
+    for (const auto& f : j["findings"]) {
+      if (f["file"] != p.filename().string() || f["line"] != want->line) continue;
+      if (f["reason"].get<std::string>().find(want->reason) == std::string::npos) continue;
+      found = true;
+      EXPECT_EQ(f["severity"], "error");
+      if (!want->nearest.empty()) {
+        EXPECT_EQ(f.value("nearest", ""), want->nearest) << p << "\n" << f.dump();
+      }
+    }
+    EXPECT_TRUE(found) << p << ": no finding at line " << want->line << " saying \"" << want->reason << "\"\n"
+                       << j["findings"].dump(2);
+  }
+  EXPECT_GE(n, 14);
+}
+
+TEST(CheckConfig, TextOutputSaysFileLineReasonAndNearestName) {
+  const auto r = check(corpus() / "broken/wrong_channel.hal");
+  EXPECT_EQ(r.exit, 1);
+  EXPECT_NE(r.out.find("wrong_channel.hal:9: error: smart-serial port 0 channel 4 is left out: 'x' in sserial_port_0=00xxxx"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("    nearest existing name: hm2_7i92.0.7i77.0.1.analogout0"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("1 error"), std::string::npos) << r.out;
+  const auto missing = check(corpus() / "no-such-file.ini");
+  EXPECT_EQ(missing.exit, 1);
+  EXPECT_NE(missing.out.find("no such file"), std::string::npos) << missing.out;
+}
+
+TEST(Pins, ListsEachModesPinsForTheVirtualCard) {
+  auto pins = [](const std::string& config, const std::string& cards = "1") {
+    const auto r = testing_process::run({"pins", "--config", config, "--7i77s", cards, "--json"});
+    EXPECT_EQ(r.exit, 0) << r.err;
+    std::set<std::string> names;
+    const auto j = json::parse(r.out, nullptr, false);
+    for (const char* kind : {"pins", "params"})
+      for (const auto& i : j[kind]) names.insert(i["name"].get<std::string>() + " " + i["type"].get<std::string>() + " " +
+                                                 i["dir"].get<std::string>());
+    return names;
+  };
+  const auto mode0 = pins("num_encoders=6 sserial_port_0=00xxxx");
+  const auto mode3 = pins("num_encoders=6 sserial_port_0=30xxxx");
+  EXPECT_TRUE(mode0.count("hm2_7i92.0.7i77.0.0.input-31 bit OUT"));
+  EXPECT_TRUE(mode0.count("hm2_7i92.0.7i77.0.1.analogout5 float IN"));
+  EXPECT_TRUE(mode0.count("hm2_7i92.0.7i77.0.0.nvwatchdogtimeout u32 RO"));
+  EXPECT_FALSE(mode0.count("hm2_7i92.0.7i77.0.0.fieldvoltage float OUT"));
+  EXPECT_TRUE(mode3.count("hm2_7i92.0.7i77.0.0.fieldvoltage float OUT"));
+  EXPECT_TRUE(mode3.count("hm2_7i92.0.7i77.0.0.enc1.reset bit I/O"));
+  const auto two = pins("num_encoders=12 sserial_port_0=000000", "2");
+  EXPECT_TRUE(two.count("hm2_7i92.0.7i77.0.4.analogout0 float IN"));
+  EXPECT_TRUE(two.count("hm2_7i92.0.encoder.11.count s32 OUT"));
+  EXPECT_FALSE(mode0.count("hm2_7i92.0.7i77.0.4.analogout0 float IN"));
+}
+
+}  // namespace
