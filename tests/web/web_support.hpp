@@ -140,7 +140,7 @@ class Host {
       // again: START clears the fault (7I77 manual: FIELD I/O WATCHDOG AND
       // FAULTS, "normally handled by SSLBP").
       for (unsigned slot = 0; slot < ss_->slots(); ++slot)
-        if (((st.needsRecovery() >> slot) & 1U) || (ss_->remoteFaults(slot) & 0x01U) != 0) {
+        if (((static_cast<unsigned>(st.needsRecovery()) >> slot) & 1U) != 0 || (ss_->remoteFaults(slot) & 0x01U) != 0) {
           try {
             ss_->recover(slot);
           } catch (const std::exception&) {

@@ -534,9 +534,10 @@ CheckResult checkConfig(const std::filesystem::path& file, const BoardModel& mod
       else allKnown = false;
     }
     const Where at = r.signalFirst.count(sig) ? r.signalFirst[sig] : Where{};
+    const std::string& signal = sig;  // clang 14 cannot capture a structured binding (C++20 allows it)
     auto lineOf = [&](const std::string& pin) {
       for (const auto& ref : r.refs)
-        if (ref.name == pin && ref.signal == sig) return ref.at;
+        if (ref.name == pin && ref.signal == signal) return ref.at;
       return at;
     };
     std::vector<std::string> outs, ios;
