@@ -357,16 +357,18 @@ class LinuxCnc : public ::testing::Test {
     std::this_thread::sleep_for(100ms);
     reapOrphans();
   }
-  // At nice 10: the polls (halcmd through ip netns exec, every 25 ms) yield
-  // the CPU to the sim, which must answer within 0.8 ms. rtapi_app, started
-  // by the first halcmd, inherits it; hm2_eth's read deadline counts from its
-  // own read, so a servo thread held up is late, not in error.
-  Shell hal(const std::string& command) {
-    return sh("nice -n 10 ip netns exec " + ns_ + " env RTAPI_UID=" + std::to_string(65534) + " RTAPI_FIFO_PATH=" + fifo_ +
-              " timeout 60 " + command);
+  // rtapi_app (LinuxCNC's servo thread, hm2_eth's sender) is started by the
+  // first halcmd and inherits its niceness: HAL commands run at the test's
+  // own priority, so LinuxCNC is not held back behind other work.
+  Shell hal(const std::string& command, const char* nice = "") {
+    return sh(std::string(nice) + "ip netns exec " + ns_ + " env RTAPI_UID=" + std::to_string(65534) +
+              " RTAPI_FIFO_PATH=" + fifo_ + " timeout 60 " + command);
   }
+  // The polls (halcmd through ip netns exec, every 25 ms) at nice 10: they
+  // yield the CPU to the sim, which must answer within 0.8 ms, and to
+  // rtapi_app. rtapi_app is already running when a test polls.
   std::string getp(const std::string& pin) {
-    auto v = hal("halcmd getp " + pin).out;
+    auto v = hal("halcmd getp " + pin, "nice -n 10 ").out;
     while (!v.empty() && (v.back() == '\n' || v.back() == ' ')) v.pop_back();
     return v;
   }

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 
 #include "web_support.hpp"
@@ -158,6 +159,12 @@ TEST(WebStream, AStalledPageNeitherSlowsTheCardNorGrowsTheSim) {
   EXPECT_EQ(stalled.lastFrame["stream"]["clients"].get<int>(), 1);
   // At least 20 frames a second reached the page that reads, stalled pages or not.
   EXPECT_GE(stalled.frames, 20U * static_cast<unsigned>(seconds - 1));
+  // scripts/test's ThreadSanitizer step runs this against a TSan daemon
+  // (LBPKIT_BINARY) for the races between the event stream and the API
+  // workers; TSan's shadow memory grows with every page touched and it slows
+  // the card several times over, so there the two figures are printed, not
+  // judged. The optimised run judges them.
+  if (std::getenv("LBPKIT_SANITIZED_SIM") != nullptr) return;
   // The stalled pages would have been sent some 4 x 25 frames/s x 10 kB x
   // 6 s = 6 MB if anything held on to their frames.
   EXPECT_LT(stalled.rssLate - stalled.rssEarly, 3 * 1024) << "the sim grew";
