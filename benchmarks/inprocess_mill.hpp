@@ -47,7 +47,7 @@ class InProcessMill {
   static constexpr unsigned kAxes = 5;  // X, Y, Z, A, B (encoders 0..4); the spindle is encoder 5
 
   explicit InProcessMill(std::chrono::microseconds step = std::chrono::microseconds(50))
-      : enc_(rc_.t, rc_.info), machine_(millWithSixEncoders(step), rc_.t.card(), hm2::SimTime{rc_.t.now()}) {
+      : enc_(rc_.t, rc_.info, 6), machine_(millWithSixEncoders(step), rc_.t.card(), hm2::SimTime{rc_.t.now()}) {
     auto& ss = rc_.ss;
     enc_.initialize();
     for (unsigned i = 0; i < 6; ++i) aout_[i] = ss.find(1, "analogout" + std::to_string(i));

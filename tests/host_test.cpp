@@ -373,3 +373,33 @@ TEST(HostFaults, Names) {
 }
 
 }  // namespace
+
+// As LinuxCNC's num_encoders: the first `used` counters only, each one fewer
+// read a cycle; more than the IDROM declares is an error naming both.
+TEST(HostEncoders, OnlyTheCountersInUseAreRead) {
+  testing_host::RunningCard rc;
+  auto& t = rc.t;
+  lbpkit::MuxedEncoders all(t, rc.info);
+  lbpkit::MuxedEncoders six(t, rc.info, 6);
+  EXPECT_EQ(all.size(), 12U);  // 7i92_7i77x2: two 7I77s' worth
+  EXPECT_EQ(six.size(), 6U);
+  auto cycleTime = [&](lbpkit::MuxedEncoders& e) {
+    const auto start = t.now();
+    e.queue();
+    t.flush();
+    EXPECT_TRUE(e.update());
+    return t.now() - start;
+  };
+  EXPECT_LT(cycleTime(six), cycleTime(all));  // each access takes the card's time
+  t.card().encoders().setVelocity(5, 4000, hm2::SimTime{t.now()});
+  t.sleep(std::chrono::milliseconds(10));
+  cycleTime(six);
+  EXPECT_GT(six.counts(5), 30);
+  try {
+    lbpkit::MuxedEncoders thirteen(t, rc.info, 13);
+    ADD_FAILURE() << "13 of 12 counters accepted";
+  } catch (const lbpkit::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("13 muxed encoders asked for"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("has 12"), std::string::npos) << e.what();
+  }
+}

@@ -16,7 +16,7 @@ using wire::qcount::ccr::kJustOnce;
 using wire::qcount::ccr::kLatchOnIndex;
 }  // namespace
 
-MuxedEncoders::MuxedEncoders(Transport& t, const CardInfo& card) : t_(t) {
+MuxedEncoders::MuxedEncoders(Transport& t, const CardInfo& card, unsigned used) : t_(t) {
   const ModuleInfo* md = card.module(wire::hm2::tag::kMuxedQCount);
   if (md == nullptr) throw Error(fmt::format("the card ({}) has no muxed encoder module", card.boardName));
   base_ = md->baseAddress;
@@ -24,6 +24,11 @@ MuxedEncoders::MuxedEncoders(Transport& t, const CardInfo& card) : t_(t) {
   instanceStride_ = md->instanceStride;
   clock_ = md->clockHz;
   count_ = std::min<unsigned>(md->instances, kMax);
+  if (used != kAll) {
+    if (used > count_)
+      throw Error(fmt::format("{} muxed encoders asked for; the card ({}) has {}", used, card.boardName, count_));
+    count_ = used;
+  }
   tsDivisor_ = clock_ / 2'000'000 - 2;  // 2 MHz timestamps
 }
 

@@ -26,6 +26,7 @@ std::uint64_t SerialLink::bitsToNextError(double rate) {
 
 void SerialLink::setRates(const RateSettings& settings) {
   rates_ = settings;
+  noRates_ = settings.breakRate <= 0 && settings.toRemote == Rates{} && settings.fromRemote == Rates{};
   random_ = settings.seed;
   toRemoteRate_.bitsToError = bitsToNextError(settings.toRemote.bitErrorRate);
   fromRemoteRate_.bitsToError = bitsToNextError(settings.fromRemote.bitErrorRate);
@@ -112,6 +113,22 @@ SerialLink::Reply SerialLink::exchange(std::span<const std::uint8_t> frame, SimT
   // A receiver only understands characters at its own baud rate: across a
   // mismatch (or a cut cable, or an unpowered remote) nothing comes back.
   const bool heard = connected_ && remote_ != nullptr && remote_->powered() && remote_->baud() == baud;
+  if (heard && clean(start)) {
+    // The frame's characters reach the remote one character time apart;
+    // its reply comes back the same way after the turnaround.
+    for (const std::uint8_t b : frame) {
+      t += ch;
+      for (const auto x : remote_->receive(b, t))
+        if (reply.size < reply.bytes.size()) reply.bytes[reply.size++] = x;
+    }
+    counters_.toRemote += frame.size();
+    if (reply.size > 0) {
+      t += kTurnaround + ch * static_cast<SimTime::rep>(reply.size);
+      counters_.fromRemote += reply.size;
+    }
+    reply.lastByteAt = t;
+    return reply;
+  }
   std::array<std::uint8_t, kMaxReply> raw;  // the first rawSize are set
   std::size_t rawSize = 0;
   auto deliver = [&](std::uint8_t b) {

@@ -120,6 +120,15 @@ class SerialLink {
     unsigned add = 0;
   };
   Faults& faults(Direction d) { return d == Direction::ToRemote ? toRemote_ : fromRemote_; }
+  // Nothing can happen to a character of an exchange starting at `start`:
+  // connected with no cut still to come, no fault pending or at a rate, no
+  // break due. Then exchange() only carries characters (the common case,
+  // every DOIT of a healthy link), with the same timing and counts.
+  [[nodiscard]] bool clean(SimTime start) const {
+    return connected_ && !external_ && !breakNext_ && noRates_ && cutUntil_ <= start &&
+           (toRemote_.corrupt | toRemote_.drop | toRemote_.add | fromRemote_.corrupt | fromRemote_.drop |
+            fromRemote_.add) == 0;
+  }
   // Applies pending faults and the rates to one character; returns 0 when
   // it is lost.
   unsigned damage(Direction d, std::uint8_t& byte);
@@ -149,6 +158,7 @@ class SerialLink {
   Faults toRemote_;
   Faults fromRemote_;
   RateSettings rates_;
+  bool noRates_ = true;  // every rate of rates_ is 0 (set by setRates)
   std::uint64_t random_ = 1;
   RateState toRemoteRate_;
   RateState fromRemoteRate_;

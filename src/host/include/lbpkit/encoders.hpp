@@ -14,7 +14,11 @@ namespace lbpkit {
 class MuxedEncoders {
  public:
   static constexpr unsigned kMax = 16;
-  MuxedEncoders(Transport& t, const CardInfo& card);
+  // Every counter the card's IDROM declares, or the first `used` of them
+  // (as LinuxCNC's num_encoders): each one read costs two register reads a
+  // cycle. More than the card has is an Error naming both.
+  static constexpr unsigned kAll = ~0U;
+  MuxedEncoders(Transport& t, const CardInfo& card, unsigned used = kAll);
 
   [[nodiscard]] unsigned size() const { return count_; }
   // Writes the control registers, the timestamp divisor and the mux rate.
