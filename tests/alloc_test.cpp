@@ -17,23 +17,10 @@
 #include "lossy_udp_card.hpp"
 #include "machine/machine.hpp"
 #include "running_card.hpp"
+#include "allocation_counter.hpp"
 
-namespace {
-std::atomic<std::uint64_t> gAllocations{0};
-// This thread's own: a test with a server thread counts only the host's.
-thread_local std::uint64_t tAllocations = 0;
-}  // namespace
-
-void* operator new(std::size_t n) {
-  ++gAllocations;
-  ++tAllocations;
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-// Not inlined: GCC would see free() on what it takes for a builtin
-// operator new's pointer (std::thread's state) and warn of a mismatch.
-[[gnu::noinline]] void operator delete(void* p) noexcept { std::free(p); }
-[[gnu::noinline]] void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+using testing_alloc::gAllocations;
+using testing_alloc::tAllocations;
 
 namespace {
 

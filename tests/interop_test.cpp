@@ -263,6 +263,56 @@ TEST(Mesaflash, TheFlashIsKeptAcrossRestarts) {
   clean();
 }
 
+// Issue 17 item 1: every card of the catalogue as mesaflash reads it (its
+// board-name table decides --device): the IDROM's name, ports, the
+// firmware's modules and pins.
+TEST(Mesaflash, ReadsEveryCardOfTheCatalogue) {
+  if (!have("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
+  struct Case {
+    std::string card, device;
+    std::vector<std::string> lines;  // each must appear in --readhmid
+    std::vector<std::string> absent;
+  };
+  const std::vector<Case> cases = {
+      {"7I92T", "7i92t",
+       {"BoardName : MESA7I92", "FPGA Size: 20 KGates", "FPGA Pins: 256", "Number of IO Ports: 2",
+        "Module: DPLL", "Module: StepGen", "There are 5 of StepGen in configuration",
+        "There are 8 of MuxedQCount in configuration", "Module: SSerial", "Step/Table1", "Dir/Table2", "TXData3",
+        "RXData4", "MuxSel0"},
+       {"Module: PWM"}},
+      {"7I96S", "7i96s",
+       {"BoardName : MESA7I96", "FPGA Size: 20 KGates", "Number of IO Ports: 3", "Width of one I/O port: 17",
+        "Clock Low frequency: 100.0000 MHz", "Clock High frequency: 200.0000 MHz", "Module: DPLL",
+        "There are 5 of StepGen in configuration", "Module: PWM", "There are 8 of MuxedQCount in configuration",
+        "Step/Table1", "TXEn3", "TXData0", "MuxSel0", "IO Connections for P1"},
+       {"Module: QCount"}},
+      {"7I80HD-25", "7i80hd-25",
+       {"BoardName : MESA7I80", "FPGA Size: 25 KGates", "Number of IO Ports: 3", "Width of one I/O port: 24",
+        "There are 6 of MuxedQCount in configuration", "Module: SSerial", "TXData0", "MuxQ-IDX"},
+       {"Module: StepGen", "Module: DPLL"}},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.card);
+    Sim sim(loopback(), {"--card", c.card});
+    ASSERT_TRUE(sim.up());
+    EXPECT_EQ(sim.get()["card"]["name"], c.card);
+    const std::string card = "timeout 30 mesaflash --device " + c.device + " --addr " + loopback();
+    auto r = sh(card + " --readhmid");
+    ASSERT_EQ(r.exit, 0) << r.out;
+    for (const auto& line : c.lines) EXPECT_NE(r.out.find(line), std::string::npos) << line << "\n" << r.out;
+    for (const auto& line : c.absent) EXPECT_EQ(r.out.find(line), std::string::npos) << line << "\n" << r.out;
+    // The 7I77 wherever the firmware puts it: both processors on channels 0 and 1.
+    r = sh(card + " --sserial");
+    ASSERT_EQ(r.exit, 0) << r.out;
+    EXPECT_NE(r.out.find("channel 0: 7I77 GPIO (unit 0x12000AEE)"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("channel 1: 7I77 ANALOG (unit 0x11000AEE)"), std::string::npos) << r.out;
+    // Another card's name is not this one: mesaflash finds no 7I92 here.
+    EXPECT_EQ(sh("timeout 30 mesaflash --device 7i92 --addr " + loopback() + " --readhmid").out.find("MESA"),
+              std::string::npos);
+    EXPECT_EQ(sim.stop(), 0);
+  }
+}
+
 TEST(Lbp16, GarbageFromAnotherPortDoesNotStopService) {
   Sim sim(loopback());
   ASSERT_TRUE(sim.up());
@@ -908,6 +958,53 @@ TEST_F(LinuxCnc, CheckConfigsVerdictsAreLinuxCncs) {
     EXPECT_NE(r.out.find(own + ":" + std::to_string(line) + ":"), std::string::npos)
         << "check-config says line " << line << "; halcmd says:\n" << r.out;
     hal("halrun -U");
+  }
+}
+
+// Issue 17 item 1: hm2_eth names each card of the catalogue as it does the
+// real one and creates every module's pins; the 7I77 answers wherever its
+// firmware puts it (on the 7I96S, P1) and the card runs without io_error.
+TEST_F(LinuxCnc, Hm2EthCreatesEachCardsPinsForEveryModule) {
+  struct Case {
+    std::string card, board, config;
+    std::vector<std::string> pins;
+  };
+  const std::vector<Case> cases = {
+      {"7I92T", "hm2_7i92.0", "num_encoders=8 num_stepgens=5 sserial_port_0=00xxx",
+       {"stepgen.00.position-cmd", "stepgen.04.step_type", "encoder.07.count", "dpll.01.timer-us",
+        "dpll.base-freq-khz", "7i77.0.0.input-31", "7i77.0.1.analogout5", "watchdog.has_bit"}},
+      {"7I96S", "hm2_7i96s.0", "num_encoders=8 num_stepgens=5 num_pwmgens=1 sserial_port_0=00xx",
+       {"stepgen.04.position-cmd", "pwmgen.00.value", "encoder.06.count", "dpll.04.timer-us", "7i77.0.0.output-15",
+        "7i77.0.1.analogena", "gpio.050.in", "led.CR01"}},
+      {"7I80HD-25", "hm2_7i80.0", "num_encoders=6 sserial_port_0=00x",
+       {"encoder.05.count", "7i77.0.0.input-00", "7i77.0.1.analogout0", "gpio.071.in"}},
+  };
+  const Cleanup cleanup{[&] {
+    hal("halrun -U");
+    sim_.reset();
+  }};
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.card);
+    sim_ = std::make_unique<Sim>(cardIp_, std::vector<std::string>{"--card", c.card});
+    ASSERT_TRUE(sim_->up());
+    const auto file = fifo_ + ".hal";
+    std::ofstream(file) << "loadrt hostmot2\nloadrt hm2_eth board_ip=" << cardIp_ << " config=\"" << c.config << "\"\n"
+                        << "loadrt threads name1=servo period1=1000000\n"
+                        << "addf " << c.board << ".read servo\naddf " << c.board << ".write servo\nstart\n";
+    const auto r = loadRetrying([&](const std::string& command_) { return hal(command_); }, "halcmd -f " + file);
+    std::filesystem::remove(file);
+    ASSERT_EQ(r.exit, 0) << r.out;
+    const auto pins = hal("halcmd show pin").out + hal("halcmd show param").out;
+    for (const auto& p : c.pins) EXPECT_NE(pins.find(c.board + "." + p), std::string::npos) << p << "\n" << pins;
+    EXPECT_EQ(pins.find("hm2_7i92.0.") != std::string::npos, c.board == "hm2_7i92.0");
+    // Terminals -> HAL through the 7I77's field I/O processor.
+    sim_->post("/api/input", {{"input", 6}, {"on", true}});
+    EXPECT_TRUE(waitFor([&] { return getp(c.board + ".7i77.0.0.input-06") == "TRUE"; }, 1000ms));
+    EXPECT_EQ(getp(c.board + ".io_error"), "FALSE")
+        << "packet-error-total " << getp(c.board + ".packet-error-total") << "\nsim: " << sim_->get()["lbp16"].dump()
+        << "\n" << sim_->get()["server"].dump() << "\n" << sim_->get()["access_counters"].dump();
+    hal("halrun -U");
+    sim_.reset();
   }
 }
 

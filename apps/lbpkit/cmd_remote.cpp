@@ -8,6 +8,7 @@
 
 #include "common.hpp"
 #include "lbpkit/error.hpp"
+#include "daemon/pcap_recorder.hpp"
 #include "pty/pty_remote.hpp"
 #include "remote/analog.hpp"
 #include "remote/field_io.hpp"
@@ -24,6 +25,7 @@ struct RemoteOptions {
   bool setup = false;
   bool sinking = false;
   std::string state;
+  std::string trace;  // --trace FILE.pcap: every LBP byte in and out, timed
 };
 
 int runRemote(const RemoteOptions& o) {
@@ -72,18 +74,33 @@ int runRemote(const RemoteOptions& o) {
     device = std::make_unique<remote::FieldIoProcessor>(f);
   }
   net::PtyRemote pty(*device);
+  std::unique_ptr<net::PcapRecorder> trace;
+  if (!o.trace.empty()) {
+    trace = std::make_unique<net::PcapRecorder>(o.trace, net::PcapRecorder::Link::LbpStream, [](const std::string& text) {
+      std::fputs(fmt::format("lbpkit remote: warning: {}\n", text).c_str(), stderr);
+    });
+    pty.setTrace(trace.get());
+  }
   app::installSignalHandlers();
   fmt::print("lbpkit remote: virtual 7I77{} {} processor (unit 0x{:08X}), {} mode at {} baud\n",
              o.sinking && !o.analog ? "D" : "", o.analog ? "analog" : "field I/O", device->unitNumber(),
              o.setup ? "setup" : "operate", device->baud());
   fmt::print("  serial device: {}\n", pty.path());
   fmt::print("  EEPROM state:  {}\n", state.string());
+  if (trace) fmt::print("  LBP trace:     {} (pcap; lbpkit decode reads it)\n", trace->path());
   fmt::print("  talk LBP to it as to a USB-RS422 adapter (e.g. lbpkit rpd FAULT H --serial {}); Ctrl-C stops it\n",
              pty.path());
   std::fflush(stdout);
   pty.run(app::gStop);
   fmt::print("lbpkit remote: stopped ({} bytes in, {} out, {} answer bytes no client read); EEPROM state in {}\n",
              pty.bytesIn(), pty.bytesOut(), pty.bytesDropped(), state.string());
+  if (trace) {
+    pty.setTrace(nullptr);
+    const std::uint64_t lost = trace->dropped();
+    trace.reset();  // writes the rest
+    fmt::print("lbpkit remote: the LBP trace is in {}{}\n", o.trace,
+               lost ? fmt::format(" ({} records lost: the writer fell behind)", lost) : std::string());
+  }
   return 0;
 }
 
@@ -97,5 +114,6 @@ void addRemoteCommand(CLI::App& app) {
   cmd->add_flag("--setup", o->setup, "Setup-mode jumper (W4/W12 right): 115.2 kBaud fixed");
   cmd->add_flag("--sinking", o->sinking, "7I77D: sinking field outputs");
   cmd->add_option("--state", o->state, "EEPROM file (non-volatile parameters)");
+  cmd->add_option("--trace", o->trace, "pcap file: every LBP byte to and from the remote, timed (lbpkit decode)");
   cmd->callback([o] { app::gRun = [o] { return runRemote(*o); }; });
 }

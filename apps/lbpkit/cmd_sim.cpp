@@ -21,6 +21,7 @@
 #include "lbpkit/error.hpp"
 #include "lbpkit/wire/seven_i77.hpp"
 #include "daemon/sim_daemon.hpp"
+#include "hostmot2/cards/catalogue.hpp"
 #include "lbp16/flash_file.hpp"
 #include "remote/nv_store.hpp"
 #include "remote/remote_device.hpp"
@@ -45,7 +46,9 @@ struct SimCommandOptions {
   bool demo = false;
   std::string machine;
   std::string record;
+  std::string trace;  // --trace FILE.pcap: every datagram in and reply out
   std::vector<std::string> remotes;  // --remote CH=pty, repeatable
+  std::string card;  // --card NAME: which Mesa card (hostmot2/cards/catalogue.hpp)
 };
 
 // --remote CH=pty: the SSLBP channel CH brought out to a pseudo-terminal
@@ -150,6 +153,7 @@ int runSim(const SimCommandOptions& o) {
   }
   if (!o.record.empty() && o.machine.empty()) throw lbpkit::Error("--record needs --machine: it records the machine's axes");
   s.recordFile = o.record;
+  s.packetTraceFile = o.trace;
   for (const auto& r : o.remotes) s.externalRemotes.push_back(externalRemoteChannel(r));
   // Simulated time is 64-bit nanoseconds: at 10000x it lasts 10 days.
   if (!(o.speed > 0) || !std::isfinite(o.speed) || o.speed > 10000)
@@ -163,6 +167,11 @@ int runSim(const SimCommandOptions& o) {
   const std::filesystem::path state = o.state.empty() ? defaultStatePath(bindHost, bindPort) : std::filesystem::path(o.state);
   s.card.first.fieldIo.nvFile = state;
   s.card.first.analog.nvFile = state.string() + ".analog";
+  if (!o.card.empty()) {  // before the TOML, whose pinout must be one this card has
+    s.card.card = hm2::cards::find(o.card);
+    if (s.card.card == nullptr)
+      throw lbpkit::Error(fmt::format("--card \"{}\": the cards lbpkit models are {}", o.card, hm2::cards::names()));
+  }
   if (!o.config.empty()) {
     config::loadConfig(o.config, s.card);
     s.configDescription = o.config;
@@ -171,7 +180,11 @@ int runSim(const SimCommandOptions& o) {
       s.faultScript.push_back({f.at, f.fault, nlohmann::json::parse(f.body),
                                f.lasts ? std::optional<lbp::SimTime>(*f.lasts) : std::nullopt, f.where});
   } else {
-    s.configDescription = "built-in default: a 7I92 (Mesa's two-7I77 firmware) with one 7I77, 24 V field power";
+    s.configDescription = s.card.card == nullptr
+                              ? "built-in default: a 7I92 (Mesa's two-7I77 firmware) with one 7I77, 24 V field power"
+                              : fmt::format("built-in default: a {} ({} firmware, {}) with one 7I77, 24 V field power",
+                                            s.card.card->name, s.card.card->firmwares.front().name,
+                                            s.card.card->firmwares.front().source);
   }
   // What the EEPROM files say (models cannot log): every refused write is
   // logged, and so is a file that cannot be used.
@@ -227,6 +240,7 @@ int runSim(const SimCommandOptions& o) {
   fmt::print("lbpkit sim: the 7I77's EEPROM state is in {}, the 7I92's configuration flash in {}\n", state.string(),
              s.flashFile.string());
   if (!o.record.empty()) fmt::print("lbpkit sim: the servo-cycle trace is in {}\n", o.record);
+  if (!o.trace.empty()) fmt::print("lbpkit sim: {}\n", daemon.packetTraceSummary());
   return 0;
 }
 
@@ -237,6 +251,7 @@ void addSimCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("sim", "Run a virtual 7I92 with a 7I77 on the network (LBP16, UDP port 27181)");
   cmd->add_option("--bind", o->bind, "ADDR[:PORT] to serve LBP16 on (127.0.0.1:27181 unless you say otherwise)")
       ->capture_default_str();
+  cmd->add_option("--card", o->card, "Which Mesa card: " + hm2::cards::names() + " (default 7I92; docs/cards.md)");
   cmd->add_option("--config", o->config,
                   "TOML file: firmware pinout, daughtercards, field voltage, 7I77 or 7I77D, jumpers, unit numbers");
   cmd->add_option("--state", o->state, "EEPROM file of the 7I77 (non-volatile parameters)");
@@ -255,6 +270,9 @@ void addSimCommand(CLI::App& app) {
       ->excludes("--demo");
   cmd->add_option("--record", o->record,
                   "CSV file: each axis' command, position and following error at every servo cycle (needs --machine)");
+  cmd->add_option("--trace", o->trace,
+                  "pcap file: every LBP16 datagram the card takes and every reply it sends, timed (lbpkit decode, "
+                  "Wireshark)");
   cmd->add_flag("--no-realtime", o->noRealtime, "Do not ask for real-time (SCHED_FIFO) scheduling of the card thread");
   cmd->add_flag("--paused", o->paused, "Start with simulated time stopped (the API can run or step it)");
   cmd->add_option("--remote", o->remotes,

@@ -3,6 +3,8 @@
 #include <fmt/core.h>
 
 #include <cstdint>
+#include <optional>
+#include <string>
 #include <utility>
 
 #include "config/toml_reader.hpp"
@@ -16,26 +18,62 @@ void loadConfig(const std::string& path, hm2::HostMot2Card::Options& card) {
   r.onlyKeys(t, "", {"card", "daughtercard", "fault"});  // fault: config/fault_script
   if (const toml::table* cardTable = r.table(t, "", "card")) {
     r.onlyKeys(*cardTable, "card.", {"name", "pinout"});
-    (void)r.text(*cardTable, "card.", "name", "7I92", {"7I92"});  // the only card modelled
-    // The FPGA's firmware: Mesa's two-7I77 one (PIN_7I77x2_34.vhd) whatever
-    // is plugged in, or lbpkit's one 7I77 with GPIO on the second connector.
-    card.pinout = r.text(*cardTable, "card.", "pinout", "7I77x2", {"7I77x2", "7I77+GPIO"}) == "7I77x2"
-                      ? hm2::HostMot2Card::Pinout::SevenI77x2
-                      : hm2::HostMot2Card::Pinout::SevenI77Gpio;
+    // The card (hostmot2/cards/catalogue.hpp; `lbpkit sim --card` may have
+    // named it already) and the FPGA's firmware on it: for the 7I92 Mesa's
+    // two-7I77 one (PIN_7I77x2_34.vhd) whatever is plugged in, lbpkit's one
+    // 7I77 with GPIO on the second connector, or Mesa's 7I77 + 7I76.
+    auto textOf = [&](const char* key) -> std::optional<std::string> {
+      const toml::node* n = cardTable->get(key);
+      if (n == nullptr) return std::nullopt;
+      const auto v = n->value_exact<std::string>();
+      if (!v) r.fail(n, fmt::format("card.{}", key), "expected a string");
+      return *v;
+    };
+    if (const auto name = textOf("name")) {
+      const hm2::cards::Card* c = hm2::cards::find(*name);
+      std::string list;
+      for (const auto& k : hm2::cards::all()) list += (list.empty() ? "\"" : ", \"") + std::string(k.name) + "\"";
+      if (c == nullptr) r.fail(cardTable->get("name"), "card.name", fmt::format("\"{}\" is not one of {}", *name, list));
+      if (card.card != nullptr && card.card != c)
+        r.fail(cardTable->get("name"), "card.name",
+               fmt::format("\"{}\", but lbpkit sim --card says the {}", *name, card.card->name));
+      card.card = c;
+    }
+    const auto& chosen = card.card != nullptr ? *card.card : hm2::cards::defaultCard();
+    if (const auto pinout = textOf("pinout")) {
+      const auto* f = hm2::cards::firmware(chosen, *pinout);
+      if (f == nullptr)
+        r.fail(cardTable->get("pinout"), "card.pinout",
+               fmt::format("\"{}\" is not one of {}{}", *pinout, hm2::cards::firmwareNames(chosen),
+                           chosen.firmwares.size() > 1 ? fmt::format(" (the {}'s firmwares)", chosen.name) : ""));
+      card.pinout = f->pinout;
+    }
   }
+  const auto& chosen = card.card != nullptr ? *card.card : hm2::cards::defaultCard();
+  const auto& firmware = *(card.pinout ? hm2::cards::firmware(chosen, *card.pinout) : &chosen.firmwares.front());
   const toml::array* boards = r.tables(t, "", "daughtercard");
   if (boards == nullptr) return;
+  // One table per connector a firmware gives a 7I77 (two at most: a 7I92's
+  // with the 7I77x2 firmware); the second may say "none".
   if (boards->size() > 2)
-    r.fail(t.get("daughtercard"), "daughtercard", fmt::format("a 7I92 has two connectors, not {}", boards->size()));
+    r.fail(t.get("daughtercard"), "daughtercard",
+           fmt::format("a {} takes at most two 7I77s (the {} pinout: {}), not {}", chosen.name, firmware.name,
+                       firmware.sevenI77s.size(), boards->size()));
   for (std::size_t i = 0; i < boards->size(); ++i) {
     const toml::table& b = r.element(*boards, "daughtercard", i);
     const auto prefix = fmt::format("daughtercard[{}].", i);
     r.onlyKeys(b, prefix,
                {"type", "field_voltage", "w1", "vin", "w12_setup", "w4_setup", "field_io_unit", "analog_unit"});
     const auto type = r.text(b, prefix, "type", "7I77", {"7I77", "7I77D", "none"});
-    if (i == 1 && type != "none" && card.pinout != hm2::HostMot2Card::Pinout::SevenI77x2)
+    if (i == 1 && type != "none" && firmware.sevenI77s.size() < 2)
       r.fail(b.get("type") != nullptr ? b.get("type") : &b, prefix + "type",
-             "the 7I77+GPIO pinout has GPIO on the second connector: use pinout = \"7I77x2\" for a second 7I77");
+             firmware.pinout == hm2::cards::Pinout::SevenI77Gpio
+                 ? std::string("the 7I77+GPIO pinout has GPIO on the second connector: use pinout = \"7I77x2\" for a "
+                               "second 7I77")
+                 : fmt::format("the {} pinout of the {} has one 7I77 connector{}", firmware.name, chosen.name,
+                               hm2::cards::firmware(chosen, hm2::cards::Pinout::SevenI77x2) != nullptr
+                                   ? ": use pinout = \"7I77x2\" for a second 7I77"
+                                   : ""));
     if (type == "none") {
       if (i == 0) r.fail(b.get("type"), prefix + "type", "the first connector must carry a 7I77");
       continue;

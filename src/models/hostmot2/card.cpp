@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <string>
+#include <utility>
+
 
 namespace hm2 {
 
@@ -40,33 +43,32 @@ std::string_view accessKindName(AccessKind kind) {
   return "unknown";
 }
 
-HostMot2Card::HostMot2Card(Options options) : options_(std::move(options)) {
-  const bool x2 = options_.pinout == Pinout::SevenI77x2;
-  if (options_.second && !x2)
-    throw std::invalid_argument("the 7I77 + GPIO pinout has no second 7I77 connector (use the 7I77x2 pinout)");
+HostMot2Card::HostMot2Card(Options options)
+    : options_(std::move(options)), card_(options_.card != nullptr ? options_.card : &cards::defaultCard()) {
+  firmware_ = options_.pinout ? cards::firmware(*card_, *options_.pinout) : &card_->firmwares.front();
+  if (firmware_ == nullptr)
+    throw std::invalid_argument("the " + std::string(card_->name) + " has no such firmware here (it has " +
+                                cards::firmwareNames(*card_) + ")");
+  if (options_.second && firmware_->sevenI77s.size() < 2)
+    throw std::invalid_argument("the " + std::string(firmware_->name) + " pinout of the " + std::string(card_->name) +
+                                " has no second 7I77 connector (use the 7I77x2 pinout)");
   sevenI77s_.push_back(std::make_unique<SevenI77>(options_.first.fieldIo, options_.first.analog));
   if (options_.second) sevenI77s_.push_back(std::make_unique<SevenI77>(options_.second->fieldIo, options_.second->analog));
-  const auto& b = options_.board;
-  // The modules of the firmware, not of what is plugged in: PIN_7I77x2_34.vhd
-  // declares 12 MuxedQCount and one SSerial instance with 6 channels (its
-  // highest SSerial pin, SS5 on IO17..19; LinuxCNC counts channels from the
-  // pins). Each 7I77 uses three channels (field I/O, analog, and the TB6
-  // RS-422 expansion port with nothing attached) and six muxed counters.
-  const unsigned connectors7I77 = x2 ? 2 : 1;
-
-  ioport_ = std::make_unique<IoPort>(b.ioPorts, b.portWidth);
-  watchdog_ = std::make_unique<Watchdog>(b.clockLow, [this] { ioport_->releaseOutputs(); });
-  encoders_ = std::make_unique<MuxedEncoder>(6 * connectors7I77, b.clockLow);
-  encoderSelect_ = std::make_unique<MuxedEncoderSelect>();
-  sserial_ = std::make_unique<SmartSerial>(3 * connectors7I77);
-  led_ = std::make_unique<Led>(4);  // CR1..CR4 on a 7I92
-  // A connector without a 7I77 leaves its channels unattached: START finds
+  // The modules of the firmware, not of what is plugged in (PIN_7I77x2_34.vhd
+  // declares 12 MuxedQCount and 6 SSerial channels with one 7I77 or two;
+  // LinuxCNC counts channels from the pins). Each 7I77 uses three channels
+  // (field I/O, analog, and the TB6 RS-422 expansion port with nothing
+  // attached) and six muxed counters.
+  for (const auto& entry : firmware_->modules) build(entry);
+  if (watchdog_ == nullptr || ioport_ == nullptr || encoders_ == nullptr || sserial_ == nullptr || led_ == nullptr)
+    throw std::logic_error("a firmware in the catalogue lacks a module every card here has");
+  // A 7I77 slot without a 7I77 leaves its channels unattached: START finds
   // no remote there.
   for (unsigned i = 0; i < sevenI77s_.size(); ++i) {
-    sserial_->link(3 * i + 0).attach(&sevenI77s_[i]->fieldIo);
-    sserial_->link(3 * i + 1).attach(&sevenI77s_[i]->analog);
+    const auto& slot = firmware_->sevenI77s[i];
+    sserial_->link(slot.firstChannel + 0U).attach(&sevenI77s_[i]->fieldIo);
+    sserial_->link(slot.firstChannel + 1U).attach(&sevenI77s_[i]->analog);
   }
-  modules_ = {watchdog_.get(), ioport_.get(), encoders_.get(), encoderSelect_.get(), sserial_.get(), led_.get()};
   for (Module* m : modules_)
     for (unsigned block = 0; block < 256; ++block)
       for (unsigned off = 0; off < 256; off += 4)
@@ -76,20 +78,57 @@ HostMot2Card::HostMot2Card(Options options) : options_(std::move(options)) {
       for (unsigned off = 0; off < 256; off += 4)
         if (m->decodes(static_cast<std::uint16_t>(block << 8 | off))) decoded_[block] |= std::uint64_t{1} << (off / 4);
 
-  std::vector<PinDescriptor> pins;
-  for (unsigned connector = 0; connector < b.ioPorts; ++connector) {
-    if (connector < connectors7I77) {
-      // PIN_7I77x2_34.vhd gives the second connector's ENCMUX the unit 6 (the
-      // firmware drives every select pin from the one select line whatever
-      // its unit; LinuxCNC claims it only with num_encoders > 6).
-      const auto p = sevenI77Pins(3 * connector, 3 * connector, 6 * connector);
-      pins.insert(pins.end(), p.begin(), p.end());
-    } else {
-      pins.insert(pins.end(), b.portWidth, PinDescriptor{});  // GPIO only
-    }
-  }
+  const auto& b = card_->idrom;
+  std::vector<PinDescriptor> pins(static_cast<std::size_t>(b.ioPorts) * b.portWidth);  // GPIO unless the firmware says
+  firmware_->pins(pins);
   const auto mds = moduleDescriptors();
   idrom_ = buildIdrom(b, mds, pins);
+}
+
+namespace {
+// Makes a T into `owner` and gives back the T (the card keeps it by type).
+template <typename T, typename... A>
+T* make(std::unique_ptr<Module>& owner, A&&... args) {
+  auto made = std::make_unique<T>(std::forward<A>(args)...);
+  T* typed = made.get();
+  owner = std::move(made);
+  return typed;
+}
+}  // namespace
+
+void HostMot2Card::build(const cards::ModuleEntry& entry) {
+  using cards::Part;
+  const auto& b = card_->idrom;
+  std::unique_ptr<Module> m;
+  switch (entry.part) {
+    case Part::Watchdog: watchdog_ = make<Watchdog>(m, b.clockLow, [this] { ioport_->releaseOutputs(); }); break;
+    case Part::IoPort: ioport_ = make<IoPort>(m, entry.count, b.portWidth); break;
+    case Part::MuxedQCount: encoders_ = make<MuxedEncoder>(m, entry.count, b.clockLow); break;
+    case Part::MuxedQCountSel: make<MuxedEncoderSelect>(m); break;
+    case Part::SSerial: sserial_ = make<SmartSerial>(m, entry.count); break;
+    case Part::Led: led_ = make<Led>(m, entry.count); break;
+    case Part::Dpll: dpll_ = make<Dpll>(m, Dpll::kDefaultBase, entry.count, b.clockLow); break;
+    case Part::StepGen:
+      // The DPLL comes first in the "d" firmwares: stepgen.timer-number
+      // latches the accumulator on its timers.
+      stepgen_ = make<StepGen>(m, StepGen::kDefaultBase, entry.count, b.clockLow);
+      stepgen_->attachDpll(dpll_);
+      break;
+    case Part::PwmGen: pwmgen_ = make<PwmGen>(m, PwmGen::kDefaultBase, entry.count, b.clockHigh); break;
+  }
+  // The modules whose state moves with time (the others' advance() does nothing).
+  if (entry.part == Part::Dpll || entry.part == Part::StepGen) {
+    if (timedCount_ == timed_.size()) throw std::logic_error("a firmware with more timed modules than the card calls");
+    timed_[timedCount_++] = m.get();
+  }
+  modules_.push_back(m.get());
+  owned_.push_back(std::move(m));
+}
+
+Module* HostMot2Card::module(std::uint8_t gtag) const {
+  for (Module* m : modules_)
+    if (m->descriptor().gtag == gtag) return m;
+  return nullptr;
 }
 
 std::vector<ModuleDescriptor> HostMot2Card::moduleDescriptors() const {

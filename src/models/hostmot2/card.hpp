@@ -1,22 +1,28 @@
-// A 7I92-style HostMot2 Ethernet card with 7I77 daughtercards: the register
-// file drivers see (over LBP16 on the real card), its modules, and the 7I77
-// processors on its smart-serial channels. Deterministic simulated time: the
-// caller says what time every access happens at.
+// A HostMot2 Ethernet card (a 7I92 unless told which: cards/catalogue.hpp)
+// with 7I77 daughtercards: the register file drivers see (over LBP16 on the
+// real card), the modules of the firmware it runs, and the 7I77 processors on
+// its smart-serial channels. Deterministic simulated time: the caller says
+// what time every access happens at.
 #pragma once
 
 #include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string_view>
 #include <vector>
 
+#include "hostmot2/cards/catalogue.hpp"
+#include "hostmot2/dpll.hpp"
 #include "hostmot2/idrom.hpp"
 #include "hostmot2/ioport.hpp"
 #include "hostmot2/led.hpp"
 #include "hostmot2/muxed_encoder.hpp"
 #include "hostmot2/muxed_encoder_select.hpp"
+#include "hostmot2/pwmgen.hpp"
 #include "hostmot2/sslbp.hpp"
+#include "hostmot2/stepgen.hpp"
 #include "hostmot2/watchdog.hpp"
 #include "remote/analog.hpp"
 #include "remote/field_io.hpp"
@@ -83,27 +89,26 @@ class HostMot2Card {
     remote::FieldIoProcessor::Options fieldIo;
     remote::AnalogProcessor::Options analog;
   };
-  // The firmware the FPGA runs: its IDROM (module counts and pin functions).
-  enum class Pinout : std::uint8_t {
-    // Mesa's two-7I77 firmware for 34-pin cards (hostmot2-firmware
-    // PIN_7I77x2_34.vhd, shipped as 7i92_7i77x2): 12 muxed encoders, 6
-    // SSerial channels, the second 7I77's signals on IO17..33 whether or not
-    // one is plugged in there (its channels then answer "no remote").
-    SevenI77x2,
-    // One 7I77 on IO0..16 and 17 plain GPIO on IO17..33 (6 encoders, 3
-    // channels): lbpkit's own layout, not a firmware Mesa ships; for a second
-    // connector used as GPIO.
-    SevenI77Gpio,
-  };
+  // The firmware the FPGA runs: its IDROM (module list and pin functions).
+  // SevenI77x2 is Mesa's two-7I77 firmware for 34-pin cards
+  // (PIN_7I77x2_34.vhd, shipped as 7i92_7i77x2): 12 muxed encoders, 6
+  // SSerial channels, the second 7I77's signals on IO17..33 whether or not
+  // one is plugged in there (its channels then answer "no remote").
+  // SevenI77Gpio is lbpkit's one 7I77 with 17 plain GPIO on IO17..33. The
+  // others and which card has which: cards/catalogue.hpp, docs/cards.md.
+  using Pinout = cards::Pinout;
   struct Options {
-    BoardIdentity board;
-    Pinout pinout = Pinout::SevenI77x2;
-    // A 7I77 on the first connector (IO0..16) always; on the second
-    // (IO17..33) optionally (SevenI77x2 only).
+    // The card (nullptr: the 7I92) and its firmware (none: the card's
+    // first, its default).
+    const cards::Card* card = nullptr;
+    std::optional<Pinout> pinout;
+    // A 7I77 where the firmware has its first (always) and optionally where
+    // it has a second (firmwares with two 7I77 slots only).
     DaughterOptions first;
     std::optional<DaughterOptions> second;
   };
 
+  // Throws std::invalid_argument naming what the card or firmware lacks.
   explicit HostMot2Card(Options options);
   HostMot2Card() : HostMot2Card(Options{}) {}
 
@@ -121,6 +126,7 @@ class HostMot2Card {
     watchdog_->advance(now);
     encoders_->advance(now);
     sserial_->advance(now);
+    for (unsigned i = 0; i < timedCount_; ++i) timed_[i]->advance(now);
     for (auto& d : sevenI77s_) {
       d->fieldIo.advance(now);
       d->analog.advance(now);
@@ -139,10 +145,20 @@ class HostMot2Card {
   Watchdog& watchdog() { return *watchdog_; }
   IoPort& ioPort() { return *ioport_; }
   Led& led() { return *led_; }
+  // The firmware's StepGens, PWMGens and DPLL; nullptr when it has none.
+  StepGen* stepGens() { return stepgen_; }
+  PwmGen* pwmGens() { return pwmgen_; }
+  Dpll* dpll() { return dpll_; }
   SevenI77& daughtercard(unsigned connector) { return *sevenI77s_.at(connector); }
   [[nodiscard]] unsigned daughtercards() const { return static_cast<unsigned>(sevenI77s_.size()); }
-  [[nodiscard]] Pinout pinout() const { return options_.pinout; }
-  [[nodiscard]] const BoardIdentity& board() const { return options_.board; }
+  [[nodiscard]] Pinout pinout() const { return firmware_->pinout; }
+  [[nodiscard]] const cards::Card& description() const { return *card_; }
+  [[nodiscard]] const cards::Firmware& firmware() const { return *firmware_; }
+  [[nodiscard]] const BoardIdentity& board() const { return card_->idrom; }
+  // The firmware's modules in IDROM order.
+  [[nodiscard]] std::span<Module* const> modules() const { return modules_; }
+  // The first module with this IDROM tag; nullptr when the firmware has none.
+  [[nodiscard]] Module* module(std::uint8_t gtag) const;
   [[nodiscard]] const std::array<std::uint32_t, idrom::kWords>& idromWords() const { return idrom_; }
   [[nodiscard]] std::vector<ModuleDescriptor> moduleDescriptors() const;
   [[nodiscard]] SimTime now() const { return now_; }
@@ -165,14 +181,25 @@ class HostMot2Card {
   Module* moduleAt(std::uint16_t address);
   void noteAccess(AccessKind kind, std::uint16_t address, std::uint32_t value);
 
+  void build(const cards::ModuleEntry& entry);
+
   Options options_;
+  const cards::Card* card_;
+  const cards::Firmware* firmware_;
   std::vector<std::unique_ptr<SevenI77>> sevenI77s_;
-  std::unique_ptr<Watchdog> watchdog_;
-  std::unique_ptr<IoPort> ioport_;
-  std::unique_ptr<MuxedEncoder> encoders_;
-  std::unique_ptr<MuxedEncoderSelect> encoderSelect_;
-  std::unique_ptr<SmartSerial> sserial_;
-  std::unique_ptr<Led> led_;
+  std::vector<std::unique_ptr<Module>> owned_;  // the firmware's modules
+  // The ones every firmware here has, called by their own type.
+  Watchdog* watchdog_ = nullptr;
+  IoPort* ioport_ = nullptr;
+  MuxedEncoder* encoders_ = nullptr;
+  SmartSerial* sserial_ = nullptr;
+  Led* led_ = nullptr;
+  StepGen* stepgen_ = nullptr;
+  PwmGen* pwmgen_ = nullptr;
+  Dpll* dpll_ = nullptr;
+  // The other modules whose state moves with time, IDROM order.
+  std::array<Module*, 8> timed_{};
+  unsigned timedCount_ = 0;
   std::vector<Module*> modules_;  // IDROM order
   std::array<Module*, 256> byBlock_{};  // address >> 8 -> module
   // Which registers byBlock_'s module decodes: bit (address & 0xFF) / 4 of

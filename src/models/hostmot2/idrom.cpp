@@ -13,14 +13,7 @@ std::uint32_t fourChars(std::string_view s, std::size_t at) {
   }
   return v;
 }
-// SSerial and muxed counter pin codes (IDROMConst.vhd).
-constexpr std::uint8_t kSsRx = 0x00;    // + port + 1
-constexpr std::uint8_t kSsTx = 0x80;    // + port + 1
-constexpr std::uint8_t kSsTxEn = 0x90;  // + port + 1
-constexpr std::uint8_t kQcA = 0x01;
-constexpr std::uint8_t kQcB = 0x02;
-constexpr std::uint8_t kQcIdx = 0x03;
-constexpr std::uint8_t kSel0 = 0x81;
+using namespace pincode;
 }  // namespace
 
 std::array<std::uint32_t, idrom::kWords> buildIdrom(const BoardIdentity& board,
@@ -70,6 +63,20 @@ std::array<PinDescriptor, 17> sevenI77Pins(unsigned firstChannel, unsigned first
           ss(kSsTx, 0),   ss(kSsRx, 0),  PinDescriptor{kSel0, tag::kMuxedQCountSel, static_cast<std::uint8_t>(selectUnit)},
           qc(kQcA, 0),    qc(kQcB, 0),   qc(kQcIdx, 0), qc(kQcA, 1),  qc(kQcB, 1),
           qc(kQcIdx, 1),  qc(kQcA, 2),   qc(kQcB, 2),   qc(kQcIdx, 2)};
+}
+
+std::array<PinDescriptor, 17> sevenI76Pins(unsigned firstStepGen, unsigned channel, unsigned counterUnit) {
+  auto sg = [&](std::uint8_t pin, unsigned n) {
+    return PinDescriptor{pin, tag::kStepGen, static_cast<std::uint8_t>(firstStepGen + n)};
+  };
+  auto ss = [&](std::uint8_t kind, unsigned ch) {
+    return PinDescriptor{static_cast<std::uint8_t>(kind + ch + 1), tag::kSSerial, 0};
+  };
+  auto qc = [&](std::uint8_t pin) { return PinDescriptor{pin, tag::kMuxedQCount, static_cast<std::uint8_t>(counterUnit)}; };
+  return {sg(kDir, 0),       sg(kStep, 0),          sg(kDir, 1),           sg(kStep, 1),      sg(kDir, 2),
+          sg(kStep, 2),      sg(kDir, 3),           sg(kStep, 3),          sg(kDir, 4),       sg(kStep, 4),
+          ss(kSsTx, channel), ss(kSsRx, channel),   ss(kSsTx, channel + 1), ss(kSsRx, channel + 1), qc(kQcIdx),
+          qc(kQcB),          qc(kQcA)};
 }
 
 }  // namespace hm2

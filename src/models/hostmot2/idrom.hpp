@@ -49,6 +49,21 @@ std::array<std::uint32_t, idrom::kWords> buildIdrom(const BoardIdentity& board,
                                                     std::span<const ModuleDescriptor> modules,
                                                     std::span<const PinDescriptor> pins);
 
+// Secondary pin codes (IDROMConst.vhd; docs/protocol-facts.md#module-and-pin-descriptors):
+// bit 7 set = the module drives the pin.
+namespace pincode {
+inline constexpr std::uint8_t kSsRx = 0x00;    // + channel + 1
+inline constexpr std::uint8_t kSsTx = 0x80;    // + channel + 1
+inline constexpr std::uint8_t kSsTxEn = 0x90;  // + channel + 1
+inline constexpr std::uint8_t kQcA = 0x01;     // QCount and MuxedQCount
+inline constexpr std::uint8_t kQcB = 0x02;
+inline constexpr std::uint8_t kQcIdx = 0x03;
+inline constexpr std::uint8_t kSel0 = 0x81;    // MuxedQCountSel
+inline constexpr std::uint8_t kStep = 0x81;    // StepGen StepGenStepPin
+inline constexpr std::uint8_t kDir = 0x82;     // StepGen StepGenDirPin
+inline constexpr std::uint8_t kPwm = 0x81;     // PWMGen PWMAOutPin
+}  // namespace pincode
+
 // The pins of one 7I77 on a 17-pin connector (manual: P1 HOST INTERFACE):
 // IO0 SS2TXEN, IO1 SS2TX, IO2 SS2RX, IO3 SS1TX, IO4 SS1RX, IO5 SS0TX,
 // IO6 SS0RX, IO7 ENCMUX, IO8..IO16 QCMUX A/B/I for pairs 01, 23, 45.
@@ -56,5 +71,11 @@ std::array<std::uint32_t, idrom::kWords> buildIdrom(const BoardIdentity& board,
 // the second); `selectUnit` is its ENCMUX pin's unit byte (0 and 6 in
 // PIN_7I77x2_34.vhd).
 std::array<PinDescriptor, 17> sevenI77Pins(unsigned firstChannel, unsigned firstUnit, unsigned selectUnit);
+
+// The pins of one 7I76 on a 17-pin connector as PIN_7I77_7I76_34.vhd has it
+// on IO17..33: Dir then Step of StepGens firstStepGen..+4, SSerial TX/RX of
+// `channel` (field I/O) and `channel + 1` (expansion), then the spindle
+// encoder's index, B and A on muxed counter unit `counterUnit`.
+std::array<PinDescriptor, 17> sevenI76Pins(unsigned firstStepGen, unsigned channel, unsigned counterUnit);
 
 }  // namespace hm2

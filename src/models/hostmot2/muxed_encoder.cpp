@@ -31,8 +31,10 @@ double maxFilteredVelocity(double seconds) {
 }
 }  // namespace
 
-MuxedEncoder::MuxedEncoder(unsigned counters, std::uint32_t clockLow)
-    : counters_(std::min(counters, kMaxCounters)), clockLow_(clockLow) {
+MuxedEncoder::MuxedEncoder(unsigned counters, std::uint32_t clockLow) : MuxedEncoder(counters, clockLow, Variant{}) {}
+
+MuxedEncoder::MuxedEncoder(unsigned counters, std::uint32_t clockLow, const Variant& variant)
+    : variant_(variant), counters_(std::min(counters, kMaxCounters)), clockLow_(clockLow) {
   MuxedEncoder::reset();
 }
 
@@ -43,7 +45,9 @@ void MuxedEncoder::reset() {
   // a tick every 13 ClockLow, 7.69 MHz. LinuxCNC writes its own at load:
   // ClockLow / muxed-sample-frequency (8 MHz) - 2, truncated, 10 at 100 MHz
   // (8.33 MHz; encoder.c).
-  rateDivisor_ = std::max((clockLow_ + 4'000'000U) / 8'000'000U, 2U) - 2;
+  // (The plain QCount's qcounterate.vhd: round(ClockLow / 16 MHz) - 2.)
+  const std::uint32_t hz = variant_.powerUpTickHz;
+  rateDivisor_ = std::max((clockLow_ + hz / 2) / hz, 2U) - 2;
   setSamplePeriod();
   tsDivisor_ = 0;
   // Counts, CCRs and latches cleared; the filters start from the inputs as
@@ -56,11 +60,11 @@ void MuxedEncoder::reset() {
 }
 
 void MuxedEncoder::setSamplePeriod() {
-  // Each counter sees its inputs every second mux tick.
-  samplePeriod_ = SimTime{static_cast<std::int64_t>(2.0 * (rateDivisor_ + 2) * 1e9 / clockLow_)};
+  // Each muxed counter sees its inputs every second mux tick (a plain one every tick).
+  samplePeriod_ = SimTime{static_cast<std::int64_t>(variant_.ticksPerSample * (rateDivisor_ + 2.0) * 1e9 / clockLow_)};
   samplePeriodSeconds_ = std::chrono::duration<double>(samplePeriod_).count();
-  maxFilteredVelocity_[0] = maxFilteredVelocity(samplePeriodSeconds_ * 2U);
-  maxFilteredVelocity_[1] = maxFilteredVelocity(samplePeriodSeconds_ * 8U);
+  maxFilteredVelocity_[0] = maxFilteredVelocity(samplePeriodSeconds_ * variant_.filterSamples[0]);
+  maxFilteredVelocity_[1] = maxFilteredVelocity(samplePeriodSeconds_ * variant_.filterSamples[1]);
 }
 
 std::uint16_t MuxedEncoder::timestampAt(SimTime t) const {
@@ -219,7 +223,7 @@ std::uint32_t MuxedEncoder::read(std::uint16_t address, SimTime now) {
   advance(now);
   const unsigned n = (address & 0xFFU) / 4;
   settle(n);  // a counter's registers show only it (the others wait until looked at)
-  switch (address & 0xFF00U) {
+  switch (block(address)) {
     case kCount:
       if (n >= counters_) return 0;
       stampCount(state_[n]);
@@ -248,11 +252,11 @@ WriteResult MuxedEncoder::write(std::uint16_t address, std::uint32_t value, SimT
   const unsigned n = (address & 0xFFU) / 4;
   // A new mux rate or timestamp divisor changes every counter from now on:
   // each is settled under the old one first.
-  if ((address & 0xFF00U) == kRate || (address & 0xFF00U) == kTimestampDiv)
+  if (block(address) == kRate || block(address) == kTimestampDiv)
     settle();
   else
     settle(n);
-  switch (address & 0xFF00U) {
+  switch (block(address)) {
     case kCount:
       if (n >= counters_) return WriteResult::Unmapped;
       state_[n].count = 0;  // any write clears the count

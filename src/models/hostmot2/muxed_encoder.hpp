@@ -15,6 +15,10 @@
 //   0x3800 TS        the 16-bit timestamp counter
 //   0x3900 rate      11..0 mux divisor: a mux tick every divisor+2 ClockLow
 //
+// The plain (non-muxed) QCount has the same counters and registers without
+// the mux (encoder.hpp): a Variant says where its registers are and how its
+// counters sample.
+//
 // The select line toggles every tick, so each counter samples its inputs
 // every second tick, and the digital filter needs a new input state for 3
 // (or 15) ticks. At the power-up rate (about 8 MHz ticks with a 100 MHz
@@ -42,7 +46,7 @@ struct EncoderSignal {
   std::int64_t indexAt = 0;
 };
 
-class MuxedEncoder final : public Module {
+class MuxedEncoder : public Module {
  public:
   static constexpr std::uint16_t kCount = 0x3500;
   static constexpr std::uint16_t kControl = 0x3600;
@@ -50,6 +54,17 @@ class MuxedEncoder final : public Module {
   static constexpr std::uint16_t kTimestamp = 0x3800;
   static constexpr std::uint16_t kRate = 0x3900;
   static constexpr unsigned kMaxCounters = 12;
+
+  // What differs between the muxed counters and the plain ones.
+  struct Variant {
+    std::uint16_t base = kCount;
+    std::uint8_t tag = tag::kMuxedQCount;
+    std::uint8_t version = 3;
+    std::string_view name = "MuxedQCount";
+    unsigned ticksPerSample = 2;  // a counter sees its inputs every this many rate ticks
+    std::uint32_t powerUpTickHz = 8'000'000;  // the firmware's rate divisor at power-up
+    std::array<unsigned, 2> filterSamples{2, 8};  // samples a state must last (filter bit 0, 1)
+  };
 
   // What an observer sees per counter: the count and CCR as the registers
   // hold them, and the encoder signal the world drives into it.
@@ -72,13 +87,16 @@ class MuxedEncoder final : public Module {
   static constexpr std::uint32_t kLatchOnIndex = lbpkit::wire::qcount::ccr::kLatchOnIndex;
   static constexpr std::uint32_t kIndexPolarity = lbpkit::wire::qcount::ccr::kIndexPolarity;
 
-  MuxedEncoder(unsigned counters, std::uint32_t clockLow);
+  MuxedEncoder(unsigned counters, std::uint32_t clockLow);  // the muxed counters
+  MuxedEncoder(unsigned counters, std::uint32_t clockLow, const Variant& variant);
 
-  [[nodiscard]] std::string_view name() const override { return "MuxedQCount"; }
+  [[nodiscard]] std::string_view name() const override { return variant_.name; }
   [[nodiscard]] ModuleDescriptor descriptor() const override {
-    return ModuleDescriptor{tag::kMuxedQCount, 3, kClockLow, static_cast<std::uint8_t>(counters_), kCount, 5, 0, 0x03};
+    return ModuleDescriptor{variant_.tag, variant_.version, kClockLow, static_cast<std::uint8_t>(counters_), variant_.base, 5, 0, 0x03};
   }
-  [[nodiscard]] bool decodes(std::uint16_t a) const override { return a >= kCount && a < kRate + 4; }
+  [[nodiscard]] bool decodes(std::uint16_t a) const override {
+    return a >= variant_.base && a < variant_.base + (kRate - kCount) + 4;
+  }
   std::uint32_t read(std::uint16_t address, SimTime now) override;
   WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) override;
   // Cheap: it only notes the time. The counters catch up (settle) when
@@ -163,8 +181,13 @@ class MuxedEncoder final : public Module {
   [[gnu::noinline]] void runSampled(const EncoderSignal& s, Counter& c, SimTime from, SimTime to, double p0) const;
   static void index(Counter& c, std::int64_t countAtIndex);
   [[nodiscard]] std::uint16_t timestampAt(SimTime t) const;
-  [[nodiscard]] unsigned filterSamples(const Counter& c) const { return (c.ccr & kFilter) ? 8 : 2; }
+  [[nodiscard]] unsigned filterSamples(const Counter& c) const { return variant_.filterSamples[(c.ccr & kFilter) ? 1 : 0]; }
+  // The register block of `address` as the muxed counters number them (kCount..kRate).
+  [[nodiscard]] std::uint16_t block(std::uint16_t address) const {
+    return static_cast<std::uint16_t>((address & 0xFF00U) - variant_.base + kCount);
+  }
 
+  Variant variant_;
   unsigned counters_;
   std::uint32_t clockLow_;
   std::uint32_t rateDivisor_;

@@ -1,5 +1,6 @@
 #include "daemon/sim_daemon.hpp"
 
+#include <arpa/inet.h>
 #include <pthread.h>
 #include <sched.h>
 #include <sys/syscall.h>
@@ -42,6 +43,7 @@ SimDaemon::SimDaemon(SimOptions options)
   }
   udp_ = std::make_unique<UdpServer>(options_.bindAddress, options_.port);
   Lbp16Card::Identity id;
+  id.name = std::string(card_.description().name);  // the card's LBP16 board name (hm2_eth, mesaflash)
   std::array<std::uint8_t, 6> mac{};
   // hm2_eth pins an ARP entry to the MAC the card reports: it must be the
   // MAC of the interface we answer on.
@@ -83,6 +85,11 @@ SimDaemon::SimDaemon(SimOptions options)
   if (!options_.recordFile.empty())
     traceFile_ = std::make_unique<TraceFile>(*trace_, options_.recordFile,
                                              [this](const std::string& text) { log(LogLevel::Warn, text); });
+  if (!options_.packetTraceFile.empty()) {
+    cardEndpoint_ = {static_cast<std::uint32_t>(a[0] << 24 | a[1] << 16 | a[2] << 8 | a[3]), udp_->port()};
+    packetTrace_ = std::make_unique<PcapRecorder>(options_.packetTraceFile, PcapRecorder::Link::Ipv4Udp,
+                                                  [this](const std::string& text) { log(LogLevel::Warn, text); });
+  }
 }
 
 SimDaemon::~SimDaemon() {
@@ -100,6 +107,13 @@ SimDaemon::~SimDaemon() {
 
 std::uint16_t SimDaemon::port() const { return udp_->port(); }
 
+std::string SimDaemon::packetTraceSummary() const {
+  if (!packetTrace_) return {};
+  const std::uint64_t lost = packetTrace_->dropped();
+  return fmt::format("the datagrams in and out are in {}{}", packetTrace_->path(),
+                     lost ? fmt::format(" ({} lost: the writer fell behind)", lost) : std::string());
+}
+
 lbp::SimTime SimDaemon::catchUp(std::chrono::microseconds budget) { return catchUpTo(clock_.now(), budget); }
 
 lbp::SimTime SimDaemon::catchUpTo(lbp::SimTime target, std::chrono::microseconds budget) {
@@ -114,6 +128,14 @@ lbp::SimTime SimDaemon::catchUpTo(lbp::SimTime target, std::chrono::microseconds
         card_.advance(t);
       },
       budget);
+}
+
+void SimDaemon::traceDatagram(std::span<const std::uint8_t> request, std::span<const std::uint8_t> reply) {
+  // Copies into the recorder's ring only: no allocation, no file I/O here.
+  const sockaddr_in& p = udp_->peer();
+  const PcapRecorder::Endpoint host{ntohl(p.sin_addr.s_addr), ntohs(p.sin_port)};
+  packetTrace_->udp(udp_->receivedNs(), host, cardEndpoint_, request);
+  if (!reply.empty()) packetTrace_->udp(PcapRecorder::nowNs(), cardEndpoint_, host, reply);
 }
 
 void SimDaemon::record() {
@@ -215,6 +237,9 @@ std::string SimDaemon::banner() const {
                        apiPort_);
     if (traceFile_) s += fmt::format("  recording: every servo cycle to {}\n", traceFile_->path());
   }
+  if (packetTrace_)
+    s += fmt::format("  packet trace: every datagram in and reply out to {} (pcap; lbpkit decode reads it)\n",
+                     packetTrace_->path());
   if (apiPort_ >= 0)
     s += fmt::format("  control API: http://{}:{}/api/state{}\n", options_.apiAddress, apiPort_,
                      options_.apiToken.empty() ? "" : " (with its token: Authorization: Bearer TOKEN)");
@@ -374,7 +399,10 @@ void SimDaemon::run(const std::atomic<bool>& stop) {
     // 7I77's 50 ms watchdog, which a stall here must not bite.
     const bool served = udp_->serveOnce(std::chrono::milliseconds(1),
                                         [&](std::span<const std::uint8_t> req, std::span<std::uint8_t> reply) {
-                                          return lbp16.handle(req, reply, catchUpTo(clock_.ago(udp_->sinceReceived())));
+                                          const std::size_t n = lbp16.handle(
+                                              req, reply, catchUpTo(clock_.ago(udp_->sinceReceived())));
+                                          if (packetTrace_) traceDatagram(req, reply.first(n));
+                                          return n;
                                         });
     // From the kernel's receive timestamp, so time queued in the socket
     // counts: that is what the host waits.

@@ -19,11 +19,13 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "daemon/api_routes.hpp"
 #include "daemon/fault_script.hpp"
+#include "daemon/pcap_recorder.hpp"
 #include "daemon/sim_clock.hpp"
 #include "daemon/trace_file.hpp"
 #include "daemon/trace_ring.hpp"
@@ -69,6 +71,9 @@ struct SimOptions {
   // SSLBP channels brought out to a pseudo-terminal each, for a remote of
   // the user's own (`--remote 2=pty`, issue 12 item 10; pty/pty_channel.hpp).
   std::vector<unsigned> externalRemotes;
+  // Every datagram in and every reply out, with its time, to this pcap file
+  // (`--trace FILE.pcap`, issue 18; daemon/pcap_recorder.hpp).
+  std::string packetTraceFile;
 };
 
 struct SimState;
@@ -97,6 +102,8 @@ class SimDaemon {
   Answer machineAnswer();
   // "median 3 us, 99th percentile 9 us, max 40 us over N datagrams".
   [[nodiscard]] std::string latencySummary() const;
+  // "N packets to FILE" (and how many were lost), or "" without --trace.
+  [[nodiscard]] std::string packetTraceSummary() const;
 
  private:
   std::string runJob(std::function<Answer()> job);
@@ -108,6 +115,8 @@ class SimDaemon {
   lbp::SimTime catchUpTo(lbp::SimTime target, std::chrono::microseconds budget = SimClock::kBudget);
   // A trace row when the host has run a servo cycle since the last look.
   void record();
+  // --trace: the datagram just served and the reply to it (card thread).
+  void traceDatagram(std::span<const std::uint8_t> request, std::span<const std::uint8_t> reply);
   void log(LogLevel level, const std::string& text) const;
 
   SimOptions options_;
@@ -124,6 +133,8 @@ class SimDaemon {
   std::unique_ptr<TraceFile> traceFile_;  // after trace_: it reads it until it goes
   std::unique_ptr<Lbp16Card> lbp16_;
   std::unique_ptr<UdpServer> udp_;
+  std::unique_ptr<PcapRecorder> packetTrace_;  // --trace: written on a thread of its own
+  PcapRecorder::Endpoint cardEndpoint_{};
   // What the API's routes and the fault script act on.
   std::unique_ptr<ApiTarget> target_;
   std::unique_ptr<FaultScript> script_;

@@ -27,29 +27,13 @@ TraceFile::TraceFile(const TraceRing& ring, std::string path, Report warn)
   }
   // Only rows from now on: the ring is new, this is row 0.
   next_ = ring_.pushed();
-  thread_ = std::thread([this] { run(); });
+  // A few times a second: a 1 kHz servo thread's 250 rows at a time.
+  thread_ = std::make_unique<DrainThread>(std::chrono::milliseconds(250), [this] { drain(); });
 }
 
 TraceFile::~TraceFile() {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    stopping_ = true;
-  }
-  wake_.notify_all();
-  thread_.join();
-  drain();  // the rows of the last moments
+  thread_.reset();  // joins, then writes the rows of the last moments
   std::fclose(file_);
-}
-
-void TraceFile::run() {
-  std::unique_lock<std::mutex> lock(mutex_);
-  while (!stopping_) {
-    // A few times a second: a 1 kHz servo thread's 250 rows at a time.
-    wake_.wait_for(lock, std::chrono::milliseconds(250), [this] { return stopping_; });
-    lock.unlock();
-    drain();
-    lock.lock();
-  }
 }
 
 void TraceFile::drain() {

@@ -4,14 +4,13 @@
 // times a second, so the card thread never waits on the disk.
 #pragma once
 
-#include <condition_variable>
 #include <cstdint>
 #include <cstdio>
 #include <functional>
-#include <mutex>
+#include <memory>
 #include <string>
-#include <thread>
 
+#include "daemon/drain_thread.hpp"
 #include "daemon/trace_ring.hpp"
 
 namespace net {
@@ -32,7 +31,6 @@ class TraceFile {
   [[nodiscard]] const std::string& path() const { return path_; }
 
  private:
-  void run();
   void drain();
 
   const TraceRing& ring_;
@@ -42,10 +40,7 @@ class TraceFile {
   std::uint64_t next_ = 0;  // the next row to write
   bool lostSaid_ = false;
   bool errorSaid_ = false;
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  bool stopping_ = false;
-  std::thread thread_;
+  std::unique_ptr<DrainThread> thread_;  // last: it calls drain() until it goes
 };
 
 }  // namespace net

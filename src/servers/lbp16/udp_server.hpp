@@ -35,6 +35,10 @@ class UdpServer {
   [[nodiscard]] std::chrono::nanoseconds sinceReceived() const;
   // Of that, how long it waited in the socket before we read it.
   [[nodiscard]] std::chrono::nanoseconds lastQueueing() const { return queued_; }
+  // The datagram being served: who sent it, and when the kernel received it
+  // (CLOCK_REALTIME ns), for `lbpkit sim --trace`.
+  [[nodiscard]] const sockaddr_in& peer() const { return peer_; }
+  [[nodiscard]] std::int64_t receivedNs() const { return receivedNs_; }
 
   // Waits up to `timeout` for one datagram and answers it with what
   // `handler(request, reply)` returns (nothing when it returns 0). The one

@@ -10,6 +10,8 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "daemon/pcap_recorder.hpp"
+
 namespace net {
 
 namespace {
@@ -49,6 +51,7 @@ void PtyRemote::send(std::span<const std::uint8_t> reply) {
     done += static_cast<std::size_t>(w);
   }
   bytesOut_ += done;
+  if (trace_ && done > 0) trace_->lbp(PcapRecorder::nowNs(), true, reply.first(done));
   bytesDropped_ += reply.size() - done;
 }
 
@@ -81,6 +84,7 @@ void PtyRemote::run(const std::atomic<bool>& stop) {
     if (Clock::now() - lastInput > kAbandonedAfter) discardUnread();
     lastInput = Clock::now();
     bytesIn_ += static_cast<std::uint64_t>(n);
+    if (trace_) trace_->lbp(PcapRecorder::nowNs(), false, std::span<const std::uint8_t>(buffer, static_cast<std::size_t>(n)));
     for (ssize_t i = 0; i < n && !stop.load(); ++i) send(device_.receive(buffer[i], t));
   }
 }

@@ -26,6 +26,8 @@
 
 namespace net {
 
+class PcapRecorder;
+
 class PtyRemote {
  public:
   explicit PtyRemote(remote::RemoteDevice& device);
@@ -35,6 +37,10 @@ class PtyRemote {
 
   // The slave side: what a client opens, like /dev/ttyUSB0.
   [[nodiscard]] const std::string& path() const { return pty_.path(); }
+
+  // Every LBP byte in and out, with its time, to `trace` (`lbpkit remote
+  // --pty --trace FILE.pcap`; daemon/pcap_recorder.hpp); nullptr: none.
+  void setTrace(PcapRecorder* trace) { trace_ = trace; }
 
   // Serves until `stop` becomes true (checked at least every 10 ms).
   void run(const std::atomic<bool>& stop);
@@ -53,6 +59,7 @@ class PtyRemote {
   std::uint64_t bytesIn_ = 0;
   std::uint64_t bytesOut_ = 0;
   std::uint64_t bytesDropped_ = 0;
+  PcapRecorder* trace_ = nullptr;
 
   [[nodiscard]] int unread() const;  // answer bytes waiting for the client
   void discardUnread();

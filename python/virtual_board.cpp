@@ -1,0 +1,321 @@
+#include "virtual_board.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <limits>
+
+#include "lbpkit/error.hpp"
+
+namespace pylbpkit {
+
+namespace {
+using lbpkit::Error;
+using remote::FieldIoProcessor;
+
+constexpr double kMaxVolts = 100.0;  // as the control API allows
+
+void checkVolts(double v, const char* what) {
+  if (!std::isfinite(v) || v < 0 || v > kMaxVolts)
+    throw std::invalid_argument(fmt::format("{}: {} V is not from 0 to {} V", what, v, kMaxVolts));
+}
+}  // namespace
+
+// --- VirtualBoard ---------------------------------------------------------------------------
+
+VirtualBoard::VirtualBoard(std::shared_ptr<Card> card) : card_(std::move(card)) {
+  auto l = card_->lock();
+  (void)card_->board();  // says so for a card on the network
+}
+
+hm2::SevenI77& VirtualBoard::daughter(unsigned connector) {
+  auto& b = card_->board();
+  if (connector >= b.daughtercards())
+    throw std::out_of_range(fmt::format("connector {}: the virtual 7I92 has a 7I77 on connector{} {}", connector,
+                                        b.daughtercards() > 1 ? "s 0 and" : "", b.daughtercards() - 1));
+  return b.daughtercard(connector);
+}
+
+void VirtualBoard::checkInput(unsigned input) const {
+  if (input >= FieldIoProcessor::kInputs)
+    throw std::out_of_range(fmt::format("input {}: the 7I77 has field inputs 0..{}", input, FieldIoProcessor::kInputs - 1));
+}
+
+void VirtualBoard::checkOutput(unsigned output) const {
+  if (output >= FieldIoProcessor::kOutputs)
+    throw std::out_of_range(
+        fmt::format("output {}: the 7I77 has field outputs 0..{}", output, FieldIoProcessor::kOutputs - 1));
+}
+
+unsigned VirtualBoard::daughtercards() {
+  auto l = card_->lock();
+  return card_->board().daughtercards();
+}
+
+void VirtualBoard::setInput(unsigned input, bool on, unsigned connector) {
+  auto l = card_->lock();
+  auto& io = daughter(connector).fieldIo;
+  applyInput(input, on ? io.fieldVoltage() : 0.0, connector);
+}
+
+void VirtualBoard::setInputVoltage(unsigned input, double volts, unsigned connector) {
+  auto l = card_->lock();
+  applyInput(input, volts, connector);
+}
+
+void VirtualBoard::applyInput(unsigned input, double volts, unsigned connector) {
+  auto& io = daughter(connector).fieldIo;
+  checkInput(input);
+  checkVolts(volts, "input voltage");
+  // The machine sets its switches' inputs at every plant step: a value
+  // given here would last a step at most.
+  if (const auto* m = card_->machine(); m != nullptr && connector == 0)
+    for (const auto& s : m->description().switches)
+      if (s.input == input)
+        throw Error(fmt::format("input {} is wired to the machine's switch \"{}\": trip it with "
+                                "machine.set_switch(\"{}\", True) instead",
+                                input, s.name, s.name));
+  io.setInputVoltage(input, volts);
+}
+
+template <typename Read>
+auto VirtualBoard::readFieldIo(unsigned connector, Read&& read) {
+  auto l = card_->lock();
+  return read(static_cast<const FieldIoProcessor&>(daughter(connector).fieldIo));
+}
+
+bool VirtualBoard::input(unsigned i, unsigned connector) {
+  checkInput(i);
+  return readFieldIo(connector, [i](const FieldIoProcessor& io) { return io.input(i); });
+}
+double VirtualBoard::inputVoltage(unsigned i, unsigned connector) {
+  checkInput(i);
+  return readFieldIo(connector, [i](const FieldIoProcessor& io) { return io.inputVoltage(i); });
+}
+bool VirtualBoard::output(unsigned o, unsigned connector) {
+  checkOutput(o);
+  return readFieldIo(connector, [o](const FieldIoProcessor& io) { return io.outputOn(o); });
+}
+double VirtualBoard::outputVoltage(unsigned o, unsigned connector) {
+  checkOutput(o);
+  return readFieldIo(connector, [o](const FieldIoProcessor& io) { return io.outputVoltage(o); });
+}
+double VirtualBoard::outputCurrent(unsigned o, unsigned connector) {
+  checkOutput(o);
+  return readFieldIo(connector, [o](const FieldIoProcessor& io) { return io.outputCurrent(o); });
+}
+bool VirtualBoard::outputTripped(unsigned o, unsigned connector) {
+  checkOutput(o);
+  return readFieldIo(connector, [o](const FieldIoProcessor& io) { return io.outputTripped(o); });
+}
+double VirtualBoard::fieldVoltage(unsigned connector) {
+  return readFieldIo(connector, [](const FieldIoProcessor& io) { return io.fieldVoltage(); });
+}
+std::uint8_t VirtualBoard::fieldIoFaults(unsigned connector) {
+  return readFieldIo(connector, [](const FieldIoProcessor& io) { return io.faults(); });
+}
+
+void VirtualBoard::setOutputLoad(unsigned output, double ohms, unsigned connector) {
+  auto l = card_->lock();
+  checkOutput(output);
+  if (std::isnan(ohms) || ohms < 0)
+    throw std::invalid_argument(fmt::format("output {}: a load of {} ohms (0 is a short, inf an open output)", output, ohms));
+  daughter(connector).fieldIo.setOutputLoad(output, ohms);
+}
+
+void VirtualBoard::setFieldVoltage(double volts, unsigned connector) {
+  auto l = card_->lock();
+  checkVolts(volts, "field voltage");
+  daughter(connector).fieldIo.setFieldVoltage(volts, card_->board().now());
+}
+
+void VirtualBoard::setDriverOverTemperature(unsigned chip, bool hot, unsigned connector) {
+  auto l = card_->lock();
+  if (chip >= FieldIoProcessor::kChips)
+    throw std::out_of_range(fmt::format("chip {}: the 7I77 has output driver chips 0..{}", chip, FieldIoProcessor::kChips - 1));
+  daughter(connector).fieldIo.setDriverOverTemperature(chip, hot);
+}
+
+std::uint8_t VirtualBoard::analogFaults(unsigned connector) {
+  auto l = card_->lock();
+  return daughter(connector).analog.faults();
+}
+
+double VirtualBoard::analogOutput(unsigned channel, unsigned connector) {
+  auto l = card_->lock();
+  if (channel >= remote::AnalogProcessor::kChannels)
+    throw std::out_of_range(fmt::format("analog output {}: the 7I77 has 0..5", channel));
+  return daughter(connector).analog.outputVoltage(channel);
+}
+
+bool VirtualBoard::enable(unsigned channel, unsigned connector) {
+  auto l = card_->lock();
+  if (channel >= remote::AnalogProcessor::kChannels)
+    throw std::out_of_range(fmt::format("ENA{}: the 7I77 has ENA0..5", channel));
+  return daughter(connector).analog.enable(channel);
+}
+
+bool VirtualBoard::watchdogBitten() {
+  auto l = card_->lock();
+  return card_->board().watchdog().bitten();
+}
+
+void VirtualBoard::setCable(unsigned channel, bool connected) {
+  auto l = card_->lock();
+  auto& ss = card_->board().smartSerial();
+  if (channel >= ss.channels())
+    throw std::out_of_range(fmt::format("channel {}: the card has smart-serial channels 0..{}", channel, ss.channels() - 1));
+  ss.link(channel).setConnected(connected);
+}
+
+void VirtualBoard::checkEncoder(unsigned encoder) {
+  const unsigned n = card_->board().encoders().counters();
+  if (encoder >= n) throw std::out_of_range(fmt::format("encoder {}: the card has encoders 0..{}", encoder, n - 1));
+}
+
+void VirtualBoard::setEncoder(unsigned encoder, std::optional<double> countsPerSecond,
+                              std::optional<std::uint32_t> countsPerRev) {
+  auto l = card_->lock();
+  checkEncoder(encoder);
+  if (const auto* m = card_->machine(); m != nullptr) {
+    for (const auto& a : m->description().axes)
+      for (const auto& d : a.drives)
+        if (d.encoderInput == encoder)
+          throw Error(fmt::format("encoder {} is the machine's axis {}: it turns with the axis", encoder, a.name));
+    if (m->description().spindle && m->description().spindle->encoderInput == encoder)
+      throw Error(fmt::format("encoder {} is the machine's spindle encoder", encoder));
+  }
+  if (countsPerSecond && (!std::isfinite(*countsPerSecond) || std::abs(*countsPerSecond) > 1e8))
+    throw std::invalid_argument(fmt::format("encoder {}: {} counts per second", encoder, *countsPerSecond));
+  auto& b = card_->board();
+  if (countsPerRev) b.encoders().setIndexPeriod(encoder, *countsPerRev);
+  if (countsPerSecond) b.encoders().setVelocity(encoder, *countsPerSecond, b.now());
+}
+
+std::uint16_t VirtualBoard::encoderCount(unsigned encoder) {
+  auto l = card_->lock();
+  checkEncoder(encoder);
+  return card_->board().encoders().count(encoder);
+}
+
+// --- VirtualMachine -----------------------------------------------------------------------------
+
+VirtualMachine::VirtualMachine(std::shared_ptr<Card> card) : card_(std::move(card)) {
+  auto l = card_->lock();
+  (void)m();
+}
+
+machine::Machine& VirtualMachine::m() {
+  auto* m = card_->machine();
+  if (m == nullptr)
+    throw Error("this card has no machine: open it with lbpkit.Card.sim(machine=\"mill\") (or lathe, gantry, a file)");
+  return *m;
+}
+
+std::size_t VirtualMachine::axis(const std::string& name) {
+  if (const auto i = m().axisIndex(name)) return *i;
+  std::string have;
+  for (std::size_t i = 0; i < m().axes(); ++i) have += (i ? ", " : "") + m().description().axes[i].name;
+  throw Error(fmt::format("this machine has no axis \"{}\" (it has {})", name, have));
+}
+
+std::string VirtualMachine::name() {
+  auto l = card_->lock();
+  return m().description().name;
+}
+
+std::vector<std::string> VirtualMachine::axes() {
+  auto l = card_->lock();
+  std::vector<std::string> out;
+  for (const auto& a : m().description().axes) out.push_back(a.name);
+  return out;
+}
+
+double VirtualMachine::position(const std::string& name) {
+  auto l = card_->lock();
+  return m().axis(axis(name)).position();
+}
+
+double VirtualMachine::velocity(const std::string& name) {
+  auto l = card_->lock();
+  return m().axis(axis(name)).velocity();
+}
+
+double VirtualMachine::followingError(const std::string& name) {
+  auto l = card_->lock();
+  return m().followingError(axis(name));
+}
+
+bool VirtualMachine::brakeEngaged(const std::string& name) {
+  auto l = card_->lock();
+  const auto i = axis(name);
+  return m().state().axes.at(i).brakeEngaged;
+}
+
+std::optional<double> VirtualMachine::spindleRpm() {
+  auto l = card_->lock();
+  if (const auto* s = m().spindle()) return s->rpm();
+  return std::nullopt;
+}
+
+machine::Machine::State VirtualMachine::state() {
+  auto l = card_->lock();
+  return m().state();
+}
+
+void VirtualMachine::setSwitch(const std::string& name, bool tripped) {
+  auto l = card_->lock();
+  if (!m().setSwitch(name, tripped)) {
+    std::string have;
+    for (const auto& s : m().description().switches) have += (have.empty() ? "" : ", ") + s.name;
+    throw Error(fmt::format("this machine has no switch \"{}\" (it has {})", name, have));
+  }
+}
+
+void VirtualMachine::estop(bool pressed) {
+  auto l = card_->lock();
+  if (m().setSwitches(machine::SwitchKind::Estop, pressed) == 0) throw Error("this machine has no E-stop switch");
+}
+
+void VirtualMachine::probe(bool touching) {
+  auto l = card_->lock();
+  if (m().setSwitches(machine::SwitchKind::Probe, touching) == 0) throw Error("this machine has no probe");
+}
+
+void VirtualMachine::push(const std::string& name, double distance, double speed) {
+  auto l = card_->lock();
+  if (!std::isfinite(distance) || std::abs(distance) > 1e6)
+    throw std::invalid_argument(fmt::format("push: distance {} is not from -1e6 to 1e6 machine units", distance));
+  if (!std::isfinite(speed) || speed <= 0 || speed > 1e5)
+    throw std::invalid_argument(fmt::format("push: speed {} is not above 0 and at most 1e5 units/s", speed));
+  m().push(axis(name), distance, speed);
+}
+
+void VirtualMachine::jam(const std::string& name, bool jammed) {
+  auto l = card_->lock();
+  m().setJammed(axis(name), jammed);
+}
+
+void VirtualMachine::breakEncoder(const std::string& name, const std::string& channel, bool broken, unsigned drive) {
+  auto l = card_->lock();
+  machine::EncoderChannel c{};
+  if (channel == "A" || channel == "a")
+    c = machine::EncoderChannel::A;
+  else if (channel == "B" || channel == "b")
+    c = machine::EncoderChannel::B;
+  else if (channel == "index")
+    c = machine::EncoderChannel::Index;
+  else
+    throw std::invalid_argument(fmt::format("encoder channel \"{}\": \"A\", \"B\" or \"index\"", channel));
+  if (name == "spindle") {
+    if (!m().setSpindleEncoderBroken(c, broken))
+      throw Error(m().spindle() ? "this machine's spindle has no encoder" : "this machine has no spindle");
+    return;
+  }
+  const auto a = axis(name);
+  if (drive >= m().drives(a))
+    throw std::out_of_range(fmt::format("axis {} has drives 0..{}", name, m().drives(a) - 1));
+  m().setEncoderBroken(a, drive, c, broken);
+}
+
+}  // namespace pylbpkit
