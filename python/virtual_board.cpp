@@ -313,6 +313,7 @@ void VirtualMachine::breakEncoder(const std::string& name, const std::string& ch
     return;
   }
   const auto a = axis(name);
+  if (m().stepper(a) != nullptr) throw Error(fmt::format("axis {} is a stepper axis: it has no encoder", name));
   if (drive >= m().drives(a))
     throw std::out_of_range(fmt::format("axis {} has drives 0..{}", name, m().drives(a) - 1));
   m().setEncoderBroken(a, drive, c, broken);

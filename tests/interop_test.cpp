@@ -1008,4 +1008,39 @@ TEST_F(LinuxCnc, Hm2EthCreatesEachCardsPinsForEveryModule) {
   }
 }
 
+// Issue 17 item 3: on the 7I77+7I76 firmware the 7I76's field I/O processor
+// answers on channel 3 (PIN_7I77_7I76_34.vhd) and hm2_eth makes its pins
+// from what it reports (sserial(9)'s 7I76 names), mode 2 with the field
+// voltage reading; its expansion port (channel 4) has nobody.
+TEST_F(LinuxCnc, Hm2EthCreatesThe7I76sPinsOnChannel3) {
+  const auto config = fifo_ + ".toml";
+  std::ofstream(config) << "[card]\nname = \"7I92\"\npinout = \"7I77+7I76\"\n";
+  const Cleanup cleanup{[&] {
+    hal("halrun -U");
+    sim_.reset();
+    std::filesystem::remove(config);
+  }};
+  sim_ = std::make_unique<Sim>(cardIp_, std::vector<std::string>{"--card", "7I92", "--config", config});
+  ASSERT_TRUE(sim_->up());
+  const auto file = fifo_ + ".hal";
+  std::ofstream(file) << "loadrt hostmot2\nloadrt hm2_eth board_ip=" << cardIp_
+                      << " config=\"num_encoders=8 num_stepgens=5 sserial_port_0=00x20\"\n"
+                      << "loadrt threads name1=servo period1=1000000\n"
+                      << "addf hm2_7i92.0.read servo\naddf hm2_7i92.0.write servo\nstart\n";
+  const auto r = loadRetrying([&](const std::string& command_) { return hal(command_); }, "halcmd -f " + file);
+  std::filesystem::remove(file);
+  ASSERT_EQ(r.exit, 0) << r.out;
+  const auto pins = hal("halcmd show pin").out + hal("halcmd show param").out;
+  for (const char* p : {"input-31", "input-00-not", "output-15", "spinout", "spinena", "spindir", "analog3",
+                        "fieldvoltage", "spinout-scalemax", "spinena-invert", "nvunitnumber", "swrevision"})
+    EXPECT_NE(pins.find(std::string("hm2_7i92.0.7i76.0.3.") + p), std::string::npos) << p << "\n" << pins;
+  EXPECT_EQ(pins.find("hm2_7i92.0.7i76.0.4."), std::string::npos) << "nothing on channel 4";
+  EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.0.input-31"), std::string::npos);
+  EXPECT_NE(pins.find("hm2_7i92.0.stepgen.04.position-cmd"), std::string::npos);
+  // The 7I76's 24 V field supply, read through mode 2's FieldVoltage.
+  EXPECT_TRUE(waitFor([&] { return std::atof(getp("hm2_7i92.0.7i76.0.3.fieldvoltage").c_str()) > 23.5; }, 1000ms))
+      << getp("hm2_7i92.0.7i76.0.3.fieldvoltage");
+  EXPECT_EQ(getp("hm2_7i92.0.io_error"), "FALSE");
+}
+
 }  // namespace

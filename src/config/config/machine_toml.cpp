@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "config/toml_reader.hpp"
+#include "hostmot2/stepgen.hpp"
 #include "remote/analog.hpp"
 #include "remote/field_io.hpp"
 
@@ -30,6 +31,7 @@ using machine::EncoderParameters;
 using machine::MachineDescription;
 using machine::OutputDescription;
 using machine::SpindleDescription;
+using machine::StepperParameters;
 using machine::SwitchKind;
 using machine::SwitchParameters;
 
@@ -40,6 +42,9 @@ constexpr std::int64_t kEnables = 6;                                         // 
 constexpr std::int64_t kEncoders = 6;                                        // TB3 0..2, TB4 3..5
 constexpr std::int64_t kInputs = remote::FieldIoProcessor::kInputs;          // 0..31
 constexpr std::int64_t kOutputs = remote::FieldIoProcessor::kOutputs;        // 0..15
+// A HostMot2 firmware's StepGens (how many this card's has, the machine
+// checks against the card: machine.cpp).
+constexpr std::int64_t kStepGens = hm2::StepGen::kMaxInstances;
 
 // Generous bounds that still catch a slipped decimal point.
 constexpr double kMaxPosition = 1e6;  // mm
@@ -83,7 +88,7 @@ class MachineReader {
  public:
   MachineReader(const std::string& path, const toml::table& root)
       : r_(path), root_(root), analog_(r_, "analog output"), encoders_(r_, "encoder"), inputs_(r_, "field input"),
-        outputs_(r_, "field output") {}
+        outputs_(r_, "field output"), stepGens_(r_, "StepGen") {}
 
   MachineDescription read(std::string defaultName) {
     MachineDescription m;
@@ -195,7 +200,7 @@ class MachineReader {
     AxisDescription a;
     r_.onlyKeys(t, prefix,
                 {"name", "screw_pitch", "gear_ratio", "mass_kg", "screw_inertia", "viscous", "coulomb", "vertical",
-                 "travel", "overtravel", "initial_position", "brake_output", "brake_torque", "drive"});
+                 "travel", "overtravel", "initial_position", "brake_output", "brake_torque", "drive", "stepper"});
     (void)r_.required(t, prefix, "name");
     a.name = r_.name(t, prefix, "name", "");
     // The API names the spindle's encoder "spindle" where it names axes.
@@ -220,12 +225,48 @@ class MachineReader {
     a.brakeOutput = static_cast<int>(r_.integer(t, prefix, "brake_output", a.brakeOutput, -1, kOutputs - 1));
     a.brakeTorque = r_.number(t, prefix, "brake_torque", a.brakeTorque, 0.0, kMaxTorque, "Nm");
     const toml::array* drives = r_.tables(t, prefix, "drive");
+    if (const toml::table* s = r_.table(t, prefix, "stepper")) {
+      if (drives != nullptr)
+        r_.fail(s, prefix + "stepper",
+                "an axis has servo drives ([[axis.drive]]) or a stepper ([axis.stepper]), not both");
+      a.stepper = stepper(*s, prefix + "stepper.", a);
+      return a;
+    }
     if (drives == nullptr || drives->empty())
       r_.fail(&t, prefix + "drive", "missing: an axis needs at least one motor ([[axis.drive]])");
     for (std::size_t i = 0; i < drives->size(); ++i)
       a.drives.push_back(drive(r_.element(*drives, prefix + "drive", i), fmt::format("{}drive[{}].", prefix, i),
                                "axis " + a.name));
     return a;
+  }
+
+  // A stepper on a StepGen (issue 17): its steps per machine unit as such,
+  // or from the motor (full steps per revolution, the drive's microsteps)
+  // and the axis' screw and gearing, as a stepper's data sheet gives them.
+  StepperParameters stepper(const toml::table& t, const std::string& prefix, const AxisDescription& a) {
+    StepperParameters s;
+    r_.onlyKeys(t, prefix, {"stepgen", "steps_per_unit", "full_steps", "microsteps", "max_step_rate"});
+    (void)r_.required(t, prefix, "stepgen");
+    s.stepGen = index(t, prefix, "stepgen", 0, kStepGens);
+    stepGens_.claim(s.stepGen, "axis " + a.name, at(t, "stepgen"), prefix + "stepgen");
+    const bool fromMotor = t.get("full_steps") != nullptr || t.get("microsteps") != nullptr;
+    if (t.get("steps_per_unit") != nullptr) {
+      if (fromMotor) {
+        const std::string_view key = t.get("full_steps") != nullptr ? "full_steps" : "microsteps";
+        r_.fail(t.get(key), prefix + std::string(key),
+                "steps_per_unit is given: the motor's full_steps and microsteps are for working it out instead");
+      }
+      s.stepsPerUnit = r_.positive(t, prefix, "steps_per_unit", s.stepsPerUnit, 1e6, "steps per mm");
+    } else if (fromMotor) {
+      const auto fullSteps = r_.integer(t, prefix, "full_steps", 200, 1, 10'000);
+      const auto microsteps = r_.integer(t, prefix, "microsteps", 1, 1, 1'000);
+      s.stepsPerUnit = static_cast<double>(fullSteps * microsteps) * a.gearRatio / a.screwPitch;
+    } else {
+      r_.fail(&t, prefix + "steps_per_unit", "missing: the steps per mm (or the motor's full_steps and microsteps)");
+    }
+    // Absent: the motor follows every rate.
+    s.maxStepRate = r_.positive(t, prefix, "max_step_rate", s.maxStepRate, 1e7, "steps/s");
+    return s;
   }
 
   SpindleDescription spindle(const toml::table& t) {
@@ -327,7 +368,7 @@ class MachineReader {
 
   ConfigReader r_;
   const toml::table& root_;
-  Claims analog_, encoders_, inputs_, outputs_;
+  Claims analog_, encoders_, inputs_, outputs_, stepGens_;
   double stepUs_ = 50.0;
 };
 

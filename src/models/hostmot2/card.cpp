@@ -69,6 +69,12 @@ HostMot2Card::HostMot2Card(Options options)
     sserial_->link(slot.firstChannel + 0U).attach(&sevenI77s_[i]->fieldIo);
     sserial_->link(slot.firstChannel + 1U).attach(&sevenI77s_[i]->analog);
   }
+  // The 7I76 beside the 7I77: its field I/O processor on its channel, its
+  // expansion port (the next channel) with nothing attached.
+  if (const auto channel = cards::sevenI76Channel(*firmware_)) {
+    sevenI76_ = std::make_unique<remote::SevenI76FieldIo>(remote::SevenI76FieldIo::Options{});
+    sserial_->link(*channel).attach(sevenI76_.get());
+  }
   for (Module* m : modules_)
     for (unsigned block = 0; block < 256; ++block)
       for (unsigned off = 0; off < 256; off += 4)
@@ -153,6 +159,7 @@ void HostMot2Card::powerCycle(SimTime now) {
     d->fieldIo.powerCycle(now_);
     d->analog.powerCycle(now_);
   }
+  if (sevenI76_) sevenI76_->powerCycle(now_);
 }
 
 std::uint32_t HostMot2Card::read32(std::uint16_t address, SimTime now) {

@@ -26,6 +26,7 @@
 #include "hostmot2/watchdog.hpp"
 #include "remote/analog.hpp"
 #include "remote/field_io.hpp"
+#include "remote/seven_i76.hpp"
 
 namespace hm2 {
 
@@ -131,6 +132,7 @@ class HostMot2Card {
       d->fieldIo.advance(now);
       d->analog.advance(now);
     }
+    if (sevenI76_) sevenI76_->advance(now);
   }
   // Switch the machine off and on at `now`: every module back to its
   // power-up state (Module::reset()) and both processors of every 7I77
@@ -151,6 +153,9 @@ class HostMot2Card {
   Dpll* dpll() { return dpll_; }
   SevenI77& daughtercard(unsigned connector) { return *sevenI77s_.at(connector); }
   [[nodiscard]] unsigned daughtercards() const { return static_cast<unsigned>(sevenI77s_.size()); }
+  // The 7I76's field I/O processor on the firmwares that carry a 7I76
+  // (cards::sevenI76Channel); nullptr on the others.
+  remote::SevenI76FieldIo* sevenI76() { return sevenI76_.get(); }
   [[nodiscard]] Pinout pinout() const { return firmware_->pinout; }
   [[nodiscard]] const cards::Card& description() const { return *card_; }
   [[nodiscard]] const cards::Firmware& firmware() const { return *firmware_; }
@@ -187,6 +192,7 @@ class HostMot2Card {
   const cards::Card* card_;
   const cards::Firmware* firmware_;
   std::vector<std::unique_ptr<SevenI77>> sevenI77s_;
+  std::unique_ptr<remote::SevenI76FieldIo> sevenI76_;
   std::vector<std::unique_ptr<Module>> owned_;  // the firmware's modules
   // The ones every firmware here has, called by their own type.
   Watchdog* watchdog_ = nullptr;

@@ -58,6 +58,7 @@ Machine::Machine(MachineDescription description, hm2::HostMot2Card& card, SimTim
       card_(&card),
       board_(&card.daughtercard(connector)),
       encoders_(&card.encoders()),
+      stepGens_(card.stepGens()),
       time_(now),
       h_(d_.step),
       hSeconds_(std::chrono::duration<double>(d_.step).count()),
@@ -71,13 +72,33 @@ Machine::Machine(MachineDescription description, hm2::HostMot2Card& card, SimTim
     if (input >= kEncodersPer7I77) bad(what + " encoder " + std::to_string(input) + " is not on the 7I77 (0..5)");
     return encoderBase + input;
   };
+  std::vector<std::string> stepGenOwners(stepGens_ != nullptr ? stepGens_->instances() : 0);
   for (const auto& a : d_.axes) {
-    if (a.drives.empty()) bad("axis " + a.name + " has no drive");
+    if (a.drives.empty() && !a.stepper) bad("axis " + a.name + " has no drive");
+    if (!a.drives.empty() && a.stepper) bad("axis " + a.name + " has servo drives and a stepper: one or the other");
     if (a.screwPitch == 0 || a.gearRatio == 0) bad("axis " + a.name + " needs a screw pitch and gear ratio");
     if (a.brakeOutput >= static_cast<int>(remote::FieldIoProcessor::kOutputs)) bad("axis " + a.name + ": no such brake output");
-    AxisPlant plant{Axis(axisParameters(a), a.initialPosition), {}, 0.0, a.brakeOutput, 0.0};
+    AxisPlant plant{Axis(axisParameters(a), a.initialPosition), {}, 0.0, a.brakeOutput, 0.0, std::nullopt};
     plant.commanded = plant.axis.position();
-    plant.inertiaShare = plant.axis.parameters().inertia / static_cast<double>(a.drives.size());
+    const auto motors = static_cast<double>(std::max<std::size_t>(a.drives.size(), 1));  // none: a stepper
+    plant.inertiaShare = plant.axis.parameters().inertia / motors;
+    if (a.stepper) {
+      // The StepGen's count now is the motor's step 0 at the initial position.
+      const unsigned n = a.stepper->stepGen;
+      if (stepGens_ == nullptr)
+        bad("axis " + a.name + " is a stepper on StepGen " + std::to_string(n) + ", but the card's firmware (" +
+            std::string(card.firmware().name) + ") has no StepGen");
+      if (n >= stepGens_->instances())
+        bad("axis " + a.name + ": StepGen " + std::to_string(n) + " is not on the card (its firmware has " +
+            std::to_string(stepGens_->instances()) + ": 0.." + std::to_string(stepGens_->instances() - 1) + ")");
+      if (!stepGenOwners[n].empty())
+        bad("axis " + a.name + ": StepGen " + std::to_string(n) + " is already axis " + stepGenOwners[n] + "'s");
+      stepGenOwners[n] = a.name;
+      if (!(a.stepper->stepsPerUnit > 0)) bad("axis " + a.name + ": steps per unit must be above 0");
+      const AxisParameters& p = plant.axis.parameters();
+      plant.stepper.emplace(*a.stepper, a.initialPosition, stepGens_->steps(n, card.now()), p.hardStopMin,
+                            p.hardStopMax);
+    }
     for (const auto& drive : a.drives) {
       checkChannel(drive.analogOutput, "axis " + a.name + ": analog output");
       checkChannel(drive.enable, "axis " + a.name + ": enable");
@@ -128,7 +149,13 @@ std::optional<std::size_t> Machine::axisIndex(std::string_view name) const {
   return std::nullopt;
 }
 
-void Machine::push(std::size_t axis, double distance, double speed) { axes_.at(axis).axis.push(distance, speed); }
+void Machine::push(std::size_t axis, double distance, double speed) {
+  AxisPlant& a = axes_.at(axis);
+  // A stepper's position is its steps (StepperMotor): a shove that moves it
+  // is not modelled.
+  if (a.stepper) bad("axis " + d_.axes.at(axis).name + " is a stepper: it cannot be pushed");
+  a.axis.push(distance, speed);
+}
 
 void Machine::setJammed(std::size_t axis, bool jammed) { axes_.at(axis).axis.setJammed(jammed); }
 
@@ -144,6 +171,7 @@ bool Machine::setSpindleEncoderBroken(EncoderChannel channel, bool broken) {
 }
 
 bool Machine::commandsVelocity(const AxisPlant& a) const {
+  if (a.drives.empty()) return false;
   const Drive& first = a.drives.front();
   return first.amplifier.parameters().mode == AmplifierMode::Velocity &&
          first.amplifier.enabled(board_->analog.enable(first.d.enable));
@@ -151,6 +179,7 @@ bool Machine::commandsVelocity(const AxisPlant& a) const {
 
 double Machine::commandVelocity(std::size_t axis) const {
   const AxisPlant& a = axes_.at(axis);
+  if (a.stepper) return stepGens_->stepRate(a.stepper->parameters().stepGen) / a.stepper->parameters().stepsPerUnit;
   if (!commandsVelocity(a)) return 0.0;
   const Drive& first = a.drives.front();
   return first.amplifier.command(board_->analog.outputVoltage(first.d.analogOutput)) *
@@ -159,7 +188,7 @@ double Machine::commandVelocity(std::size_t axis) const {
 
 double Machine::followingError(std::size_t axis) const {
   const AxisPlant& a = axes_.at(axis);
-  return a.commanded - a.axis.position();
+  return a.commanded - position(a);
 }
 
 std::vector<std::string> Machine::traceColumns() const {
@@ -180,10 +209,10 @@ void Machine::traceRow(std::span<double> row) const {
   put(std::chrono::duration<double>(time_).count());
   for (std::size_t i = 0; i < axes_.size(); ++i) {
     const AxisPlant& a = axes_[i];
-    put(board_->analog.outputVoltage(a.drives.front().d.analogOutput));
+    put(a.drives.empty() ? 0.0 : board_->analog.outputVoltage(a.drives.front().d.analogOutput));
     put(commandVelocity(i));
-    put(a.axis.position());
-    put(a.axis.velocity());
+    put(position(a));
+    put(velocity(a));
     put(followingError(i));
   }
   if (spindle_) put(spindle_->rpm());
@@ -223,6 +252,17 @@ void Machine::step() {
   // no axis' mechanics depends on any encoder.)
   for (std::size_t i = 0; i < axes_.size(); ++i) {
     AxisPlant& a = axes_[i];
+    if (a.stepper) {
+      // The steps the StepGen has made by the step's end, or as far as the
+      // card has run (the StepGen is never run ahead of the card: a rate
+      // written later in this step must still take effect when written).
+      const unsigned n = a.stepper->parameters().stepGen;
+      const std::int64_t count = stepGens_->steps(n, std::min(t1, card_->now()));
+      a.stepper->step(count, stepGens_->stepRate(n), a.axis.jammed() || brakeEngaged(a));
+      a.commanded = a.stepper->commandedPosition();
+      positions_[i] = a.stepper->position();
+      continue;
+    }
     double torque = 0.0;
     for (Drive& drive : a.drives) {
       drive.torque = drive.amplifier.torque(analog.outputVoltage(drive.d.analogOutput), analog.enable(drive.d.enable),
@@ -262,10 +302,10 @@ Machine::State Machine::state() const {
     const AxisPlant& a = axes_[i];
     State::Axis out;
     out.name = d_.axes[i].name;
-    out.position = a.axis.position();
-    out.velocity = a.axis.velocity();
+    out.position = position(a);
+    out.velocity = velocity(a);
     out.brakeEngaged = brakeEngaged(a);
-    out.atHardStop = a.axis.atHardStop();
+    out.atHardStop = a.stepper ? a.stepper->atHardStop() : a.axis.atHardStop();
     out.jammed = a.axis.jammed();
     out.pushing = a.axis.pushing();
     out.commandVelocity = commandVelocity(i);
@@ -278,6 +318,9 @@ Machine::State Machine::state() const {
                                         drive.encoder.shaftCounts(a.axis.motorRevs()),
                                         brokenChannels(drive.encoder)});
     }
+    if (a.stepper)
+      out.stepper = State::Stepper{a.stepper->parameters().stepGen, a.stepper->steps(), a.stepper->lostSteps(),
+                                   a.stepper->stalled()};
     for (std::size_t k = 0; k < switches_.size(); ++k)
       if (switches_.axisOf(k) == static_cast<int>(i)) out.switches.push_back(s.switches[k]);
     s.axes.push_back(std::move(out));

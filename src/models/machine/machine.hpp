@@ -2,6 +2,8 @@
 // amplifiers on the analog outputs and drive enables, encoders on the
 // card's muxed counters, switches on the field inputs, a spindle on AOUT5 +
 // ENA5, and field outputs that drive a coolant pump, a lube pump, a brake.
+// An axis may instead be a stepper on one of the card's StepGens (issue 17:
+// StepperMotor), which goes where the StepGen's steps put it.
 // Built from a MachineDescription (machine_file.hpp) and wired to a
 // hm2::HostMot2Card, which must outlive it.
 //
@@ -30,6 +32,7 @@
 #include "machine/quadrature_encoder.hpp"
 #include "machine/servo_amplifier.hpp"
 #include "machine/spindle.hpp"
+#include "machine/stepper_motor.hpp"
 #include "machine/switches.hpp"
 
 namespace machine {
@@ -50,6 +53,16 @@ class Machine {
       std::vector<EncoderChannel> encoderBroken;  // channels cut (setEncoderBroken)
       bool operator==(const Drive&) const = default;
     };
+    // A stepper axis' motor (StepperMotor): the StepGen's steps since the
+    // machine was built, those the motor did not follow, and whether it is
+    // out of step now.
+    struct Stepper {
+      unsigned stepGen = 0;
+      std::int64_t steps = 0;
+      std::int64_t lostSteps = 0;
+      bool stalled = false;
+      bool operator==(const Stepper&) const = default;
+    };
     struct Axis {
       std::string name;
       double position = 0.0;  // machine units (mm)
@@ -61,6 +74,7 @@ class Machine {
       double commandVelocity = 0.0;  // what drive 0's amplifier asks for, machine units per second
       double followingError = 0.0;   // followingError(axis)
       std::vector<Drive> drives;
+      std::optional<Stepper> stepper;  // a stepper axis (no drives)
       std::vector<Switches::State> switches;  // the switches on this axis
       bool operator==(const Axis&) const = default;
     };
@@ -109,7 +123,8 @@ class Machine {
   // Faults to rehearse (issue 10), on axis `axis` (an index; see axisIndex):
   // an outside force pushing it (Axis::push), a jam (Axis::setJammed), a
   // broken encoder channel of drive `drive` (QuadratureEncoder::setBroken).
-  // The card's time is now. Out of range: std::out_of_range.
+  // The card's time is now. Out of range: std::out_of_range. A stepper axis
+  // cannot be pushed (std::invalid_argument); jammed, it loses its steps.
   void push(std::size_t axis, double distance, double speed);
   void setJammed(std::size_t axis, bool jammed);
   void setEncoderBroken(std::size_t axis, std::size_t drive, EncoderChannel channel, bool broken);
@@ -122,7 +137,9 @@ class Machine {
   // command in machine units per second (0 while disabled, or in torque
   // mode), and the following error, the position that command asked for
   // (integrated over the plant's steps since the drive was enabled) less
-  // where the axis is (0 while disabled).
+  // where the axis is (0 while disabled). For a stepper axis: the StepGen's
+  // commanded rate, and where its steps say the axis is less where it is
+  // (the steps the motor lost).
   [[nodiscard]] double commandVelocity(std::size_t axis) const;
   [[nodiscard]] double followingError(std::size_t axis) const;
 
@@ -139,6 +156,14 @@ class Machine {
   [[nodiscard]] const MachineDescription& description() const { return d_; }
   [[nodiscard]] std::size_t axes() const { return axes_.size(); }
   [[nodiscard]] const Axis& axis(std::size_t i) const { return axes_.at(i).axis; }
+  // A stepper axis' motor; nullptr for a servo axis. (Its position is the
+  // axis' own: axis(i) has only its faults.)
+  [[nodiscard]] const StepperMotor* stepper(std::size_t i) const {
+    return axes_.at(i).stepper ? &*axes_.at(i).stepper : nullptr;
+  }
+  // Where the axis is, in machine units, and how fast it moves: a servo
+  // axis' mechanics or a stepper's motor.
+  [[nodiscard]] double position(std::size_t i) const { return position(axes_.at(i)); }
   [[nodiscard]] const QuadratureEncoder& encoder(std::size_t axis, std::size_t drive = 0) const {
     return axes_.at(axis).drives.at(drive).encoder;
   }
@@ -157,7 +182,14 @@ class Machine {
     double inertiaShare;  // per drive, for the velocity loops
     int brakeOutput;
     double commanded = 0.0;  // machine units: drive 0's velocity command integrated since enabled
+    std::optional<StepperMotor> stepper;  // in place of the drives
   };
+  [[nodiscard]] static double position(const AxisPlant& a) {
+    return a.stepper ? a.stepper->position() : a.axis.position();
+  }
+  [[nodiscard]] static double velocity(const AxisPlant& a) {
+    return a.stepper ? a.stepper->velocity() : a.axis.velocity();
+  }
   void step();
   [[nodiscard]] bool brakeEngaged(const AxisPlant& a) const;
   // Its first drive is a velocity-mode amplifier, enabled.
@@ -167,6 +199,7 @@ class Machine {
   hm2::HostMot2Card* card_;
   hm2::SevenI77* board_;
   hm2::MuxedEncoder* encoders_;
+  hm2::StepGen* stepGens_;  // the firmware's, nullptr when it has none
   SimTime time_;
   SimTime h_;
   double hSeconds_;

@@ -19,6 +19,7 @@
 #include "machine/quadrature_encoder.hpp"
 #include "machine/servo_amplifier.hpp"
 #include "machine/spindle.hpp"
+#include "machine/stepper_motor.hpp"
 #include "machine/switches.hpp"
 
 namespace machine {
@@ -38,7 +39,10 @@ struct DriveDescription {
 
 struct AxisDescription {
   std::string name;                     // "x"
-  std::vector<DriveDescription> drives;  // one, or two for a gantry (rigidly coupled)
+  std::vector<DriveDescription> drives;  // one, or two for a gantry (rigidly coupled); none for a stepper
+  // A stepper on a StepGen in place of the servo drives (issue 17): the axis
+  // goes where the steps put it (stepper_motor.hpp), not where torques do.
+  std::optional<StepperParameters> stepper;
   double screwPitch = 5.0;              // mm per screw revolution (machine units are mm: the
                                         // reflected mass and gravity are worked out in them)
   double gearRatio = 1.0;               // motor revolutions per screw revolution

@@ -132,6 +132,9 @@ void machineAction(machine::Machine& m, const json& j) {
       throw std::invalid_argument(fmt::format("\"axis\": this machine has no axis \"{}\" (it has {}, and \"spindle\" "
                                               "for the spindle's encoder)",
                                               name, axisNames(m)));
+    // A stepper axis has no encoder: it goes where its steps say.
+    if (a && m.stepper(*a) != nullptr)
+      throw std::invalid_argument(fmt::format("\"axis\": {} is a stepper axis: it has no encoder", name));
     const unsigned drives = a ? static_cast<unsigned>(m.drives(*a)) : 1U;
     const unsigned drive = j.contains("drive") ? index(j, "drive", drives) : 0U;
     const std::string channelName = text(j, "channel");

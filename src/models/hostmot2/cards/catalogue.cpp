@@ -24,9 +24,10 @@ void sevenI77GpioPins(std::span<PinDescriptor> io) { place(io, 0, sevenI77Pins(0
 // PIN_7I77_7I76_34.vhd: the 7I76 on IO17..33 with StepGens 0..4, SSerial
 // channels 3 (its field I/O) and 4 (its expansion port), and muxed counter
 // unit 3 (counters 6 and 7) for its spindle encoder.
+constexpr unsigned kSevenI76Channel = 3;
 void sevenI77SevenI76Pins(std::span<PinDescriptor> io) {
   place(io, 0, sevenI77Pins(0, 0, 0));
-  place(io, 17, sevenI76Pins(0, 3, 3));
+  place(io, 17, sevenI76Pins(0, kSevenI76Channel, 3));
 }
 
 // The 7I96S: TB3 (IO0..16) plain GPIO here (its InM, SSR and OutM modules are
@@ -180,6 +181,11 @@ const Firmware* firmware(const Card& card, std::string_view name) {
   for (const auto& f : card.firmwares)
     if (sameName(f.name, name)) return &f;
   return nullptr;
+}
+
+std::optional<unsigned> sevenI76Channel(const Firmware& firmware) {
+  if (firmware.pinout == Pinout::SevenI77SevenI76) return kSevenI76Channel;
+  return std::nullopt;
 }
 
 std::string firmwareNames(const Card& card) {

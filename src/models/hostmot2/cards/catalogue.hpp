@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -85,6 +86,10 @@ struct Card {
 // the card has none such.
 [[nodiscard]] const Firmware* firmware(const Card& card, Pinout pinout);
 [[nodiscard]] const Firmware* firmware(const Card& card, std::string_view name);
+// The SSerial channel of the 7I76's field I/O processor on a firmware with a
+// 7I76 (PIN_7I77_7I76_34.vhd: channel 3; its expansion port is channel 4);
+// none on the others.
+[[nodiscard]] std::optional<unsigned> sevenI76Channel(const Firmware& firmware);
 // "\"7I77x2\", \"7I77+GPIO\"": the card's firmware names, for messages.
 [[nodiscard]] std::string firmwareNames(const Card& card);
 
