@@ -2,8 +2,8 @@
 // (lbpkit::SimTransport), host cycle at 1 kHz, for N simulated seconds: the
 // board alone, and the board with the mill machine behind it (a P position
 // loop on every axis, six encoders read, the spindle running), side by side.
-// The same loops as benchmarks/ (BM_FullCycle, BM_MillClosedLoop), timed on
-// this thread's CPU clock.
+// The board alone is BM_FullCycle's loop; the mill is lbpkit::MillClosedLoop,
+// as BM_MillClosedLoop runs it; timed on this thread's CPU clock.
 #include <fmt/core.h>
 
 #include <algorithm>
@@ -12,10 +12,8 @@
 #include <string>
 
 #include "bench.hpp"
-#include "lbpkit/encoders.hpp"
 #include "lbpkit/sserial.hpp"
-#include "machine/machine.hpp"
-#include "machine/machine_file.hpp"
+#include "sim_card/mill_closed_loop.hpp"
 #include "sim_card/sim_transport.hpp"
 
 namespace bench {
@@ -95,40 +93,9 @@ nlohmann::json boardAlone(double seconds) {
 }
 
 nlohmann::json boardWithMill(double seconds) {
-  Board b;
-  auto& t = b.t;
-  auto& ss = b.ss;
-  lbpkit::MuxedEncoders enc(t, b.info);
-  enc.initialize();
-  machine::Machine m(machine::mill(), t.card(), hm2::SimTime{t.now()});
-  std::array<lbpkit::ElementRef, 6> aout;
-  for (unsigned i = 0; i < 6; ++i) aout[i] = ss.find(1, "analogout" + std::to_string(i));
-  ss.setRaw(ss.find(1, "analogena"), 1);
-  ss.setRaw(ss.find(1, "spinena"), 1);
-  ss.setRaw(ss.find(0, "output"), 0x7);  // coolant, lube, Z brake released
-  ss.set(aout[5], 5.0);                  // the spindle turning
-  for (unsigned a = 0; a < 3; ++a) enc.setScale(a, 1600.0);
-  const std::array<double, 3> initial{200.0, 150.0, -75.0};
-  std::array<double, 3> offset{};
-  return timed("board + mill", "the same, the mill behind it: 3 axes in a P loop, 6 encoders, spindle", seconds, t,
-               [&](std::uint64_t n) {
-                 const auto start = t.now();
-                 // Targets move back and forth over 40 mm every 2 s, so the axes work.
-                 const double phase = static_cast<double>(n % 2000) / 2000.0;
-                 for (unsigned a = 0; a < 3; ++a) {
-                   const double target = initial[a] + (phase < 0.5 ? 20.0 : -20.0);
-                   const double pos = initial[a] + enc.position(a) - offset[a];
-                   ss.set(aout[a], std::clamp(5.0 * (target - pos), -10.0, 10.0));
-                 }
-                 ss.queueOutputs();
-                 enc.queue();
-                 t.flush();
-                 (void)ss.collectInputs();
-                 enc.update();
-                 if (n == 0)
-                   for (unsigned a = 0; a < 3; ++a) offset[a] = enc.position(a);
-                 m.advance(hm2::SimTime{start + 1ms});
-               });
+  lbpkit::MillClosedLoop mill;
+  return timed("board + mill", "the same, the mill behind it: 3 axes in a P loop, 6 encoders, spindle", seconds,
+               mill.transport(), [&](std::uint64_t) { (void)mill.cycle(); });
 }
 
 }  // namespace
