@@ -13,6 +13,7 @@
 #include "config/machine_toml.hpp"
 #include "config/toml_reader.hpp"
 #include "machine/machine_file.hpp"
+#include "machine_file_fixture.hpp"
 
 namespace {
 
@@ -21,26 +22,7 @@ using machine::MachineDescription;
 std::string examplePath(const std::string& name) { return std::string(LBPKIT_EXAMPLES_DIR) + "/machines/" + name; }
 
 // A file of our own per test, removed afterwards.
-class MachineFile : public testing::Test {
- protected:
-  void TearDown() override { std::filesystem::remove(path_); }
-  const std::string& write(const std::string& text, const std::string& name = "machine.toml") {
-    std::filesystem::remove(path_);
-    path_ = (std::filesystem::temp_directory_path() / ("lbpkit-" + std::to_string(::getpid()) + "-" + name)).string();
-    std::ofstream(path_) << text;
-    return path_;
-  }
-  // The message loading `text` fails with ("" when it loads).
-  std::string error(const std::string& text) {
-    try {
-      (void)config::loadMachine(write(text));
-    } catch (const config::FileError& e) {
-      return e.what();
-    }
-    return "";
-  }
-  std::string path_;
-};
+class MachineFile : public testing_config::MachineFileFixture {};
 
 // Field by field, so that a difference says where it is.
 void expectSame(const MachineDescription& loaded, const MachineDescription& builtin) {

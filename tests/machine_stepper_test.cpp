@@ -20,6 +20,7 @@
 #include "config/toml_reader.hpp"
 #include "hostmot2/card.hpp"
 #include "machine/machine.hpp"
+#include "machine_file_fixture.hpp"
 
 namespace {
 
@@ -225,23 +226,9 @@ TEST(MachineStepper, TheCardMustHaveTheStepGen) {
 }
 
 // Machine files: a file of our own per test, removed afterwards.
-class MachineStepperFile : public testing::Test {
+class MachineStepperFile : public testing_config::MachineFileFixture {
  protected:
-  void TearDown() override { std::filesystem::remove(path_); }
-  const std::string& write(const std::string& text) {
-    path_ = (std::filesystem::temp_directory_path() / ("lbpkit-" + std::to_string(::getpid()) + "-stepper.toml")).string();
-    std::ofstream(path_) << text;
-    return path_;
-  }
-  std::string error(const std::string& text) {
-    try {
-      (void)config::loadMachine(write(text));
-    } catch (const config::FileError& e) {
-      return e.what();
-    }
-    return "";
-  }
-  std::string path_;
+  MachineStepperFile() : MachineFileFixture("stepper.toml") {}
 };
 
 // Lines 1..4: a stepper axis with neither key that could go wrong yet.
