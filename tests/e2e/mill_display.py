@@ -13,6 +13,11 @@ tests/linuxcnc_mill_test.cpp to assert on.
 The last step starts a move and reports "ready_for_kill"; the test then kills
 LinuxCNC (all of it, at once) and watches the machine through the API.
 
+--scenario stepper-z is for examples/linuxcnc/mill-stepper-z (Z a stepper on
+a DPLL-timed StepGen): start-up, homing, the MDI moves and the program, each
+compared within one count or step per axis, then "stepper_z": Z's steps as
+the machine took them and as LinuxCNC counted them, and "finished".
+
 Runs under Debian's /usr/bin/python3, where linuxcnc-uspace puts the module.
 """
 import argparse
@@ -27,7 +32,6 @@ import urllib.request
 import hal
 import linuxcnc
 
-COUNT_MM = 1.0 / 1600.0  # one encoder count (docs/machine-mill.md)
 AXES = "xyz"
 
 
@@ -63,6 +67,10 @@ class Display:
         self.program = args.program
         self.args = args
         self.ini = linuxcnc.ini(args.ini)
+        # One count of each joint's feedback (mm): an encoder count on a
+        # servo joint (ENCODER_SCALE), a step on a stepper joint (SCALE).
+        self.unit = [1.0 / abs(float(self.ini.find("JOINT_%d" % j, "ENCODER_SCALE")
+                                     or self.ini.find("JOINT_%d" % j, "SCALE"))) for j in range(3)]
         self.s = linuxcnc.stat()
         self.c = linuxcnc.command()
         self.e = linuxcnc.error_channel()
@@ -130,18 +138,19 @@ class Display:
 
     # -- positions at rest -----------------------------------------------
     def settle_and_compare(self, timeout=3.0):
-        """After a move: waits for the model to come within one count of the
-        commanded position (the PID's integrator takes the last counts), and
-        returns the comparison at that moment or at the timeout."""
+        """After a move: waits for the model to come within one count (a step
+        on a stepper joint) of the commanded position (the PID's integrator
+        takes the last counts), and returns the comparison at that moment or
+        at the timeout."""
         end = time.monotonic() + timeout
         while True:
             cmd = self.commanded()
             model = self.machine.positions()
             err = [m - c for m, c in zip(model, cmd)]
-            ok = all(abs(e) <= COUNT_MM for e in err)
+            ok = all(abs(e) <= u for e, u in zip(err, self.unit))
             if ok or time.monotonic() > end:
                 return {"commanded": cmd, "model": model,
-                        "error_counts": [round(e / COUNT_MM, 3) for e in err], "within_one_count": ok}
+                        "error_counts": [round(e / u, 3) for e, u in zip(err, self.unit)], "within_one_count": ok}
             time.sleep(0.02)
 
     # -- the scenario ----------------------------------------------------
@@ -152,6 +161,11 @@ class Display:
         self.home()
         self.mdi_moves()
         self.run_program()
+        if self.args.scenario == "stepper-z":
+            self.stepper_z()
+            self.report("finished", all_messages=self.messages)
+            time.sleep(60)
+            return
         self.push_under_power()
         self.limit_fault()
         self.estop_fault()
@@ -399,6 +413,27 @@ class Display:
                     x_encoder_broken_after_repair=Machine.axis(m, "x")["drives"][0]["encoder_broken"],
                     messages=self.messages_since(n), **report)
 
+    def stepper_z(self):
+        """Z's steps: the machine's (what the motor took, and lost) beside
+        LinuxCNC's (the StepGen count hm2 read, its position feedback), and a
+        last move whose steps both count."""
+        def look():
+            self.wait(self.idle, 5)
+            z = Machine.axis(self.machine.get(), "z")
+            return {"model_z": z["position"], "stepper": z.get("stepper"),
+                    "commanded_z": self.commanded()[2],
+                    "counts": hal.get_value("hm2_7i92.0.stepgen.00.counts"),
+                    "position_fb": hal.get_value("hm2_7i92.0.stepgen.00.position-fb")}
+        n = len(self.messages)
+        before = look()
+        ok = self.mdi("G53 G1 Z-123.4567 F900")
+        after = look()
+        self.report("stepper_z", ok=ok, before=before, after=after, scale=1.0 / self.unit[2],
+                    timer_number=hal.get_value("hm2_7i92.0.stepgen.timer-number"),
+                    dpll_timer_us=hal.get_value("hm2_7i92.0.dpll.01.timer-us"),
+                    dpll_phase_error_us=hal.get_value("hm2_7i92.0.dpll.phase-error-us"),
+                    messages=self.messages_since(n))
+
     def ready_for_kill(self):
         """A move in progress when the test kills LinuxCNC."""
         # X's position is off by the counts it lost: moves stay in the middle.
@@ -523,6 +558,8 @@ def main():
                    " hm2_eth lets nothing else through there)")
     p.add_argument("--out", required=True, help="results, one JSON object a line")
     p.add_argument("--program", required=True, help="the G-code program to run")
+    p.add_argument("--scenario", choices=["mill", "stepper-z"], default="mill",
+                   help="mill: every step; stepper-z: up to the program, then Z's steps (mill-stepper-z)")
     p.add_argument("--ferror-dump", help="write every servo period of the program (HAL sampler lines) here")
     args = p.parse_args()
     d = Display(args)
