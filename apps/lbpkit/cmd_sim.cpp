@@ -64,6 +64,33 @@ unsigned externalRemoteChannel(const std::string& text) {
   return static_cast<unsigned>(std::stoul(ch));
 }
 
+// The config string for hm2_eth's loadrt that uses this card as it is
+// plugged: the encoders of each 7I77 (six a connector), the firmware's
+// StepGens and PWMGens, and smart-serial mode 0 on each channel a remote
+// answers on (the 7I77s' field I/O and analog processors, a 7I76's), 'x'
+// on the others (LinuxCNC hostmot2(9): config modparam).
+std::string hm2EthConfig(const hm2::HostMot2Card::Options& o) {
+  const auto& card = o.card != nullptr ? *o.card : hm2::cards::defaultCard();
+  const auto* fw = o.pinout ? hm2::cards::firmware(card, *o.pinout) : &card.firmwares.front();
+  if (fw == nullptr) fw = &card.firmwares.front();
+  auto count = [&](hm2::cards::Part part) {
+    unsigned n = 0;
+    for (const auto& m : fw->modules)
+      if (m.part == part) n += m.count;
+    return n;
+  };
+  std::string channels(count(hm2::cards::Part::SSerial), 'x');
+  const std::size_t plugged = o.second && fw->sevenI77s.size() > 1 ? 2 : 1;
+  for (std::size_t i = 0; i < plugged; ++i)
+    for (unsigned c = fw->sevenI77s[i].firstChannel; c < fw->sevenI77s[i].firstChannel + 2U && c < channels.size(); ++c)
+      channels[c] = '0';
+  if (const auto c = hm2::cards::sevenI76Channel(*fw); c && *c < channels.size()) channels[*c] = '0';
+  std::string config = fmt::format("num_encoders={}", 6 * plugged);
+  if (const auto n = count(hm2::cards::Part::StepGen)) config += fmt::format(" num_stepgens={}", n);
+  if (const auto n = count(hm2::cards::Part::PwmGen)) config += fmt::format(" num_pwmgens={}", n);
+  return config + " sserial_port_0=" + channels;
+}
+
 // --machine NAME|FILE: a built-in machine (mill, lathe, gantry) or a TOML
 // machine file (config::loadMachine says what is wrong with one), and where
 // it came from, for the banner.
@@ -232,13 +259,14 @@ int runSim(const SimCommandOptions& o) {
   app::installSignalHandlers();
   fmt::print("{}", daemon.banner());
   // 0.0.0.0 is where the sim listens, not an address a host can reach.
-  fmt::print("  point LinuxCNC at it: loadrt hm2_eth board_ip={} config=\"num_encoders=6 sserial_port_0=00xxxx\"\n",
-             s.bindAddress == "0.0.0.0" ? "ADDRESS (this machine's address on the host's network)" : s.bindAddress);
+  fmt::print("  point LinuxCNC at it: loadrt hm2_eth board_ip={} config=\"{}\"\n",
+             s.bindAddress == "0.0.0.0" ? "ADDRESS (this machine's address on the host's network)" : s.bindAddress,
+             hm2EthConfig(s.card));
   std::fflush(stdout);
   daemon.run(app::gStop);
   fmt::print("lbpkit sim: stopped; server time per datagram: {}\n", daemon.latencySummary());
-  fmt::print("lbpkit sim: the 7I77's EEPROM state is in {}, the 7I92's configuration flash in {}\n", state.string(),
-             s.flashFile.string());
+  fmt::print("lbpkit sim: the 7I77's EEPROM state is in {}, the {}'s configuration flash in {}\n", state.string(),
+             (s.card.card != nullptr ? *s.card.card : hm2::cards::defaultCard()).name, s.flashFile.string());
   if (!o.record.empty()) fmt::print("lbpkit sim: the servo-cycle trace is in {}\n", o.record);
   if (!o.trace.empty()) fmt::print("lbpkit sim: {}\n", daemon.packetTraceSummary());
   return 0;
