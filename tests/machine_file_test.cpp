@@ -150,7 +150,8 @@ TEST_F(MachineFile, EveryMistakeNamesFileLineColumnAndKey) {
       {"[[axis]]\nname = \"x\"\nscew_pitch = 5.0\n", "3:14: axis[0].scew_pitch: unknown key; did you mean screw_pitch?"},
       {"nmae = \"mill\"\n", "1:8: nmae: unknown key; did you mean name?"},
       {kAxisX + "colour = \"red\"\n",
-       "9:10: switch[0].colour: unknown key (known here: name, kind, input, contact, axis, position, trip_above)"},
+       "9:10: switch[0].colour: unknown key (known here: name, kind, input, contact, axis, position, trip_above, "
+       "daughtercard)"},
       // Wrong types.
       {"[[axis]]\nname = \"x\"\nmass_kg = \"heavy\"\n", "3:11: axis[0].mass_kg: expected a number (kg), not a string"},
       {kAxisX + "kind = 3\n", "9:8: switch[0].kind: expected a string (\"home\", \"min_limit\", \"max_limit\", "

@@ -16,6 +16,7 @@
 #include "hostmot2/stepgen.hpp"
 #include "remote/analog.hpp"
 #include "remote/field_io.hpp"
+#include "remote/seven_i76.hpp"
 
 namespace config {
 
@@ -25,6 +26,7 @@ using machine::AmplifierMode;
 using machine::AmplifierParameters;
 using machine::AxisDescription;
 using machine::Contact;
+using machine::Daughtercard;
 using machine::DriveDescription;
 using machine::EnablePolarity;
 using machine::EncoderParameters;
@@ -42,6 +44,10 @@ constexpr std::int64_t kEnables = 6;                                         // 
 constexpr std::int64_t kEncoders = 6;                                        // TB3 0..2, TB4 3..5
 constexpr std::int64_t kInputs = remote::FieldIoProcessor::kInputs;          // 0..31
 constexpr std::int64_t kOutputs = remote::FieldIoProcessor::kOutputs;        // 0..15
+// The 7I76's (docs/cards.md#the-7i76-field-io): 32 inputs, 16 outputs, one
+// spindle encoder input.
+constexpr std::int64_t kInputs76 = remote::SevenI76FieldIo::kInputs;    // 0..31
+constexpr std::int64_t kOutputs76 = remote::SevenI76FieldIo::kOutputs;  // 0..15
 // A HostMot2 firmware's StepGens (how many this card's has, the machine
 // checks against the card: machine.cpp).
 constexpr std::int64_t kStepGens = hm2::StepGen::kMaxInstances;
@@ -88,7 +94,8 @@ class MachineReader {
  public:
   MachineReader(const std::string& path, const toml::table& root)
       : r_(path), root_(root), analog_(r_, "analog output"), encoders_(r_, "encoder"), inputs_(r_, "field input"),
-        outputs_(r_, "field output"), stepGens_(r_, "StepGen") {}
+        outputs_(r_, "field output"), inputs76_(r_, "the 7I76's field input"),
+        outputs76_(r_, "the 7I76's field output"), stepGens_(r_, "StepGen") {}
 
   MachineDescription read(std::string defaultName) {
     MachineDescription m;
@@ -106,6 +113,7 @@ class MachineReader {
              [&](const toml::table& t, const std::string& prefix) { return switchAt(t, prefix, m); });
     readList(root_, "output", m.outputs,
              [&](const toml::table& t, const std::string& prefix) { return output(t, prefix); });
+    m.sevenI76Where = sevenI76Where_;
     return m;
   }
 
@@ -137,6 +145,18 @@ class MachineReader {
   unsigned index(const toml::table& t, const std::string& prefix, std::string_view key, std::int64_t fallback,
                  std::int64_t count) const {
     return static_cast<unsigned>(r_.integer(t, prefix, key, fallback, 0, count - 1));
+  }
+
+  // Whose terminals: "7I77" (the default) or "7I76", Mesa's names as the
+  // card file's pinout and daughtercards give them. The first 7I76 wiring
+  // is noted: the machine names it when the card's firmware has no 7I76.
+  Daughtercard daughtercard(const toml::table& t, const std::string& prefix, std::string_view key,
+                            Daughtercard fallback = Daughtercard::SevenI77, bool wired = true) {
+    const auto text = r_.text(t, prefix, key, std::string(machine::daughtercardName(fallback)), {"7I77", "7I76"});
+    const Daughtercard d = text == "7I76" ? Daughtercard::SevenI76 : Daughtercard::SevenI77;
+    if (d == Daughtercard::SevenI76 && wired && sevenI76Where_.empty())
+      sevenI76Where_ = fmt::format("{}:{}: {}{}", r_.path(), ConfigReader::where(at(t, key)), prefix, key);
+    return d;
   }
 
   EncoderParameters encoder(const toml::table& t, const std::string& prefix, EncoderParameters e) const {
@@ -200,7 +220,8 @@ class MachineReader {
     AxisDescription a;
     r_.onlyKeys(t, prefix,
                 {"name", "screw_pitch", "gear_ratio", "mass_kg", "screw_inertia", "viscous", "coulomb", "vertical",
-                 "travel", "overtravel", "initial_position", "brake_output", "brake_torque", "drive", "stepper"});
+                 "travel", "overtravel", "initial_position", "brake_output", "brake_daughtercard", "brake_torque",
+                 "drive", "stepper"});
     (void)r_.required(t, prefix, "name");
     a.name = r_.name(t, prefix, "name", "");
     // The API names the spindle's encoder "spindle" where it names axes.
@@ -223,6 +244,7 @@ class MachineReader {
               fmt::format("{} mm is past the hard stops ({} to {} mm: the travel and the overtravel)", a.initialPosition,
                           hardMin, hardMax));
     a.brakeOutput = static_cast<int>(r_.integer(t, prefix, "brake_output", a.brakeOutput, -1, kOutputs - 1));
+    a.brakeDaughtercard = daughtercard(t, prefix, "brake_daughtercard", Daughtercard::SevenI77, a.brakeOutput >= 0);
     a.brakeTorque = r_.number(t, prefix, "brake_torque", a.brakeTorque, 0.0, kMaxTorque, "Nm");
     const toml::array* drives = r_.tables(t, prefix, "drive");
     if (const toml::table* s = r_.table(t, prefix, "stepper")) {
@@ -273,22 +295,43 @@ class MachineReader {
     SpindleDescription s;
     const std::string prefix = "spindle.";
     r_.onlyKeys(t, prefix,
-                {"analog_output", "enable", "rpm_per_volt", "max_rpm", "acceleration", "deadband_volts",
-                 "enable_polarity", "encoder_input", "encoder_lines", "encoder_index", "encoder_reversed"});
-    s.analogOutput = index(t, prefix, "analog_output", s.analogOutput, kAnalogOutputs);
-    analog_.claim(s.analogOutput, "the spindle", at(t, "analog_output"), prefix + "analog_output");
-    s.enable = index(t, prefix, "enable", s.enable, kEnables);
+                {"daughtercard", "analog_output", "enable", "rpm_per_volt", "max_rpm", "acceleration",
+                 "deadband_volts", "enable_polarity", "encoder_daughtercard", "encoder_input", "encoder_lines",
+                 "encoder_index", "encoder_reversed"});
+    // The VFD on the 7I77's AOUTn and ENAn, or on the 7I76's spindle
+    // interface: SpinOut (0..10 V), SpinEna, SpinDir (sserial(9)).
+    s.daughtercard = daughtercard(t, prefix, "daughtercard");
+    if (s.daughtercard == Daughtercard::SevenI76) {
+      for (std::string_view key : {"analog_output", "enable"})
+        if (t.get(key) != nullptr)
+          r_.fail(t.get(key), prefix + std::string(key),
+                  "the spindle is on the 7I76 (daughtercard = \"7I76\"): its speed, run and direction are the 7I76's "
+                  "SpinOut, SpinEna and SpinDir; analog_output and enable are the 7I77's");
+    } else {
+      s.analogOutput = index(t, prefix, "analog_output", s.analogOutput, kAnalogOutputs);
+      analog_.claim(s.analogOutput, "the spindle", at(t, "analog_output"), prefix + "analog_output");
+      s.enable = index(t, prefix, "enable", s.enable, kEnables);
+    }
     s.vfd.rpmPerVolt = r_.positive(t, prefix, "rpm_per_volt", s.vfd.rpmPerVolt, 1e5, "rpm per V");
     s.vfd.maxRpm = r_.positive(t, prefix, "max_rpm", s.vfd.maxRpm, 1e6, "rpm");
     s.vfd.accelerationRpmPerSecond = r_.positive(t, prefix, "acceleration", s.vfd.accelerationRpmPerSecond, 1e7, "rpm/s");
     s.vfd.deadbandVolts = r_.number(t, prefix, "deadband_volts", s.vfd.deadbandVolts, 0.0, 10.0, "V");
     s.vfd.enablePolarity = polarity(t, prefix, s.vfd.enablePolarity);
-    // -1: no encoder on the spindle.
-    const auto input = r_.integer(t, prefix, "encoder_input", s.encoderInput.value_or(-1), -1, kEncoders - 1);
+    // The encoder on the VFD's board unless told: the 7I77's 0..5 (5 by
+    // default), or the 7I76's one spindle encoder input, 0. -1: none.
+    const bool encoderInput = t.get("encoder_input") == nullptr || t.get("encoder_input")->value<std::int64_t>() != -1;
+    s.encoderDaughtercard = daughtercard(t, prefix, "encoder_daughtercard", s.daughtercard, encoderInput);
+    const bool on76 = s.encoderDaughtercard == Daughtercard::SevenI76;
+    const auto input = r_.integer(t, prefix, "encoder_input", on76 ? 0 : s.encoderInput.value_or(-1), -1, kEncoders - 1);
+    if (on76 && input > 0)
+      r_.fail(t.get("encoder_input"), prefix + "encoder_input",
+              fmt::format("the 7I76 has one encoder input, its spindle encoder: 0 (the card's muxed counter 6), or -1 "
+                          "for none; the 7I77's 0..5 need encoder_daughtercard = \"7I77\", not {}",
+                          input));
     s.encoderInput.reset();
     if (input >= 0) {
       s.encoderInput = static_cast<unsigned>(input);
-      encoders_.claim(*s.encoderInput, "the spindle", at(t, "encoder_input"), prefix + "encoder_input");
+      if (!on76) encoders_.claim(*s.encoderInput, "the spindle", at(t, "encoder_input"), prefix + "encoder_input");
     }
     s.encoder = encoder(t, prefix, s.encoder);
     return s;
@@ -296,16 +339,18 @@ class MachineReader {
 
   SwitchParameters switchAt(const toml::table& t, const std::string& prefix, const MachineDescription& m) {
     SwitchParameters s;
-    r_.onlyKeys(t, prefix, {"name", "kind", "input", "contact", "axis", "position", "trip_above"});
+    r_.onlyKeys(t, prefix, {"name", "kind", "input", "contact", "axis", "position", "trip_above", "daughtercard"});
     (void)r_.required(t, prefix, "name");
     s.name = r_.name(t, prefix, "name", "");
     const auto kind = r_.text(t, prefix, "kind", "other", {"home", "min_limit", "max_limit", "estop", "probe", "other"});
     for (auto k : {SwitchKind::Home, SwitchKind::MinLimit, SwitchKind::MaxLimit, SwitchKind::Estop, SwitchKind::Probe,
                    SwitchKind::Other})
       if (kindName(k) == kind) s.kind = k;
+    s.daughtercard = daughtercard(t, prefix, "daughtercard");
+    const bool on76 = s.daughtercard == Daughtercard::SevenI76;
     (void)r_.required(t, prefix, "input");
-    s.input = index(t, prefix, "input", 0, kInputs);
-    inputs_.claim(s.input, "switch " + s.name, at(t, "input"), prefix + "input");
+    s.input = index(t, prefix, "input", 0, on76 ? kInputs76 : kInputs);
+    (on76 ? inputs76_ : inputs_).claim(s.input, "switch " + s.name, at(t, "input"), prefix + "input");
     // Limits and the E-stop chain are normally closed, so that a broken wire
     // reads as tripped (manual: WHY SINKING INPUTS).
     const bool ncByDefault = s.kind == SwitchKind::MinLimit || s.kind == SwitchKind::MaxLimit || s.kind == SwitchKind::Estop;
@@ -356,20 +401,23 @@ class MachineReader {
 
   OutputDescription output(const toml::table& t, const std::string& prefix) {
     OutputDescription o;
-    r_.onlyKeys(t, prefix, {"name", "output", "load_ohms"});
+    r_.onlyKeys(t, prefix, {"name", "output", "load_ohms", "daughtercard"});
     (void)r_.required(t, prefix, "name");
     o.name = r_.name(t, prefix, "name", "");
+    o.daughtercard = daughtercard(t, prefix, "daughtercard");
+    const bool on76 = o.daughtercard == Daughtercard::SevenI76;
     (void)r_.required(t, prefix, "output");
-    o.output = index(t, prefix, "output", 0, kOutputs);
-    outputs_.claim(o.output, "output " + o.name, at(t, "output"), prefix + "output");
+    o.output = index(t, prefix, "output", 0, on76 ? kOutputs76 : kOutputs);
+    (on76 ? outputs76_ : outputs_).claim(o.output, "output " + o.name, at(t, "output"), prefix + "output");
     o.loadOhms = r_.positive(t, prefix, "load_ohms", o.loadOhms, 1e6, "ohms");
     return o;
   }
 
   ConfigReader r_;
   const toml::table& root_;
-  Claims analog_, encoders_, inputs_, outputs_, stepGens_;
+  Claims analog_, encoders_, inputs_, outputs_, inputs76_, outputs76_, stepGens_;
   double stepUs_ = 50.0;
+  std::string sevenI76Where_;  // the first key that wires the 7I76 (daughtercard)
 };
 
 }  // namespace

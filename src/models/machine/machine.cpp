@@ -11,6 +11,28 @@ namespace machine {
 namespace {
 
 constexpr unsigned kEncodersPer7I77 = 6;  // manual: ENCODER INTERFACE
+// The 7I76's spindle encoder on the 7I77+7I76 firmwares: muxed counter unit
+// 3 (PIN_7I77_7I76_34.vhd; docs/cards.md), i.e. counters 6 and 7. The 7I76
+// has no multiplexer, so both see the same signals; LinuxCNC configurations
+// take the first, hm2_7i92.0.encoder.06, and it is the one driven here.
+constexpr unsigned kSevenI76SpindleCounter = 6;
+
+// The first thing the description wires to the 7I76 (issue 17), in a
+// machine file's order (axes, spindle, switches, outputs: the order
+// sevenI76Where is noted in), or "" when it wires nothing there.
+std::string sevenI76Wiring(const MachineDescription& d) {
+  for (const auto& a : d.axes)
+    if (a.brakeOutput >= 0 && a.brakeDaughtercard == Daughtercard::SevenI76)
+      return "axis " + a.name + "'s brake is on its field output " + std::to_string(a.brakeOutput);
+  if (d.spindle && d.spindle->daughtercard == Daughtercard::SevenI76) return "the spindle is on its SpinOut";
+  if (d.spindle && d.spindle->encoderInput && d.spindle->encoderDaughtercard == Daughtercard::SevenI76)
+    return "the spindle's encoder is on its encoder input";
+  for (const auto& s : d.switches)
+    if (s.daughtercard == Daughtercard::SevenI76) return "switch " + s.name + " is on its field input " + std::to_string(s.input);
+  for (const auto& o : d.outputs)
+    if (o.daughtercard == Daughtercard::SevenI76) return "output " + o.name + " is on its field output " + std::to_string(o.output);
+  return "";
+}
 
 [[noreturn]] void bad(const std::string& what) { throw std::invalid_argument("machine: " + what); }
 
@@ -59,11 +81,20 @@ Machine::Machine(MachineDescription description, hm2::HostMot2Card& card, SimTim
       board_(&card.daughtercard(connector)),
       encoders_(&card.encoders()),
       stepGens_(card.stepGens()),
+      sevenI76_(card.sevenI76()),
+      inputs_{&board_->fieldIo, sevenI76_},
       time_(now),
       h_(d_.step),
       hSeconds_(std::chrono::duration<double>(d_.step).count()),
       switches_(d_.switches, axisIndices(d_)) {
   if (h_ <= SimTime{0}) bad("the step must be positive");
+  if (const std::string wired = sevenI76Wiring(d_); !wired.empty() && sevenI76_ == nullptr) {
+    const std::string what = "the 7I76 is not on the card: its firmware (" + std::string(card.firmware().name) +
+                             ") has none (" + wired +
+                             "); the 7I77+7I76 firmwares have one: the 7I92's pinout \"7I77+7I76\", the 7I92T's default";
+    if (d_.sevenI76Where.empty()) bad(what);
+    throw std::invalid_argument(d_.sevenI76Where + ": " + what);
+  }
   const unsigned encoderBase = connector * kEncodersPer7I77;
   auto checkChannel = [](unsigned ch, const std::string& what) {
     if (ch >= remote::AnalogProcessor::kChannels) bad(what + " " + std::to_string(ch) + " is not on the 7I77 (0..5)");
@@ -78,7 +109,8 @@ Machine::Machine(MachineDescription description, hm2::HostMot2Card& card, SimTim
     if (!a.drives.empty() && a.stepper) bad("axis " + a.name + " has servo drives and a stepper: one or the other");
     if (a.screwPitch == 0 || a.gearRatio == 0) bad("axis " + a.name + " needs a screw pitch and gear ratio");
     if (a.brakeOutput >= static_cast<int>(remote::FieldIoProcessor::kOutputs)) bad("axis " + a.name + ": no such brake output");
-    AxisPlant plant{Axis(axisParameters(a), a.initialPosition), {}, 0.0, a.brakeOutput, 0.0, std::nullopt};
+    AxisPlant plant{Axis(axisParameters(a), a.initialPosition), {}, 0.0, a.brakeOutput, a.brakeDaughtercard, 0.0,
+                    std::nullopt};
     plant.commanded = plant.axis.position();
     const auto motors = static_cast<double>(std::max<std::size_t>(a.drives.size(), 1));  // none: a stepper
     plant.inertiaShare = plant.axis.parameters().inertia / motors;
@@ -110,25 +142,37 @@ Machine::Machine(MachineDescription description, hm2::HostMot2Card& card, SimTim
     axes_.push_back(std::move(plant));
   }
   if (d_.spindle) {
-    checkChannel(d_.spindle->analogOutput, "spindle: analog output");
-    checkChannel(d_.spindle->enable, "spindle: enable");
+    if (d_.spindle->daughtercard == Daughtercard::SevenI77) {
+      checkChannel(d_.spindle->analogOutput, "spindle: analog output");
+      checkChannel(d_.spindle->enable, "spindle: enable");
+    }
     spindle_.emplace(d_.spindle->vfd);
     if (d_.spindle->encoderInput) {
-      const unsigned input = checkEncoder(*d_.spindle->encoderInput, "spindle:");
+      unsigned input = 0;
+      if (d_.spindle->encoderDaughtercard == Daughtercard::SevenI76) {
+        if (*d_.spindle->encoderInput != 0) bad("spindle: the 7I76 has one encoder input (0)");
+        input = kSevenI76SpindleCounter;
+        if (input >= encoders_->counters()) bad("spindle: the card's firmware has no counter for the 7I76's encoder");
+      } else {
+        input = checkEncoder(*d_.spindle->encoderInput, "spindle:");
+      }
       spindleEncoder_.emplace(d_.spindle->encoder, *encoders_, input, 0.0);
     }
   }
   // What the outputs drive loads them (manual: FIELD OUTPUT CHARACTERISTICS).
   for (const auto& o : d_.outputs) {
     if (o.output >= remote::FieldIoProcessor::kOutputs) bad("output " + o.name + ": no such field output");
-    board_->fieldIo.setOutputLoad(o.output, o.loadOhms);
+    if (o.daughtercard == Daughtercard::SevenI76)
+      sevenI76_->setOutputLoad(o.output, o.loadOhms);
+    else
+      board_->fieldIo.setOutputLoad(o.output, o.loadOhms);
   }
-  switches_.apply(positions_.data(), board_->fieldIo);
+  switches_.apply(positions_.data(), inputs_);
 }
 
 bool Machine::setSwitch(const std::string& name, bool tripped) {
   const bool found = switches_.setTripped(name, tripped);
-  if (found) switches_.apply(positions_.data(), board_->fieldIo);
+  if (found) switches_.apply(positions_.data(), inputs_);
   return found;
 }
 
@@ -139,7 +183,7 @@ std::size_t Machine::setSwitches(SwitchKind kind, bool tripped) {
       switches_.setTripped(switches_.parameters(i).name, tripped);
       ++n;
     }
-  if (n > 0) switches_.apply(positions_.data(), board_->fieldIo);
+  if (n > 0) switches_.apply(positions_.data(), inputs_);
   return n;
 }
 
@@ -226,8 +270,29 @@ bool Machine::brakeEngaged(const AxisPlant& a) const {
   // CHARACTERISTICS); a 24 V brake pulls in from about two thirds of that.
   constexpr double kPullInVolts = 16.0;
   if (a.brakeOutput < 0) return false;
-  const auto& io = board_->fieldIo;
-  return !io.outputOn(static_cast<unsigned>(a.brakeOutput)) || io.fieldVoltage() < kPullInVolts;
+  return !outputOn(a.brakeDaughtercard, static_cast<unsigned>(a.brakeOutput)) ||
+         fieldVoltage(a.brakeDaughtercard) < kPullInVolts;
+}
+
+bool Machine::outputOn(Daughtercard board, unsigned output) const {
+  return board == Daughtercard::SevenI76 ? sevenI76_->outputOn(output) : board_->fieldIo.outputOn(output);
+}
+
+double Machine::fieldVoltage(Daughtercard board) const {
+  return board == Daughtercard::SevenI76 ? sevenI76_->fieldVoltage() : board_->fieldIo.fieldVoltage();
+}
+
+double Machine::spindleVolts() const {
+  if (d_.spindle->daughtercard == Daughtercard::SevenI77) return board_->analog.outputVoltage(d_.spindle->analogOutput);
+  // The 7I76's spindle interface: SpinOut's 0..10 V is the speed, SpinDir
+  // the direction (on: reverse, LinuxCNC's spindle.0.reverse).
+  const double volts = sevenI76_->spindleVolts();
+  return sevenI76_->spindleDirection() ? -volts : volts;
+}
+
+bool Machine::spindleEna() const {
+  return d_.spindle->daughtercard == Daughtercard::SevenI76 ? sevenI76_->spindleEnable()
+                                                            : board_->analog.enable(d_.spindle->enable);
 }
 
 void Machine::advance(SimTime now) {
@@ -243,7 +308,7 @@ void Machine::step() {
   const SimTime minimum = h_ / 2;
   const double seconds = std::chrono::duration<double>(t1 - from).count();
   // The field inputs from where the axes are at the start of the step.
-  switches_.apply(positions_.data(), board_->fieldIo);
+  switches_.apply(positions_.data(), inputs_);
   const remote::AnalogProcessor& analog = board_->analog;
   // The mechanics of every axis and the spindle first, then their
   // encoders: each axis' step is a chain of dependent divisions, and with
@@ -279,8 +344,7 @@ void Machine::step() {
     a.commanded = commanding ? a.commanded + commanded * hSeconds_ : a.axis.position();
     positions_[i] = a.axis.position();
   }
-  if (spindle_)
-    spindle_->step(analog.outputVoltage(d_.spindle->analogOutput), analog.enable(d_.spindle->enable), hSeconds_);
+  if (spindle_) spindle_->step(spindleVolts(), spindleEna(), hSeconds_);
   for (AxisPlant& a : axes_)
     for (Drive& drive : a.drives) drive.encoder.drive(a.axis.motorRevs(), from, t1, seconds, minimum);
   if (spindleEncoder_) spindleEncoder_->drive(spindle_->revolutions(), from, t1, seconds, minimum);
@@ -327,17 +391,18 @@ Machine::State Machine::state() const {
   }
   if (spindle_) {
     State::Spindle sp;
+    sp.daughtercard = d_.spindle->daughtercard;
     sp.commandRpm = spindle_->commandRpm();
     sp.rpm = spindle_->rpm();
     sp.revolutions = spindle_->revolutions();
-    sp.running = spindle_->running(analog.enable(d_.spindle->enable));
+    sp.running = spindle_->running(spindleEna());
     if (spindleEncoder_) {
       sp.encoderCount = spindleEncoder_->count();
       sp.encoderBroken = brokenChannels(*spindleEncoder_);
     }
     s.spindle = sp;
   }
-  for (const auto& o : d_.outputs) s.outputs.push_back({o.name, o.output, board_->fieldIo.outputOn(o.output)});
+  for (const auto& o : d_.outputs) s.outputs.push_back({o.name, o.output, outputOn(o.daughtercard, o.output), o.daughtercard});
   return s;
 }
 

@@ -3,7 +3,10 @@
 // card's muxed counters, switches on the field inputs, a spindle on AOUT5 +
 // ENA5, and field outputs that drive a coolant pump, a lube pump, a brake.
 // An axis may instead be a stepper on one of the card's StepGens (issue 17:
-// StepperMotor), which goes where the StepGen's steps put it.
+// StepperMotor), which goes where the StepGen's steps put it. On the
+// 7I77+7I76 firmwares switches, outputs, brakes and the spindle (its VFD on
+// SpinOut, SpinEna and SpinDir; its encoder on muxed counter 6) may be on
+// the 7I76's terminals instead (Daughtercard).
 // Built from a MachineDescription (machine_file.hpp) and wired to a
 // hm2::HostMot2Card, which must outlive it.
 //
@@ -79,6 +82,7 @@ class Machine {
       bool operator==(const Axis&) const = default;
     };
     struct Spindle {
+      Daughtercard daughtercard = Daughtercard::SevenI77;  // the VFD's
       double commandRpm = 0.0;
       double rpm = 0.0;
       double revolutions = 0.0;
@@ -91,6 +95,7 @@ class Machine {
       std::string name;
       unsigned output = 0;
       bool on = false;
+      Daughtercard daughtercard = Daughtercard::SevenI77;
       bool operator==(const Output&) const = default;
     };
     std::string name;  // the description's
@@ -104,8 +109,11 @@ class Machine {
     bool operator==(const State&) const = default;
   };
 
-  // The machine on the 7I77 on `connector` of `card`, at `now`. Throws
-  // std::invalid_argument for wiring the 7I77 does not have.
+  // The machine on the 7I77 on `connector` of `card` (and on the card's
+  // 7I76, for what the description wires to one), at `now`. Throws
+  // std::invalid_argument for wiring the 7I77 does not have, or 7I76 wiring
+  // on a card whose firmware has no 7I76 (naming the machine file's key
+  // where the description came from one: sevenI76Where).
   Machine(MachineDescription description, hm2::HostMot2Card& card, SimTime now = SimTime{0}, unsigned connector = 0);
   // One machine drives the card's encoders and inputs: no copies.
   Machine(const Machine&) = delete;
@@ -181,6 +189,7 @@ class Machine {
     std::vector<Drive> drives;
     double inertiaShare;  // per drive, for the velocity loops
     int brakeOutput;
+    Daughtercard brakeDaughtercard;
     double commanded = 0.0;  // machine units: drive 0's velocity command integrated since enabled
     std::optional<StepperMotor> stepper;  // in place of the drives
   };
@@ -192,6 +201,13 @@ class Machine {
   }
   void step();
   [[nodiscard]] bool brakeEngaged(const AxisPlant& a) const;
+  // A field output of either board, and that board's field power.
+  [[nodiscard]] bool outputOn(Daughtercard board, unsigned output) const;
+  [[nodiscard]] double fieldVoltage(Daughtercard board) const;
+  // What the VFD gets: its speed input (volts, negative: reverse) and its
+  // run input (ENA or SpinEna, before its enable polarity).
+  [[nodiscard]] double spindleVolts() const;
+  [[nodiscard]] bool spindleEna() const;
   // Its first drive is a velocity-mode amplifier, enabled.
   [[nodiscard]] bool commandsVelocity(const AxisPlant& a) const;
 
@@ -200,6 +216,8 @@ class Machine {
   hm2::SevenI77* board_;
   hm2::MuxedEncoder* encoders_;
   hm2::StepGen* stepGens_;  // the firmware's, nullptr when it has none
+  remote::SevenI76FieldIo* sevenI76_;  // the firmware's 7I76, nullptr when it has none
+  FieldInputs inputs_;  // the switches' boards
   SimTime time_;
   SimTime h_;
   double hSeconds_;

@@ -1,7 +1,9 @@
 // A machine behind the 7I77's terminals, described as plain data: which
 // analog output, drive enable and encoder input each motor is wired to, the
 // amplifiers, motors, loads and screws, the switches on the field inputs
-// and the field outputs that drive things. Three built-ins: mill(),
+// and the field outputs that drive things. On the 7I77+7I76 firmwares
+// switches, outputs, a brake and the spindle may be on the 7I76's terminals
+// instead (Daughtercard; issue 17). Three built-ins: mill(),
 // lathe(), gantry() (docs/machine-mill.md has the mill's wiring as
 // LinuxCNC names the pins). Machine files are these in TOML:
 // config::loadMachine (src/config/config/machine_toml.hpp) reads them, and
@@ -16,6 +18,7 @@
 
 #include "lbp/sim_time.hpp"
 #include "machine/axis.hpp"
+#include "machine/daughtercard.hpp"
 #include "machine/quadrature_encoder.hpp"
 #include "machine/servo_amplifier.hpp"
 #include "machine/spindle.hpp"
@@ -56,17 +59,25 @@ struct AxisDescription {
   double overtravel = 5.0;              // past the travel (and the limit switches): the hard stops
   double initialPosition = 0.0;
   int brakeOutput = -1;                 // field output that releases the brake (off: holding), -1 none
+  Daughtercard brakeDaughtercard = Daughtercard::SevenI77;  // whose field output
   double brakeTorque = 0.0;             // Nm at the motor
 
   [[nodiscard]] double unitsPerMotorRev() const { return screwPitch / gearRatio; }
   bool operator==(const AxisDescription&) const = default;
 };
 
+// The VFD on the 7I77 (speed from AOUTn, +-10 V: negative runs it in
+// reverse; run from ENAn) or on the 7I76's spindle interface (speed from
+// SpinOut, 0..10 V; run from SpinEna; reverse while SpinDir is on, as
+// LinuxCNC configurations wire spindle.0.reverse to spindir). Its encoder on
+// one of the 7I77's six, or on the 7I76's one spindle encoder input (0).
 struct SpindleDescription {
-  unsigned analogOutput = 5;
-  unsigned enable = 5;  // ENA5 follows SpinEna
+  Daughtercard daughtercard = Daughtercard::SevenI77;
+  unsigned analogOutput = 5;  // the 7I77's only
+  unsigned enable = 5;        // the 7I77's only; ENA5 follows SpinEna
   SpindleParameters vfd;
   std::optional<unsigned> encoderInput = 5;
+  Daughtercard encoderDaughtercard = Daughtercard::SevenI77;
   EncoderParameters encoder{1000, true, false};
 
   bool operator==(const SpindleDescription&) const = default;
@@ -78,6 +89,7 @@ struct OutputDescription {
   std::string name;
   unsigned output = 0;     // field output 0..15
   double loadOhms = 480;   // a 24 V relay coil: 50 mA
+  Daughtercard daughtercard = Daughtercard::SevenI77;
 
   bool operator==(const OutputDescription&) const = default;
 };
@@ -89,6 +101,10 @@ struct MachineDescription {
   std::vector<SwitchParameters> switches;  // axis switches name their axis
   std::vector<OutputDescription> outputs;
   lbp::SimTime step = lbp::SimTime{50'000};  // the plant's fixed integration step
+  // Where a machine file first wires the 7I76 ("FILE:LINE:COL: key"), for
+  // the machine to point at when the card's firmware has none; empty for
+  // descriptions made in code.
+  std::string sevenI76Where;
 
   bool operator==(const MachineDescription&) const = default;
 };

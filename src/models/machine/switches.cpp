@@ -12,9 +12,14 @@ namespace machine {
 Switches::Switches(std::vector<SwitchParameters> switches, std::vector<int> axisOf)
     : switches_(std::move(switches)), axisOf_(std::move(axisOf)) {
   if (axisOf_.size() != switches_.size()) throw std::invalid_argument("switches: one axis index per switch");
-  for (const auto& s : switches_)
-    if (s.input >= remote::FieldIoProcessor::kInputs)
-      throw std::invalid_argument("switch " + s.name + ": field input " + std::to_string(s.input) + " is not on the 7I77");
+  for (const auto& s : switches_) {
+    const unsigned inputs = s.daughtercard == Daughtercard::SevenI76 ? remote::SevenI76FieldIo::kInputs
+                                                                     : remote::FieldIoProcessor::kInputs;
+    if (s.input >= inputs)
+      throw std::invalid_argument("switch " + s.name + ": field input " + std::to_string(s.input) + " is not on the " +
+                                  std::string(daughtercardName(s.daughtercard)) + " (0.." +
+                                  std::to_string(inputs - 1) + ")");
+  }
   tripped_.assign(switches_.size(), 0);
   forced_.assign(switches_.size(), 0);
   applied_.assign(switches_.size(), 2);
@@ -52,11 +57,13 @@ bool Switches::unchanged(const double* axisPositions) const {
   return true;
 }
 
-void Switches::apply(const double* axisPositions, remote::FieldIoProcessor& io) {
-  const double field = io.fieldVoltage();
-  const bool fieldChanged = field != appliedField_;
+void Switches::apply(const double* axisPositions, const FieldInputs& io) {
+  // Each board's field power: what a closed contact puts on its inputs.
+  const std::array<double, 2> field{io.sevenI77 != nullptr ? io.sevenI77->fieldVoltage() : 0.0,
+                                    io.sevenI76 != nullptr ? io.sevenI76->fieldVoltage() : 0.0};
+  const std::array<bool, 2> fieldChanged{field[0] != appliedField_[0], field[1] != appliedField_[1]};
   // Every input already shows what it would be set to: nothing to do.
-  if (!fieldChanged && !dirty_ && unchanged(axisPositions)) return;
+  if (!fieldChanged[0] && !fieldChanged[1] && !dirty_ && unchanged(axisPositions)) return;
   appliedField_ = field;
   dirty_ = false;
   constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -74,16 +81,24 @@ void Switches::apply(const double* axisPositions, remote::FieldIoProcessor& io) 
       if (!s.tripAbove && !tripped_[i]) u.lo = std::max(u.lo, std::nextafter(s.position, kInf));  // q > p
       if (std::isnan(pos)) u = {kInf, -kInf};  // no position is safe: look again next time
     }
+    const auto board = static_cast<std::size_t>(switches_[i].daughtercard);
     const std::uint8_t now = on(i) ? 1 : 0;
-    if (now == applied_[i] && !fieldChanged) continue;
+    if (now == applied_[i] && !fieldChanged[board]) continue;
     applied_[i] = now;
-    io.setInputVoltage(switches_[i].input, now ? field : 0.0);
+    const double volts = now ? field[board] : 0.0;
+    if (switches_[i].daughtercard == Daughtercard::SevenI76) {
+      if (io.sevenI76 == nullptr) throw std::invalid_argument("switch " + switches_[i].name + ": no 7I76 to wire it to");
+      io.sevenI76->setInputVoltage(switches_[i].input, volts);
+    } else {
+      if (io.sevenI77 == nullptr) throw std::invalid_argument("switch " + switches_[i].name + ": no 7I77 to wire it to");
+      io.sevenI77->setInputVoltage(switches_[i].input, volts);
+    }
   }
 }
 
 Switches::State Switches::state(std::size_t i) const {
   const auto& s = switches_.at(i);
-  return State{s.name, s.kind, s.input, tripped_[i] || forced_[i], on(i)};
+  return State{s.name, s.kind, s.input, tripped_[i] || forced_[i], on(i), s.daughtercard};
 }
 
 }  // namespace machine

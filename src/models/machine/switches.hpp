@@ -1,17 +1,22 @@
 // The switches wired to the 7I77's field inputs (manual: FIELD
-// INPUT/OUTPUT CONNECTORS, FIELD INPUT CHARACTERISTICS, WHY SINKING INPUTS):
-// home and limit switches that trip at positions along an axis, the E-stop
-// chain, a probe. A closed contact puts field power on its input, an open
-// one leaves it at 0 V. Limits and the E-stop chain are normally closed, so
-// the input is on while all is well and a broken wire reads as tripped (the
+// INPUT/OUTPUT CONNECTORS, FIELD INPUT CHARACTERISTICS, WHY SINKING INPUTS),
+// or to the 7I76's on the 7I77+7I76 firmwares (issue 17): home and limit
+// switches that trip at positions along an axis, the E-stop chain, a probe.
+// A closed contact puts its board's field power on its input, an open one
+// leaves it at 0 V. Limits and the E-stop chain are normally closed, so the
+// input is on while all is well and a broken wire reads as tripped (the
 // manual's reason for sinking inputs: a grounded input is never "active").
+// The 7I76's inputs are taken to work as the 7I77's (seven_i76.hpp).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "machine/daughtercard.hpp"
 #include "remote/field_io.hpp"
+#include "remote/seven_i76.hpp"
 
 namespace machine {
 
@@ -29,8 +34,16 @@ struct SwitchParameters {
   std::string axis;  // empty: on no axis
   double position = 0.0;
   bool tripAbove = true;
+  Daughtercard daughtercard = Daughtercard::SevenI77;  // whose field input
 
   bool operator==(const SwitchParameters&) const = default;
+};
+
+// The field inputs switches can be wired to: the 7I77's, and the 7I76's on
+// the firmwares that have one (nullptr on the others).
+struct FieldInputs {
+  remote::FieldIoProcessor* sevenI77 = nullptr;
+  remote::SevenI76FieldIo* sevenI76 = nullptr;
 };
 
 class Switches {
@@ -40,7 +53,8 @@ class Switches {
     SwitchKind kind = SwitchKind::Other;
     unsigned input = 0;
     bool tripped = false;  // the cam or the operator has it
-    bool inputOn = false;  // what the 7I77's terminal gets: field power or not
+    bool inputOn = false;  // what the input terminal gets: field power or not
+    Daughtercard daughtercard = Daughtercard::SevenI77;
     bool operator==(const State&) const = default;
   };
 
@@ -51,9 +65,10 @@ class Switches {
   // stuck switch); it stays so until released. False if no switch has that name.
   bool setTripped(const std::string& name, bool tripped);
   // Positions of every axis (machine units) -> input voltages at the field
-  // I/O processor; only inputs whose state changed (or whose field voltage
-  // did) are set again.
-  void apply(const double* axisPositions, remote::FieldIoProcessor& io);
+  // I/O processors; only inputs whose state changed (or whose board's field
+  // voltage did) are set again. Every switch's board must be in `io`
+  // (std::invalid_argument otherwise: the machine checks it first).
+  void apply(const double* axisPositions, const FieldInputs& io);
 
   [[nodiscard]] std::size_t size() const { return switches_.size(); }
   [[nodiscard]] const SwitchParameters& parameters(std::size_t i) const { return switches_.at(i); }
@@ -74,7 +89,7 @@ class Switches {
   std::vector<std::uint8_t> tripped_;  // by position, from the last apply()
   std::vector<std::uint8_t> forced_;   // by hand
   std::vector<std::uint8_t> applied_;  // 0 off, 1 on, 2 never applied
-  double appliedField_ = -1.0;
+  std::array<double, 2> appliedField_{-1.0, -1.0};  // per Daughtercard
   // apply() runs at every plant step; it has nothing to do while no switch
   // is tripped or released by hand (dirty_), the field voltage is the same
   // and every axis stays where its switches keep their states.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <utility>
 
 namespace remote {
 
@@ -63,12 +64,49 @@ constexpr unsigned kMpgB[] = {16, 18};
 
 }  // namespace
 
+// --- Power (either board's field I/O processor) ---------------------------------
+
+FieldPoweredProcessor::FieldPoweredProcessor(Identity identity, std::span<const ProcessDataDescriptor> elements,
+                                             std::span<const SoftwareMode> modes, std::filesystem::path nvFile,
+                                             std::string nvOwner, NvReporter nvReport, double fieldVolts)
+    : RemoteDevice(identity, elements, modes, std::move(nvFile), std::move(nvOwner), std::move(nvReport)),
+      fieldVolts_(fieldVolts) {}
+
+void FieldPoweredProcessor::applyPower(SimTime now) {
+  // VIN powers the processor: it must be present for the field I/O to be
+  // detected and operate (manual: VIN AND FIELD POWER SUPPLY).
+  const bool on = supplyVolts() >= kMinVin;
+  if (on && !powered()) powerUp(now);
+  if (!on && powered()) powerDown();
+  updateInputs();
+  if (powered()) checkSupply();
+  driveOutputs();
+}
+
+void FieldPoweredProcessor::powerCycle(SimTime now) {
+  advance(now);
+  powerDown();
+  applyPower(now);
+}
+
+void FieldPoweredProcessor::setFieldVoltage(double volts, SimTime now) {
+  advance(now);
+  fieldVolts_ = std::max(0.0, volts);
+  applyPower(now);
+}
+
+void FieldPoweredProcessor::checkSupply() {
+  if (fieldVolts_ < kLowFieldVoltage) raiseFault(fault::kLowVoltage);
+  if (fieldVolts_ > kHighFieldVoltage) raiseFault(fault::kHighVoltage);
+}
+
+// --- The 7I77's ------------------------------------------------------------------
+
 FieldIoProcessor::FieldIoProcessor(Options options, SimTime now)
-    : RemoteDevice({"7I77", options.unitNumber, 14, 0, "Standard", kFieldIoProcessor}, kElements, kModes,
-                   options.nvFile, options.nvOwner, options.nvReport),
+    : FieldPoweredProcessor({"7I77", options.unitNumber, 14, 0, "Standard", kFieldIoProcessor}, kElements, kModes,
+                            options.nvFile, options.nvOwner, options.nvReport, options.fieldVoltage),
       outputType_(options.outputs),
       vinFromField_(options.vinFromField),
-      fieldVolts_(options.fieldVoltage),
       vinVolts_(options.vin) {
   loadOhms_.fill(std::numeric_limits<double>::infinity());
   nvEncMode_ = {parameter("NVEncMode0"), parameter("NVEncMode1")};
@@ -79,31 +117,6 @@ FieldIoProcessor::FieldIoProcessor(Options options, SimTime now)
 std::uint8_t FieldIoProcessor::analogReading(double volts) {
   const double code = std::round(volts / kAnalogFullScale * 255.0);
   return static_cast<std::uint8_t>(std::clamp(code, 0.0, 255.0));
-}
-
-// --- Power ----------------------------------------------------------------------
-
-void FieldIoProcessor::applyPower(SimTime now) {
-  // VIN powers the processor: it must be present for the field I/O to be
-  // detected and operate (manual: VIN AND FIELD POWER SUPPLY).
-  const bool on = vin() >= kMinVin;
-  if (on && !powered()) powerUp(now);
-  if (!on && powered()) powerDown();
-  updateInputs();
-  if (powered()) checkSupply();
-  driveOutputs();
-}
-
-void FieldIoProcessor::powerCycle(SimTime now) {
-  advance(now);
-  powerDown();
-  applyPower(now);
-}
-
-void FieldIoProcessor::setFieldVoltage(double volts, SimTime now) {
-  advance(now);
-  fieldVolts_ = std::max(0.0, volts);
-  applyPower(now);
 }
 
 void FieldIoProcessor::setVin(double volts, SimTime now) {
@@ -119,11 +132,6 @@ void FieldIoProcessor::onPowerUp() {
   // NV to working copy at power-up only (manual: NON-VOLATILE FIELD I/O
   // PARAMETERS); no sibling lists the working copy as a parameter.
   for (unsigned n = 0; n < kMpgs; ++n) encMode_[n] = static_cast<std::uint8_t>(raw(nvEncMode_[n]));
-}
-
-void FieldIoProcessor::checkSupply() {
-  if (fieldVolts_ < kLowFieldVoltage) raiseFault(fault::kLowVoltage);
-  if (fieldVolts_ > kHighFieldVoltage) raiseFault(fault::kHighVoltage);
 }
 
 void FieldIoProcessor::reassertFaults() {

@@ -11,6 +11,8 @@
 #include <cstdint>
 #include <filesystem>
 #include <limits>
+#include <span>
+#include <string>
 
 #include "remote/remote_device.hpp"
 
@@ -18,7 +20,42 @@ namespace remote {
 
 enum class OutputType { Sourcing, Sinking };  // 7I77, 7I77D
 
-class FieldIoProcessor final : public RemoteDevice {
+// A field I/O processor that runs from its board's supply, field power (the
+// 7I77's with W1 left, and the 7I76's: seven_i76.hpp): its power
+// sequencing, shared by both. It runs while its supply is at least kMinVin,
+// and flags a field voltage outside kLowFieldVoltage..kHighFieldVoltage at
+// power-up and at every fault clear (manual: VIN AND FIELD POWER SUPPLY).
+class FieldPoweredProcessor : public RemoteDevice {
+ public:
+  static constexpr double kMinVin = 8.0;            // processor runs at VIN >= 8 V
+  static constexpr double kLowFieldVoltage = 5.0;   // below: LowVoltageFault
+  static constexpr double kHighFieldVoltage = 32.0;  // above: HighVoltageFault
+
+  void setFieldVoltage(double volts, SimTime now);
+  // The supply off and on (the machine power-cycled): the processor boots
+  // again if its supply is present, with the supply checks a power-up makes.
+  void powerCycle(SimTime now) override;
+  [[nodiscard]] double fieldVoltage() const { return fieldVolts_; }
+
+ protected:
+  FieldPoweredProcessor(Identity identity, std::span<const ProcessDataDescriptor> elements,
+                        std::span<const SoftwareMode> modes, std::filesystem::path nvFile, std::string nvOwner,
+                        NvReporter nvReport, double fieldVolts);
+  // After a change of supply: the processor boots or stops, the inputs are
+  // read again at the new thresholds, the supply is checked and the outputs
+  // driven. The derived constructor calls it once (this one cannot reach
+  // their overrides).
+  void applyPower(SimTime now);
+  void checkSupply();
+  // What runs the processor: field power, or the 7I77's VIN with W1 right.
+  [[nodiscard]] virtual double supplyVolts() const { return fieldVolts_; }
+  // Every input's state again from its voltage and the field voltage.
+  virtual void updateInputs() = 0;
+
+  double fieldVolts_;
+};
+
+class FieldIoProcessor final : public FieldPoweredProcessor {
  public:
   static constexpr unsigned kInputs = 32;
   static constexpr unsigned kOutputs = 16;
@@ -26,11 +63,8 @@ class FieldIoProcessor final : public RemoteDevice {
   static constexpr unsigned kChips = kOutputs / kOutputsPerChip;
   static constexpr unsigned kMpgs = 2;
 
-  // Electrical limits (manual: VIN AND FIELD POWER SUPPLY, SHORT CIRCUIT
-  // PROTECTION, MAXIMUM PER CHIP CURRENT, ANALOG INPUTS, MPG INPUTS).
-  static constexpr double kMinVin = 8.0;            // processor runs at VIN >= 8 V
-  static constexpr double kLowFieldVoltage = 5.0;   // below: LowVoltageFault
-  static constexpr double kHighFieldVoltage = 32.0;  // above: HighVoltageFault
+  // Electrical limits (manual: SHORT CIRCUIT PROTECTION, MAXIMUM PER CHIP
+  // CURRENT, ANALOG INPUTS, MPG INPUTS; the supply's: FieldPoweredProcessor).
   static constexpr double kShortCircuitAmps = 0.8;
   static constexpr double kChipLimitAmps = 1.4;
   static constexpr double kAnalogFullScale = 36.3;  // 8-bit readings
@@ -76,11 +110,8 @@ class FieldIoProcessor final : public RemoteDevice {
   FieldIoProcessor() : FieldIoProcessor(Options{}) {}
 
   // --- The world at the terminals ---------------------------------------------
-  void setFieldVoltage(double volts, SimTime now);
+  // (setFieldVoltage, powerCycle: FieldPoweredProcessor.)
   void setVin(double volts, SimTime now);  // TB2 pin 5, with W1 right
-  // VIN off and on (the machine power-cycled): the processor boots again if
-  // VIN is present, with the supply checks a power-up makes.
-  void powerCycle(SimTime now) override;
   void setInputVoltage(unsigned input, double volts);
   // Resistive load from an output to field ground (7I77) or field power
   // (7I77D); infinity is an open terminal, 0 a dead short.
@@ -88,7 +119,6 @@ class FieldIoProcessor final : public RemoteDevice {
   void setDriverOverTemperature(unsigned chip, bool hot);
 
   // --- What the terminals show --------------------------------------------------
-  [[nodiscard]] double fieldVoltage() const { return fieldVolts_; }
   [[nodiscard]] double vin() const { return vinFromField_ ? fieldVolts_ : vinVolts_; }
   [[nodiscard]] double inputVoltage(unsigned i) const { return inputVolts_.at(i); }
   [[nodiscard]] bool input(unsigned i) const { return (inputBits_ >> i) & 1U; }
@@ -113,18 +143,16 @@ class FieldIoProcessor final : public RemoteDevice {
   void driveOutputs() override;
   void reassertFaults() override;
   void onPowerUp() override;
+  [[nodiscard]] double supplyVolts() const override { return vin(); }
+  void updateInputs() override;
 
  private:
-  void applyPower(SimTime now);
   void updateInput(unsigned i);
-  void updateInputs();
-  void checkSupply();
   [[nodiscard]] bool mpgMode() const;
   void countMpg(unsigned n, bool oldA, bool oldB, bool newA, bool newB);
 
   OutputType outputType_;
   bool vinFromField_;
-  double fieldVolts_;
   double vinVolts_;
   std::array<double, kInputs> inputVolts_{};
   std::uint32_t inputBits_ = 0;

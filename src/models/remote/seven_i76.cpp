@@ -1,6 +1,7 @@
 #include "remote/seven_i76.hpp"
 
 #include <algorithm>
+#include <limits>
 
 #include "remote/field_io.hpp"
 
@@ -73,9 +74,9 @@ constexpr std::uint8_t kStandardRowsOnly = kAnalogProcessor;
 }  // namespace
 
 SevenI76FieldIo::SevenI76FieldIo(Options options, SimTime now)
-    : RemoteDevice({"7I76", options.unitNumber, 14, 0, "Standard", kStandardRowsOnly}, kElements, kModes,
-                   options.nvFile, options.nvOwner, options.nvReport),
-      fieldVolts_(options.fieldVoltage) {
+    : FieldPoweredProcessor({"7I76", options.unitNumber, 14, 0, "Standard", kStandardRowsOnly}, kElements, kModes,
+                            options.nvFile, options.nvOwner, options.nvReport, options.fieldVoltage) {
+  loadOhms_.fill(std::numeric_limits<double>::infinity());
   setSetupJumper(options.setupMode);
   applyPower(now);
 }
@@ -85,39 +86,15 @@ double SevenI76FieldIo::spindleVoltsOf(std::uint64_t code) {
   return std::clamp(static_cast<double>(code) / kMaxCode * kSpindleFullScale, 0.0, kSpindleFullScale);
 }
 
-// --- Power ----------------------------------------------------------------------
-
-void SevenI76FieldIo::applyPower(SimTime now) {
-  const bool on = fieldVolts_ >= Sibling::kMinVin;
-  if (on && !powered()) powerUp(now);
-  if (!on && powered()) powerDown();
-  for (unsigned i = 0; i < kInputs; ++i) updateInput(i);
-  if (powered()) checkSupply();
-  driveOutputs();
-}
-
-void SevenI76FieldIo::powerCycle(SimTime now) {
-  advance(now);
-  powerDown();
-  applyPower(now);
-}
-
-void SevenI76FieldIo::setFieldVoltage(double volts, SimTime now) {
-  advance(now);
-  fieldVolts_ = std::max(0.0, volts);
-  applyPower(now);
-}
-
-void SevenI76FieldIo::checkSupply() {
-  if (fieldVolts_ < Sibling::kLowFieldVoltage) raiseFault(fault::kLowVoltage);
-  if (fieldVolts_ > Sibling::kHighFieldVoltage) raiseFault(fault::kHighVoltage);
-}
-
 // --- Inputs ---------------------------------------------------------------------
 
 void SevenI76FieldIo::setInputVoltage(unsigned input, double volts) {
   inputVolts_.at(input) = volts;
   updateInput(input);
+}
+
+void SevenI76FieldIo::updateInputs() {
+  for (unsigned i = 0; i < kInputs; ++i) updateInput(i);
 }
 
 void SevenI76FieldIo::updateInput(unsigned i) {
@@ -152,8 +129,21 @@ void SevenI76FieldIo::driveOutputs() {
   spindleDirection_ = active && raw(kSpinDir) != 0;
 }
 
+void SevenI76FieldIo::setOutputLoad(unsigned output, double ohms) { loadOhms_.at(output) = std::max(0.0, ohms); }
+
+double SevenI76FieldIo::outputCurrent(unsigned i) const {
+  // Sourcing, as the 7I77's outputs: field power across the load while on
+  // (a dead short would draw without bound; its protection is not modelled).
+  const double volts = outputVoltage(i);
+  if (volts == 0.0) return 0.0;
+  const double ohms = loadOhms_.at(i);
+  return ohms > 0.0 ? volts / ohms : std::numeric_limits<double>::infinity();
+}
+
 SevenI76FieldIo::State SevenI76FieldIo::state() const {
-  return State{deviceState(), fieldVolts_, inputBits_, outputsOn_, spindleVolts_, spindleEnable_, spindleDirection_};
+  State s{deviceState(), fieldVolts_, inputBits_, outputsOn_, spindleVolts_, spindleEnable_, spindleDirection_, {}};
+  for (unsigned i = 0; i < kOutputs; ++i) s.outputAmps[i] = outputCurrent(i);
+  return s;
 }
 
 }  // namespace remote

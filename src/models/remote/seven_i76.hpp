@@ -3,7 +3,8 @@
 // docs/cards.md#the-7i76-field-io).
 //
 // An LBP remote like the 7I77's field I/O processor (field_io.hpp), whose
-// facts it shares where the public sources give no other: 32 inputs, 16
+// power sequencing it shares (FieldPoweredProcessor) and whose facts it
+// shares where the public sources give no other: 32 inputs, 16
 // sourcing outputs, the analog readings of inputs 0..3 and of the field
 // voltage in its higher modes, and the spindle interface the 7I77 does not
 // have: an analog speed output (SpinOut, 0..10 V) with enable and direction
@@ -16,11 +17,11 @@
 #include <filesystem>
 #include <string>
 
-#include "remote/remote_device.hpp"
+#include "remote/field_io.hpp"
 
 namespace remote {
 
-class SevenI76FieldIo final : public RemoteDevice {
+class SevenI76FieldIo final : public FieldPoweredProcessor {
  public:
   static constexpr unsigned kInputs = 32;
   static constexpr unsigned kOutputs = 16;
@@ -47,24 +48,29 @@ class SevenI76FieldIo final : public RemoteDevice {
     double spindleVolts = 0.0;
     bool spindleEnable = false;
     bool spindleDirection = false;
+    std::array<double, kOutputs> outputAmps{};  // what each output's load draws
   };
 
   explicit SevenI76FieldIo(Options options, SimTime now = SimTime{0});
   SevenI76FieldIo() : SevenI76FieldIo(Options{}) {}
 
   // --- The world at the terminals ---------------------------------------------
-  void setFieldVoltage(double volts, SimTime now);
-  void powerCycle(SimTime now) override;
+  // (setFieldVoltage, powerCycle: FieldPoweredProcessor.)
   void setInputVoltage(unsigned input, double volts);
+  // Resistive load from an output to field ground (the outputs source);
+  // infinity (the default) is an open terminal. Short circuit protection
+  // is not modelled: a load draws what field power over it gives.
+  void setOutputLoad(unsigned output, double ohms);
 
   // --- What the terminals show --------------------------------------------------
-  [[nodiscard]] double fieldVoltage() const { return fieldVolts_; }
   [[nodiscard]] bool input(unsigned i) const { return (inputBits_ >> i) & 1U; }
   [[nodiscard]] std::uint32_t inputs() const { return inputBits_; }
   [[nodiscard]] bool outputOn(unsigned i) const { return (outputsOn_ >> i) & 1U; }
   [[nodiscard]] std::uint16_t outputs() const { return outputsOn_; }
   // Sourcing: an output that is on is at field power.
   [[nodiscard]] double outputVoltage(unsigned i) const { return outputOn(i) ? fieldVolts_ : 0.0; }
+  [[nodiscard]] double outputLoad(unsigned i) const { return loadOhms_.at(i); }
+  [[nodiscard]] double outputCurrent(unsigned i) const;
   [[nodiscard]] double spindleVolts() const { return spindleVolts_; }
   [[nodiscard]] bool spindleEnable() const { return spindleEnable_; }
   [[nodiscard]] bool spindleDirection() const { return spindleDirection_; }
@@ -78,14 +84,13 @@ class SevenI76FieldIo final : public RemoteDevice {
   void sampleInputs() override;
   void driveOutputs() override;
   void reassertFaults() override { checkSupply(); }
+  void updateInputs() override;
 
  private:
-  void applyPower(SimTime now);
   void updateInput(unsigned i);
-  void checkSupply();
 
-  double fieldVolts_;
   std::array<double, kInputs> inputVolts_{};
+  std::array<double, kOutputs> loadOhms_{};
   std::uint32_t inputBits_ = 0;
   std::uint16_t outputsOn_ = 0;
   std::uint64_t spinCode_ = 0;
