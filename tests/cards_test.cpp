@@ -230,11 +230,11 @@ TEST(Cards, The7I96SHasThe7I77OnP1AndItsOwnStepGensOnTb1Tb2) {
   auto card = make("7I96S");
   Idrom r(card);
   // No QCount beside the MuxedQCount: LinuxCNC's hostmot2 would refuse it.
-  EXPECT_EQ(r.tags(), (std::vector<std::uint8_t>{kDpll, kWd, kIo, kSg, kMqc, kMqs, kSs, kPwm, kLed}));
+  // TB3's InM (0x23), SSR (0xC3) and OutM (0x2D): hm2_tb3_modules_test.cpp.
+  EXPECT_EQ(r.tags(), (std::vector<std::uint8_t>{kDpll, kWd, kIo, kSg, kMqc, kMqs, kSs, kPwm, 0x23, 0xC3, 0x2D, kLed}));
   EXPECT_EQ(r.find(kSg)->instances, 5);
   EXPECT_EQ(r.find(kMqc)->instances, 8);
   EXPECT_EQ(r.find(kPwm)->instances, 1);
-  for (unsigned io = 0; io < 17; ++io) EXPECT_EQ(r.fn(io), 0U) << io;  // TB3: GPIO here
   EXPECT_EQ(r.fn(17), 0x000581U);  // TB1: StepGen 0 Step
   EXPECT_EQ(r.fn(18), 0x000582U);  // StepGen 0 Dir
   EXPECT_EQ(r.fn(25), 0x040581U);  // StepGen 4 Step

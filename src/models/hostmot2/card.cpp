@@ -87,6 +87,12 @@ HostMot2Card::HostMot2Card(Options options)
   const auto& b = card_->idrom;
   std::vector<PinDescriptor> pins(static_cast<std::size_t>(b.ioPorts) * b.portWidth);  // GPIO unless the firmware says
   firmware_->pins(pins);
+  // The InM reads the I/O pins its pin descriptors give it (input n: pin n + 1).
+  if (inm_ != nullptr)
+    for (std::size_t p = 0; p < pins.size(); ++p)
+      if (pins[p].secondaryTag == InM::kTag && pins[p].secondaryPin >= 1 && pins[p].secondaryPin <= inm_->inputs())
+        inm_->connect(ioport_, pins[p].secondaryUnit, pins[p].secondaryPin - 1U, static_cast<unsigned>(p / b.portWidth),
+                      static_cast<unsigned>(p % b.portWidth));
   const auto mds = moduleDescriptors();
   idrom_ = buildIdrom(b, mds, pins);
 }
@@ -109,7 +115,12 @@ void HostMot2Card::build(const cards::ModuleEntry& entry) {
   switch (entry.part) {
     case Part::Watchdog: watchdog_ = make<Watchdog>(m, b.clockLow, [this] { ioport_->releaseOutputs(); }); break;
     case Part::IoPort: ioport_ = make<IoPort>(m, entry.count, b.portWidth); break;
-    case Part::MuxedQCount: encoders_ = make<MuxedEncoder>(m, entry.count, b.clockLow); break;
+    case Part::MuxedQCount:
+      // The DPLL comes first in the "d" firmwares: encoder.timer-number
+      // latches the counts on its timers.
+      encoders_ = make<MuxedEncoder>(m, entry.count, b.clockLow);
+      encoders_->attachDpll(dpll_);
+      break;
     case Part::MuxedQCountSel: make<MuxedEncoderSelect>(m); break;
     case Part::SSerial: sserial_ = make<SmartSerial>(m, entry.count); break;
     case Part::Led: led_ = make<Led>(m, entry.count); break;
@@ -121,9 +132,12 @@ void HostMot2Card::build(const cards::ModuleEntry& entry) {
       stepgen_->attachDpll(dpll_);
       break;
     case Part::PwmGen: pwmgen_ = make<PwmGen>(m, PwmGen::kDefaultBase, entry.count, b.clockHigh); break;
+    case Part::InM: inm_ = make<InM>(m, InM::kDefaultBase, 1, entry.count, b.clockLow); break;
+    case Part::Ssr: ssr_ = make<Ssr>(m, Ssr::kDefaultBase, entry.count, b.clockLow); break;
+    case Part::OutM: outm_ = make<OutM>(m, OutM::kDefaultBase, entry.count); break;
   }
   // The modules whose state moves with time (the others' advance() does nothing).
-  if (entry.part == Part::Dpll || entry.part == Part::StepGen) {
+  if (entry.part == Part::Dpll || entry.part == Part::StepGen || entry.part == Part::InM) {
     if (timedCount_ == timed_.size()) throw std::logic_error("a firmware with more timed modules than the card calls");
     timed_[timedCount_++] = m.get();
   }
@@ -160,6 +174,11 @@ void HostMot2Card::powerCycle(SimTime now) {
     d->analog.powerCycle(now_);
   }
   if (sevenI76_) sevenI76_->powerCycle(now_);
+}
+
+void HostMot2Card::reconfigure(SimTime now) {
+  advance(now);
+  for (Module* m : modules_) m->reset();
 }
 
 std::uint32_t HostMot2Card::read32(std::uint16_t address, SimTime now) {

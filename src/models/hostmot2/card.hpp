@@ -16,12 +16,15 @@
 #include "hostmot2/cards/catalogue.hpp"
 #include "hostmot2/dpll.hpp"
 #include "hostmot2/idrom.hpp"
+#include "hostmot2/inm.hpp"
 #include "hostmot2/ioport.hpp"
 #include "hostmot2/led.hpp"
 #include "hostmot2/muxed_encoder.hpp"
 #include "hostmot2/muxed_encoder_select.hpp"
+#include "hostmot2/outm.hpp"
 #include "hostmot2/pwmgen.hpp"
 #include "hostmot2/sslbp.hpp"
+#include "hostmot2/ssr.hpp"
 #include "hostmot2/stepgen.hpp"
 #include "hostmot2/watchdog.hpp"
 #include "remote/analog.hpp"
@@ -140,6 +143,12 @@ class HostMot2Card {
   // (manual: NON-VOLATILE FIELD I/O PARAMETERS). The IDROM, the world at the
   // terminals, the cables and the access counters stay.
   void powerCycle(SimTime now);
+  // The FPGA loads its firmware again at `now` (mesaflash --reload asks the
+  // card's LBP16 processor for it): every module back to its power-up state
+  // as powerCycle() puts them, while the 7I77s, powered by the cable and by
+  // field power, keep running. The firmware is the one it ran (the flash's
+  // content is not read), the IDROM and the access counters stay.
+  void reconfigure(SimTime now);
 
   // --- Parts -----------------------------------------------------------------------
   SmartSerial& smartSerial() { return *sserial_; }
@@ -151,6 +160,11 @@ class HostMot2Card {
   StepGen* stepGens() { return stepgen_; }
   PwmGen* pwmGens() { return pwmgen_; }
   Dpll* dpll() { return dpll_; }
+  // The 7I96S's TB3 modules (InM inputs, SSR and OutM outputs); nullptr
+  // when the firmware has none.
+  InM* inm() { return inm_; }
+  Ssr* ssr() { return ssr_; }
+  OutM* outm() { return outm_; }
   SevenI77& daughtercard(unsigned connector) { return *sevenI77s_.at(connector); }
   [[nodiscard]] unsigned daughtercards() const { return static_cast<unsigned>(sevenI77s_.size()); }
   // The 7I76's field I/O processor on the firmwares that carry a 7I76
@@ -203,6 +217,9 @@ class HostMot2Card {
   StepGen* stepgen_ = nullptr;
   PwmGen* pwmgen_ = nullptr;
   Dpll* dpll_ = nullptr;
+  InM* inm_ = nullptr;
+  Ssr* ssr_ = nullptr;
+  OutM* outm_ = nullptr;
   // The other modules whose state moves with time, IDROM order.
   std::array<Module*, 8> timed_{};
   unsigned timedCount_ = 0;

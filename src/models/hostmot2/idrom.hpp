@@ -62,6 +62,9 @@ inline constexpr std::uint8_t kSel0 = 0x81;    // MuxedQCountSel
 inline constexpr std::uint8_t kStep = 0x81;    // StepGen StepGenStepPin
 inline constexpr std::uint8_t kDir = 0x82;     // StepGen StepGenDirPin
 inline constexpr std::uint8_t kPwm = 0x81;     // PWMGen PWMAOutPin
+inline constexpr std::uint8_t kInMInput = 0x01;  // InM: + input (inm.c; mesaflash "Input<n>")
+inline constexpr std::uint8_t kSsrOut = 0x81;    // SSR: + output (ssr.c; mesaflash "Out-NN")
+inline constexpr std::uint8_t kOutMOut = 0x81;   // OutM: + output (outm.c; mesaflash "Output<n>")
 }  // namespace pincode
 
 // The pins of one 7I77 on a 17-pin connector (manual: P1 HOST INTERFACE):

@@ -50,6 +50,9 @@ void MuxedEncoder::reset() {
   rateDivisor_ = std::max((clockLow_ + hz / 2) / hz, 2U) - 2;
   setSamplePeriod();
   tsDivisor_ = 0;
+  timerSelect_ = 0;
+  latched_ = false;
+  lastLatch_ = 0;
   // Counts, CCRs and latches cleared; the filters start from the inputs as
   // they are now (the encoders do not move because the card restarts).
   for (unsigned n = 0; n < kMaxCounters; ++n) {
@@ -226,8 +229,7 @@ std::uint32_t MuxedEncoder::read(std::uint16_t address, SimTime now) {
   switch (block(address)) {
     case kCount:
       if (n >= counters_) return 0;
-      stampCount(state_[n]);
-      return static_cast<std::uint16_t>(state_[n].count) | (static_cast<std::uint32_t>(state_[n].countTimestamp) << 16);
+      return latching() ? latchedCount_[n] : countRegister(n);
     case kControl: {
       if (n >= counters_) return 0;
       const auto& c = state_[n];
@@ -241,10 +243,32 @@ std::uint32_t MuxedEncoder::read(std::uint16_t address, SimTime now) {
              (a ? 1U : 0U);
     }
     case kTimestampDiv: return tsDivisor_;
-    case kTimestamp: return timestampAt(now);
+    case kTimestamp: return latching() ? latchedTimestamp_ : timestampAt(now);
     case kRate: return rateDivisor_;
+    case kTimerSelect: return dpll_ != nullptr ? timerSelect_ : 0;
     default: return 0;
   }
+}
+
+std::uint32_t MuxedEncoder::countRegister(unsigned n) const {
+  settle(n);
+  stampCount(state_[n]);
+  return static_cast<std::uint16_t>(state_[n].count) | (static_cast<std::uint32_t>(state_[n].countTimestamp) << 16);
+}
+
+void MuxedEncoder::latchAtTimer(SimTime now) {
+  const auto edge = dpll_->lastRisingEdge((timerSelect_ >> 12) & 7U, now);
+  if (!edge || (latched_ && *edge <= lastLatch_)) return;
+  // The edge's moment (ClockLow ticks; the DPLL runs on ClockLow too), never
+  // before what the counters have already been brought to.
+  const auto tick = *edge;
+  const SimTime at{static_cast<SimTime::rep>(tick / clockLow_ * 1'000'000'000ULL +
+                                             tick % clockLow_ * 1'000'000'000ULL / clockLow_)};
+  if (at > pending_) pending_ = at;
+  for (unsigned n = 0; n < counters_; ++n) latchedCount_[n] = countRegister(n);
+  latchedTimestamp_ = timestampAt(pending_);
+  lastLatch_ = tick;
+  latched_ = true;
 }
 
 WriteResult MuxedEncoder::write(std::uint16_t address, std::uint32_t value, SimTime now) {
@@ -274,6 +298,12 @@ WriteResult MuxedEncoder::write(std::uint16_t address, std::uint32_t value, SimT
       setSamplePeriod();
       return WriteResult::Accepted;
     case kTimestamp: return WriteResult::ReadOnly;  // the free-running timestamp counter
+    case kTimerSelect:
+      if (dpll_ == nullptr) return WriteResult::Unmapped;
+      // A new selection latches from its source's next edge on.
+      if ((value & 0xF000U) != timerSelect_) latched_ = false;
+      timerSelect_ = value & 0xF000U;
+      return WriteResult::Accepted;
     default: return WriteResult::Unmapped;
   }
 }

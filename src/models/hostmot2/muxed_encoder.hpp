@@ -14,6 +14,13 @@
 //   0x3700 TSDiv     timestamp counter divisor (counts every TSDiv+2 ClockLow)
 //   0x3800 TS        the 16-bit timestamp counter
 //   0x3900 rate      11..0 mux divisor: a mux tick every divisor+2 ClockLow
+//   0x3A00 timer     (single; only with an HM2DPLL in the firmware, one past
+//                    the IDROM's five) 15 enable, 14..12 DPLL rate source
+//                    (0 reference, 1..4 timers): on the source's rising edge
+//                    every count register and the timestamp counter are
+//                    latched, and reads show the latched values (LinuxCNC
+//                    encoder.c: base + 5 strides, (timer-number << 12) |
+//                    0x8000, 0 for -1; hostmot2.9 encoder.timer-number)
 //
 // The plain (non-muxed) QCount has the same counters and registers without
 // the mux (encoder.hpp): a Variant says where its registers are and how its
@@ -29,6 +36,7 @@
 #include <array>
 #include <cstdint>
 
+#include "hostmot2/dpll.hpp"
 #include "hostmot2/module.hpp"
 #include "lbpkit/wire/muxed_encoder.hpp"
 
@@ -53,6 +61,8 @@ class MuxedEncoder : public Module {
   static constexpr std::uint16_t kTimestampDiv = 0x3700;
   static constexpr std::uint16_t kTimestamp = 0x3800;
   static constexpr std::uint16_t kRate = 0x3900;
+  static constexpr std::uint16_t kTimerSelect = 0x3A00;  // as the muxed counters number it: base + 5 strides
+  static constexpr std::uint32_t kTimerEnable = 1U << 15;
   static constexpr unsigned kMaxCounters = 12;
 
   // What differs between the muxed counters and the plain ones.
@@ -95,8 +105,12 @@ class MuxedEncoder : public Module {
     return ModuleDescriptor{variant_.tag, variant_.version, kClockLow, static_cast<std::uint8_t>(counters_), variant_.base, 5, 0, 0x03};
   }
   [[nodiscard]] bool decodes(std::uint16_t a) const override {
-    return a >= variant_.base && a < variant_.base + (kRate - kCount) + 4;
+    return (a >= variant_.base && a < variant_.base + (kRate - kCount) + 4) ||
+           (dpll_ != nullptr && a == variant_.base + (kTimerSelect - kCount));
   }
+  // The firmware's HM2DPLL (the "d" firmwares): the timer register exists
+  // and latches on its rate sources. Before the card maps its registers.
+  void attachDpll(Dpll* dpll) { dpll_ = dpll; }
   std::uint32_t read(std::uint16_t address, SimTime now) override;
   WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) override;
   // Cheap: it only notes the time. The counters catch up (settle) when
@@ -105,7 +119,10 @@ class MuxedEncoder : public Module {
   // is exact over any span (run() computes edges, it does not walk time),
   // so working only when someone looks gives the same counts for less.
   void advance(SimTime now) override {
-    if (now > pending_) pending_ = now;
+    if (now <= pending_) return;
+    if ((timerSelect_ & kTimerEnable) != 0 && dpll_ != nullptr) [[unlikely]]
+      latchAtTimer(now);
+    pending_ = now;
   }
   void reset() override;  // counts, CCRs and divisors at power-up; the encoders stay where they are
 
@@ -154,6 +171,12 @@ class MuxedEncoder : public Module {
   };
   // countTimestamp from what run() kept (under the current timestamp divisor).
   void stampCount(Counter& c) const;
+  // The count register's value for counter n, settled.
+  [[nodiscard]] std::uint32_t countRegister(unsigned n) const;
+  // Latches every count register and the timestamp counter at the selected
+  // DPLL source's last rising edge up to `now`, if it is a new one.
+  void latchAtTimer(SimTime now);
+  [[nodiscard]] bool latching() const { return (timerSelect_ & kTimerEnable) != 0 && dpll_ != nullptr && latched_; }
   // Brings counter n (or every counter) to pending_, the card's time
   // (const: a look at a counter settles it; what it is at a time does not
   // depend on when it was last looked at).
@@ -210,6 +233,12 @@ class MuxedEncoder : public Module {
   mutable SimTime lastSpan_{-1};        // run()'s last to - from
   mutable double lastSpanSeconds_ = 0;  // and the same in seconds
   SimTime pending_{};  // the card's time: settle() brings them here
+  Dpll* dpll_ = nullptr;
+  std::uint32_t timerSelect_ = 0;
+  std::uint64_t lastLatch_ = 0;  // the DPLL edge (ClockLow tick) latched last
+  bool latched_ = false;         // something was latched since the timer was enabled
+  std::array<std::uint32_t, kMaxCounters> latchedCount_{};
+  std::uint16_t latchedTimestamp_ = 0;
 };
 
 }  // namespace hm2

@@ -8,11 +8,10 @@ namespace net {
 
 namespace {
 constexpr std::uint8_t k16 = 2, k32 = 4;  // the access widths the spaces take (no space takes bytes)
-// Flash: a 16 Mbit SPI part, as on a real 7I92 (ID low byte 0x14).
-constexpr std::uint32_t kFlashId = 0x00164014;
+// Flash: the card's part (cards::Lbp16Details: its ID, whose low byte is
+// the size code, and its size); 64 KB sectors, 256-byte pages.
 using lbp16::kEepromWriteEnableKey;
 using lbp16::kFlashWriteEnableKey;
-constexpr std::uint32_t kFlashBytes = 2 * 1024 * 1024;  // 16 Mbit
 constexpr std::uint32_t kFlashSector = 64 * 1024;
 // The EEPROM's first 16 words (MAC, reserved words, card name) cannot be
 // written with the public write enable 0x5A02 (LBPPARSE.ASM lbpwrite2: word
@@ -32,7 +31,17 @@ namespace status {
 constexpr unsigned kError = 0, kParseErrors = 1, kMemErrors = 2, kWriteErrors = 3;
 constexpr unsigned kRxPackets = 4, kRxUdp = 5, kRxBad = 6, kTxPackets = 7, kTxUdp = 8, kTxBad = 9;
 constexpr unsigned kWriteEnable = lbp16::comm::kEepromWriteEnable / 2;  // 0x1A
+constexpr unsigned kConfig = 0x1E / 2;  // ICAP (Xilinx) or configuration register (Efinix)
 }  // namespace status
+
+// What reloads the FPGA through the configuration register (mesaflash
+// lbp16.c lbp16_board_reload). Xilinx: ICAP words, the IPROG command
+// (0x000E) written to the command register (0x30A1 announces one word for
+// it; Spartan-6 configuration packets). Efinix: "config enable" (bit 2) with
+// "config start" (bit 3); bit 0 picks image 1 (the user area) or 0.
+constexpr std::uint16_t kIcapWriteCommand = 0x30A1;
+constexpr std::uint16_t kIcapIprog = 0x000E;
+constexpr std::uint16_t kEfinixEnableStart = 0x000C;
 
 std::uint16_t le16(const std::uint8_t* p) { return static_cast<std::uint16_t>(p[0] | (p[1] << 8)); }
 // The firmware's counters stop at 0xFFFF rather than wrap.
@@ -62,7 +71,10 @@ const Lbp16Card::Area* Lbp16Card::area(std::uint8_t space) {
 }
 
 Lbp16Card::Lbp16Card(hm2::HostMot2Card& card, Identity identity)
-    : card_(card), identity_(std::move(identity)), flash_(kFlashBytes, 0xFF) {
+    : card_(card),
+      identity_(std::move(identity)),
+      flash_(card.description().lbp16.flashBytes, 0xFF),
+      flashBytes_(card.description().lbp16.flashBytes) {
   // EEPROM layout as hm2_eth and mesaflash read it: MAC at 0x02..0x07 (each
   // word with the first byte of its pair high; word 0x06 holds MAC[0..1]),
   // the card name at 0x10, IP at 0x20 (low word c.d) and 0x22 (high word a.b).
@@ -91,7 +103,14 @@ std::uint8_t Lbp16Card::infoByte(std::uint8_t space, std::uint32_t offset) const
   // space's address pointer, name (8 characters, NUL padded).
   const Area* a = area(space);
   if (a == nullptr) return 0;
-  const std::uint16_t words[4] = {static_cast<std::uint16_t>(lbp16::kInfoAreaCookie | space), a->sizeWord, a->ranges,
+  std::uint16_t ranges = a->ranges;
+  if (space == 3) {
+    // The flash's size (log2) from the card's part, beside its page and erase sizes.
+    unsigned log2 = 0;
+    while ((2U << log2) <= flashBytes_) ++log2;
+    ranges = static_cast<std::uint16_t>((ranges & 0xFFC0U) | log2);
+  }
+  const std::uint16_t words[4] = {static_cast<std::uint16_t>(lbp16::kInfoAreaCookie | space), a->sizeWord, ranges,
                                   pointer_[space]};
   if (offset < 8) return static_cast<std::uint8_t>(words[offset / 2] >> (8 * (offset % 2)));
   if (offset < 16) {
@@ -129,9 +148,10 @@ void Lbp16Card::noteSendFailed() { error(ErrorBit::kTx); }
 
 void Lbp16Card::waitForHm2() {
   // WaitForHM2RefTime / Timer1..4 wait for the rising edge of a HostMot2
-  // timer (the HM2DPLL module's) or HM2Timeout us. This firmware
-  // (PIN_7I77x2_34) has no DPLL, so every wait ends by the timeout and sets
-  // the HostMot2-timeout error (LBPPARSE.ASM waitforhtimer).
+  // timer (the HM2DPLL module's) or HM2Timeout us. Not modelled against the
+  // DPLL of the "d" firmwares (7I92T, 7I96S): every wait ends by the timeout
+  // and sets the HostMot2-timeout error (LBPPARSE.ASM waitforhtimer), as it
+  // does on a firmware without one.
   const std::uint16_t us = timer_[timer::kHm2Timeout];
   wait(std::chrono::microseconds(us));
   error(ErrorBit::kHm2Timeout);
@@ -167,7 +187,26 @@ std::uint16_t Lbp16Card::readWord16(std::uint8_t space, std::uint32_t address, h
   }
 }
 
-void Lbp16Card::writeWord16(std::uint8_t space, std::uint32_t address, std::uint16_t value) {
+void Lbp16Card::configure(std::uint16_t value, hm2::SimTime now) {
+  const bool efinix = card_.description().lbp16.family == hm2::cards::FpgaFamily::Efinix;
+  const bool reload = efinix ? (value & kEfinixEnableStart) == kEfinixEnableStart
+                             : icapLast_ == kIcapWriteCommand && value == kIcapIprog;
+  icapLast_ = value;
+  if (!reload) return;
+  // The whole FPGA loads again: the HostMot2 modules, and the LBP16
+  // processor in it with its spaces 4 and 6 (counters, error flags, address
+  // pointers); the Ethernet chip and the EEPROM are parts of their own.
+  ++counters_.reloads;
+  reloading_ = true;
+  card_.reconfigure(now);
+  status_.fill(0);
+  timer_.fill(0);
+  pointer_.fill(0);
+  infoPointer_ = 0;
+  icapLast_ = 0;
+}
+
+void Lbp16Card::writeWord16(std::uint8_t space, std::uint32_t address, std::uint16_t value, hm2::SimTime now) {
   const unsigned word = address / 2;
   switch (space) {
     case 1: ethernetChip_[word % ethernetChip_.size()] = value; return;
@@ -188,9 +227,10 @@ void Lbp16Card::writeWord16(std::uint8_t space, std::uint32_t address, std::uint
       return;
     case 6:
       // Every word is the host's to write (the counters and the error
-      // register too: writing 0 clears them); 0x1C reset and 0x1E ICAP
-      // reload do nothing for a virtual FPGA.
+      // register too: writing 0 clears them); 0x1C reset does nothing
+      // here; 0x1E reloads the FPGA when the card's family says so.
       status_[word % status_.size()] = value;
+      if (word == status::kConfig) configure(value, now);
       return;
     default: error(ErrorBit::kWrite); return;
   }
@@ -204,11 +244,11 @@ std::uint64_t Lbp16Card::read(std::uint8_t space, std::uint32_t address, unsigne
         case 0: return flashAddress_;
         case 4: {
           std::uint32_t v = 0;
-          for (unsigned i = 0; i < 4; ++i) v |= std::uint32_t{flash_[(flashAddress_ + i) % kFlashBytes]} << (8 * i);
-          flashAddress_ = (flashAddress_ + 4) % kFlashBytes;
+          for (unsigned i = 0; i < 4; ++i) v |= std::uint32_t{flash_[(flashAddress_ + i) % flashBytes_]} << (8 * i);
+          flashAddress_ = (flashAddress_ + 4) % flashBytes_;
           return v;
         }
-        case 8: return kFlashId;
+        case 8: return card_.description().lbp16.flashId;
         default: error(ErrorBit::kMemory); return 0;  // the erase register is write only
       }
     default: {
@@ -224,7 +264,7 @@ void Lbp16Card::write(std::uint8_t space, std::uint32_t address, unsigned size, 
     case 0: card_.write32(static_cast<std::uint16_t>(address), static_cast<std::uint32_t>(value), now); return;
     case 3: {
       if (address == 0) {
-        flashAddress_ = static_cast<std::uint32_t>(value) % kFlashBytes;
+        flashAddress_ = static_cast<std::uint32_t>(value) % flashBytes_;
         return;
       }
       if (address == 8) {
@@ -244,17 +284,18 @@ void Lbp16Card::write(std::uint8_t space, std::uint32_t address, unsigned size, 
         } else {
           // Page program: NOR flash only clears bits; the address advances.
           for (unsigned i = 0; i < 4; ++i) {
-            auto& b = flash_[(flashAddress_ + i) % kFlashBytes];
+            auto& b = flash_[(flashAddress_ + i) % flashBytes_];
             b = static_cast<std::uint8_t>(b & (value >> (8 * i)));
           }
-          flashAddress_ = (flashAddress_ + 4) % kFlashBytes;
+          flashAddress_ = (flashAddress_ + 4) % flashBytes_;
         }
       }
       flashChanged();
       return;
     }
     default:
-      for (unsigned i = 0; i < size; i += 2) writeWord16(space, address + i, static_cast<std::uint16_t>(value >> (8 * i)));
+      for (unsigned i = 0; i < size; i += 2)
+        writeWord16(space, address + i, static_cast<std::uint16_t>(value >> (8 * i)), now);
       return;
   }
 }
@@ -264,6 +305,7 @@ std::size_t Lbp16Card::handle(std::span<const std::uint8_t> request, std::span<s
   bump(status_[status::kRxPackets]);
   status_[status::kWriteEnable] = 0;  // each datagram starts without the write enable
   waited_ = std::chrono::microseconds{0};
+  reloading_ = false;
   if (request.size() > kMaxDatagram) {
     error(ErrorBit::kRx);  // bigger than one frame: a real card never receives it whole
     return 0;
@@ -271,7 +313,10 @@ std::size_t Lbp16Card::handle(std::span<const std::uint8_t> request, std::span<s
   const std::size_t limit = std::min(reply.size(), kMaxDatagram);
   std::size_t pos = 0, out = 0;
   bool clean = true;
-  while (pos < request.size()) {
+  // A reload ends the datagram: the processor parsing it is part of the FPGA
+  // (mesaflash sends the Efinix reload in a datagram whose tail it never
+  // filled in).
+  while (pos < request.size() && !reloading_) {
     if (pos + 2 > request.size()) {
       error(ErrorBit::kParse);
       clean = false;

@@ -12,7 +12,10 @@
 //     WaitForHM2Timer1..4, eight scratch words (hm2_eth echoes its packet
 //     counters there)
 //   6 communication control/status: error flags and counters, LED mode,
-//     scratch, write enable, reset   7 board info ("7I92", read only)
+//     scratch, write enable, reset, FPGA configuration (reload)
+//   7 board info ("7I92", read only)
+// What differs between cards (board name, flash, FPGA family and how it
+// reloads) comes from the card's catalogue entry (cards::Lbp16Details).
 // Each space also has a 16-byte area-info block (info-area access): cookie,
 // size and type, ranges, the space's address pointer, name.
 //
@@ -66,6 +69,7 @@ class Lbp16Card {
     std::uint64_t rxErrors = 0;      // datagrams bigger than a frame (a real card never receives them whole)
     std::uint64_t txErrors = 0;      // replies the network did not take (noteSendFailed)
     std::uint64_t hm2Timeouts = 0;   // WaitForHM2 waits that ended by HM2Timeout
+    std::uint64_t reloads = 0;       // FPGA reconfigurations the host asked for (mesaflash --reload)
   };
 
   // Bits of the error register (space 6, 0x00): set when the error happens,
@@ -126,12 +130,15 @@ class Lbp16Card {
   std::uint64_t read(std::uint8_t space, std::uint32_t address, unsigned size, hm2::SimTime now);
   void write(std::uint8_t space, std::uint32_t address, unsigned size, std::uint64_t value, hm2::SimTime now);
   std::uint16_t readWord16(std::uint8_t space, std::uint32_t address, hm2::SimTime now);
-  void writeWord16(std::uint8_t space, std::uint32_t address, std::uint16_t value);
+  void writeWord16(std::uint8_t space, std::uint32_t address, std::uint16_t value, hm2::SimTime now);
   std::uint8_t infoByte(std::uint8_t space, std::uint32_t offset) const;
   void error(std::uint16_t bit);
   // A wait of the timer space: the rest of the datagram happens this much later.
   void wait(std::chrono::microseconds us) { waited_ += us; }
   void waitForHm2();
+  // A word written to space 6's configuration register (0x1E): the
+  // card's FPGA family decides what reloads it (docs/cards.md#lbp16-per-card).
+  void configure(std::uint16_t value, hm2::SimTime now);
   void flashChanged() {
     if (saver_) saver_->changed();
   }
@@ -152,12 +159,15 @@ class Lbp16Card {
   std::array<std::uint8_t, 128> eeprom_{};
   // How long the timer space's waits have delayed this datagram so far.
   std::chrono::microseconds waited_{0};
-  // The configuration flash: a 16 Mbit part, blank or as its file kept it
+  // The configuration flash: the card's part (16 Mbit on every card here), blank or as its file kept it
   // (mesaflash --write installs its boot block and a bitfile; --verify
   // reads them back). Changed only on the card thread, under flashMutex_
   // (the saver copies it under the same lock).
   std::vector<std::uint8_t> flash_;
+  std::uint32_t flashBytes_;  // the card's part (cards::Lbp16Details)
   std::uint32_t flashAddress_ = 0;
+  std::uint16_t icapLast_ = 0;  // the previous ICAP word (Xilinx cards)
+  bool reloading_ = false;      // the FPGA reloads: the rest of this datagram is never parsed
   std::mutex flashMutex_;
   std::unique_ptr<FlashSaver> saver_;
 };

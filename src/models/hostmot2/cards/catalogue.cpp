@@ -3,6 +3,10 @@
 #include <algorithm>
 #include <cctype>
 
+#include "hostmot2/inm.hpp"
+#include "hostmot2/outm.hpp"
+#include "hostmot2/ssr.hpp"
+
 namespace hm2::cards {
 
 namespace {
@@ -30,16 +34,32 @@ void sevenI77SevenI76Pins(std::span<PinDescriptor> io) {
   place(io, 17, sevenI76Pins(0, kSevenI76Channel, 3));
 }
 
-// The 7I96S: TB3 (IO0..16) plain GPIO here (its InM, SSR and OutM modules are
-// not modelled); TB1/TB2 (IO17..33) as LinuxCNC's pncconf describes the
-// 7I96S firmwares (private_data.py, 7i96s_d): Step then Dir of StepGens
-// 0..4, the encoder's A, B and index, the RS-422 port's RX, TX and TX enable
-// (SSerial channel 3 here: the 7I77 takes 0..2, as configurations name it,
-// hm2_7i96s.0.7i77.0.0), the spindle PWM; P1 (IO34..50) the 7I77. The TB2
-// encoder is muxed counter unit 3 (counters 6 and 7), as the 7I76's is in
-// PIN_7I77_7I76_34.vhd: LinuxCNC's hostmot2 refuses a firmware with both a
-// QCount and a MuxedQCount module (encoder.c: "duplicate Module Descriptor").
+// The 7I96S: TB3 (IO0..16) as LinuxCNC's pncconf describes every 7I96S
+// firmware (private_data.py, 7i96s_d): IN0..IN10 InM inputs 0..10, OUT0..OUT3
+// SSR outputs 0..3, OUT4 and OUT5 OutM outputs 4 and 5 (the HAL names
+// public configurations use: inm.00.input-NN, ssr.00.out-00..03,
+// outm.00.out-04..05; secondary pins as inm.c, ssr.c and outm.c decode them:
+// input n is pin n + 1, output n pin 0x81 + n). TB1/TB2 (IO17..33) as
+// pncconf's 7i96s_d too: Step then Dir of StepGens 0..4, the encoder's A, B
+// and index, the RS-422 port's RX, TX and TX enable (SSerial channel 3 here:
+// the 7I77 takes 0..2, as configurations name it, hm2_7i96s.0.7i77.0.0), the
+// spindle PWM; P1 (IO34..50) the 7I77. The TB2 encoder is muxed counter unit
+// 3 (counters 6 and 7), as the 7I76's is in PIN_7I77_7I76_34.vhd: LinuxCNC's
+// hostmot2 refuses a firmware with both a QCount and a MuxedQCount module
+// (encoder.c: "duplicate Module Descriptor").
+constexpr unsigned kSevenI96SInputs = 11;
+constexpr unsigned kSevenI96SSsrOutputs = 4;
+constexpr unsigned kSevenI96SOutMOutputs = 2;
 void sevenI96SSevenI77Pins(std::span<PinDescriptor> io) {
+  std::array<PinDescriptor, 17> tb3{};
+  unsigned at = 0;
+  for (unsigned n = 0; n < kSevenI96SInputs; ++n)
+    tb3[at++] = PinDescriptor{static_cast<std::uint8_t>(kInMInput + n), InM::kTag, 0};
+  for (unsigned n = 0; n < kSevenI96SSsrOutputs; ++n)
+    tb3[at++] = PinDescriptor{static_cast<std::uint8_t>(kSsrOut + n), Ssr::kTag, 0};
+  for (unsigned n = kSevenI96SSsrOutputs; n < kSevenI96SSsrOutputs + kSevenI96SOutMOutputs; ++n)
+    tb3[at++] = PinDescriptor{static_cast<std::uint8_t>(kOutMOut + n), OutM::kTag, 0};
+  place(io, 0, tb3);
   std::array<PinDescriptor, 17> tb{};
   for (std::uint8_t n = 0; n < 5; ++n) {
     tb[2U * n] = PinDescriptor{kStep, tag::kStepGen, n};
@@ -78,9 +98,10 @@ constexpr ModuleEntry kSevenI77x2D[] = {{P::Dpll, 1},        {P::Watchdog, 1},  
 constexpr ModuleEntry kSevenI77SevenI76D[] = {{P::Dpll, 1},       {P::Watchdog, 1},       {P::IoPort, 2},
                                               {P::MuxedQCount, 8}, {P::MuxedQCountSel, 1}, {P::SSerial, 5},
                                               {P::StepGen, 5},     {P::Led, 4}};
-constexpr ModuleEntry kSevenI96SSevenI77[] = {{P::Dpll, 1},           {P::Watchdog, 1}, {P::IoPort, 3},
-                                              {P::StepGen, 5},        {P::MuxedQCount, 8}, {P::MuxedQCountSel, 1},
-                                              {P::SSerial, 4},        {P::PwmGen, 1},   {P::Led, 4}};
+constexpr ModuleEntry kSevenI96SSevenI77[] = {
+    {P::Dpll, 1},    {P::Watchdog, 1}, {P::IoPort, 3},          {P::StepGen, 5},
+    {P::MuxedQCount, 8}, {P::MuxedQCountSel, 1}, {P::SSerial, 4}, {P::PwmGen, 1},
+    {P::InM, kSevenI96SInputs}, {P::Ssr, 1}, {P::OutM, 1}, {P::Led, 4}};
 constexpr ModuleEntry kSevenI77Of72[] = {{P::Watchdog, 1}, {P::IoPort, 3},         {P::MuxedQCount, 6},
                                          {P::MuxedQCountSel, 1}, {P::SSerial, 3}, {P::Led, 4}};
 
@@ -116,15 +137,25 @@ constexpr Firmware k7I80HDFirmwares[] = {
 // itself MESA7I96 (a 7I96S's readhmid; LinuxCNC's pncconf tells the two apart
 // by the 20 KGates); the 7I80HD-25 from i80hd_x25card.vhd and IDROMConst.vhd
 // (ClockLow80, ClockHigh80).
+//
+// LBP16 details: every card a 16 Mbit flash (size code 0x14). The 7I92's is
+// a W25Q16 (Mesa, LinuxCNC forum); on a real 7I96S mesaflash verifies from
+// 0x100000, the user area it computes for size code 0x14 (eeprom.c
+// eeprom_calc_user_space), so its flash reports 16 Mbit too; the 7I92T (the
+// 7I96S's FPGA) and the 7I80HD-25 (a Spartan-6 LX25's bitstream fits the 1 MB
+// user area) are lbpkit's inference. Which FPGA family: mesaflash's
+// eth_boards.c (FPGA_TYPE_EFINIX for 7I92T and 7I96S).
+constexpr Lbp16Details kXilinx16Mbit{FpgaFamily::Xilinx, 0x00164014, 2 * 1024 * 1024};
+constexpr Lbp16Details kEfinix16Mbit{FpgaFamily::Efinix, 0x00164014, 2 * 1024 * 1024};
 constexpr Card kCards[] = {
     {"7I92", "7i92", BoardIdentity{"MESA7I92", 9, 144, 2, 17, 100'000'000, 200'000'000}, {"P2", "P1", "", ""},
-     "6slx9tqg144", 4, k7I92Firmwares},
+     "6slx9tqg144", 4, k7I92Firmwares, kXilinx16Mbit},
     {"7I92T", "7i92", BoardIdentity{"MESA7I92", 20, 256, 2, 17, 100'000'000, 200'000'000}, {"P2", "P1", "", ""},
-     "T20F256", 4, k7I92TFirmwares},
+     "T20F256", 4, k7I92TFirmwares, kEfinix16Mbit},
     {"7I96S", "7i96s", BoardIdentity{"MESA7I96", 20, 256, 3, 17, 100'000'000, 200'000'000},
-     {"TB3", "TB1/TB2", "P1", ""}, "T20F256", 4, k7I96SFirmwares},
+     {"TB3", "TB1/TB2", "P1", ""}, "T20F256", 4, k7I96SFirmwares, kEfinix16Mbit},
     {"7I80HD-25", "7i80", BoardIdentity{"MESA7I80", 25, 256, 3, 24, 100'000'000, 200'000'000}, {"P1", "P2", "P3", ""},
-     "6slx25ftg256", 4, k7I80HDFirmwares},
+     "6slx25ftg256", 4, k7I80HDFirmwares, kXilinx16Mbit},
 };
 
 bool sameName(std::string_view a, std::string_view b) {
@@ -151,6 +182,9 @@ std::string_view partName(Part part) {
     case Part::MuxedQCountSel: return "MuxedQCountSel";
     case Part::SSerial: return "SSerial";
     case Part::PwmGen: return "PWMGen";
+    case Part::InM: return "InM";
+    case Part::Ssr: return "SSR";
+    case Part::OutM: return "OutM";
     case Part::Led: return "LED";
   }
   return "unknown";

@@ -34,11 +34,25 @@ enum class Pinout : std::uint8_t {
 };
 
 // The modules a card can be built with.
-enum class Part : std::uint8_t { Dpll, Watchdog, IoPort, StepGen, MuxedQCount, MuxedQCountSel, SSerial, PwmGen, Led };
+enum class Part : std::uint8_t {
+  Dpll,
+  Watchdog,
+  IoPort,
+  StepGen,
+  MuxedQCount,
+  MuxedQCountSel,
+  SSerial,
+  PwmGen,
+  InM,
+  Ssr,
+  OutM,
+  Led,
+};
 [[nodiscard]] std::string_view partName(Part part);
 
 // One IDROM module record's worth: which module, how many instances
-// (IOPort: ports; SSerial: channels of its one instance; LED: LEDs).
+// (IOPort: ports; SSerial: channels of its one instance; InM: inputs of its
+// one instance; LED: LEDs).
 struct ModuleEntry {
   Part part;
   std::uint8_t count;
@@ -65,6 +79,21 @@ struct Firmware {
   void (*pins)(std::span<PinDescriptor> io);
 };
 
+// What a card's LBP16 processor says of its FPGA and configuration flash
+// (docs/cards.md#lbp16-per-card): what mesaflash's --verbose, --write,
+// --verify and --reload meet.
+enum class FpgaFamily : std::uint8_t {
+  Xilinx,  // Spartan-6: a boot block at 0, the firmware at the flash's user area; reload through ICAP (IPROG)
+  Efinix,  // Trion T20: no boot block; reload by the configuration register's image select and start bits
+};
+struct Lbp16Details {
+  FpgaFamily family = FpgaFamily::Xilinx;
+  // Space 3's ID register (0x8): mesaflash reads its low byte as the size
+  // code (0x14: 16 Mbit) and puts the firmware at that size's user area.
+  std::uint32_t flashId = 0x00164014;
+  std::uint32_t flashBytes = 2 * 1024 * 1024;
+};
+
 struct Card {
   std::string_view name;     // LBP16 board name (space 7): mesaflash --device, lbpkit sim --card
   std::string_view halName;  // hm2_eth's board name: its pins are hm2_<halName>.0.*
@@ -73,6 +102,7 @@ struct Card {
   std::string_view fpga;     // mesaflash's FPGA part
   unsigned leds = 4;
   std::span<const Firmware> firmwares;  // the first is the default
+  Lbp16Details lbp16{};
 };
 
 // Every card lbpkit models; the 7I92 first (the default).
