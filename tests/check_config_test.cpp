@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
+#include <sstream>
 
 #include "hal/config_check.hpp"
 #include "hal/hm2_pins.hpp"
@@ -174,9 +175,24 @@ TEST(HalPins, EditDistance) {
 
 fs::path corpus() { return fs::path(LBPKIT_SOURCE_DIR) / "tests/check_config"; }
 
-testing_process::Result check(const fs::path& file, bool asJson = false) {
+// The options a corpus file asks for on its "# check-config args: ..." line
+// (--card, --pinout: the card it is to be checked as).
+std::vector<std::string> argsOf(const fs::path& file) {
+  std::ifstream in(file);
+  std::vector<std::string> out;
+  for (std::string line; std::getline(in, line);) {
+    const std::string tag = "# check-config args: ";
+    if (line.rfind(tag, 0) != 0) continue;
+    std::istringstream words(line.substr(tag.size()));
+    for (std::string w; words >> w;) out.push_back(w);
+  }
+  return out;
+}
+
+testing_process::Result check(const fs::path& file, bool asJson = false, const std::vector<std::string>& extra = {}) {
   std::vector<std::string> args{"check-config", file.string()};
   if (asJson) args.emplace_back("--json");
+  args.insert(args.end(), extra.begin(), extra.end());
   return testing_process::run(args);
 }
 
@@ -239,7 +255,7 @@ TEST(CheckConfig, EveryBrokenConfigurationIsCaughtWhereItsCommentSays) {
     const auto want = expectation(p);
     ASSERT_TRUE(want) << p << " has no \"# expect:\" line";
     ++n;
-    const auto r = check(checked, true);
+    const auto r = check(checked, true, argsOf(p));
     EXPECT_EQ(r.exit, 1) << p << "\n" << r.out << r.err;
     const auto j = json::parse(r.out, nullptr, false);
     ASSERT_FALSE(j.is_discarded()) << r.out << r.err;
@@ -257,7 +273,7 @@ TEST(CheckConfig, EveryBrokenConfigurationIsCaughtWhereItsCommentSays) {
     EXPECT_TRUE(found) << p << ": no finding at line " << want->line << " saying \"" << want->reason << "\"\n"
                        << j["findings"].dump(2);
   }
-  EXPECT_GE(n, 14);
+  EXPECT_GE(n, 18);
 }
 
 TEST(CheckConfig, TextOutputSaysFileLineReasonAndNearestName) {
@@ -296,6 +312,102 @@ TEST(Pins, ListsEachModesPinsForTheVirtualCard) {
   EXPECT_TRUE(two.count("hm2_7i92.0.7i77.0.4.analogout0 float IN"));
   EXPECT_TRUE(two.count("hm2_7i92.0.encoder.11.count s32 OUT"));
   EXPECT_FALSE(mode0.count("hm2_7i92.0.7i77.0.4.analogout0 float IN"));
+}
+
+// Issue 17 follow-up: a board name stands for every card of the catalogue
+// hm2_eth gives it (hm2_7i92: the 7I92 and the 7I92T) with each of their
+// firmwares; check-config takes the one under which the configuration has
+// the fewest errors (the first on a tie) and says which; --card and
+// --pinout choose instead.
+TEST(CheckConfig, PicksTheCardAndFirmwareWithTheFewestErrors) {
+  const auto mill = check(fs::path(LBPKIT_SOURCE_DIR) / "examples/linuxcnc/mill/mill.ini");
+  EXPECT_EQ(mill.exit, 0) << mill.out << mill.err;
+  EXPECT_NE(mill.out.find("(mill.hal:9): 7I92 (7I77x2 firmware), 7I77 on channel 0 (mode 0)"), std::string::npos)
+      << mill.out;
+  const auto stepper = corpus() / "good/7i92t_stepgens_dpll.hal";
+  const auto picked = check(stepper, true);
+  EXPECT_EQ(picked.exit, 0) << picked.out << picked.err;
+  const auto j = json::parse(picked.out, nullptr, false);
+  ASSERT_FALSE(j.is_discarded()) << picked.out;
+  EXPECT_EQ(j["boards"][0]["model"].get<std::string>().rfind("7I92T (7I77+7I76 firmware), 7I77 on channel 0", 0), 0U)
+      << j.dump(2);
+  EXPECT_EQ(j["boards"][0]["candidates"], 5) << "the 7I92's three firmwares and the 7I92T's two";
+  // Forced to the plain 7I92's firmware without the HM2DPLL: every DPLL
+  // timer name is an error.
+  const auto forced = check(stepper, false, {"--card", "7I92", "--pinout", "7I77+7I76"});
+  EXPECT_EQ(forced.exit, 1) << forced.out;
+  EXPECT_NE(forced.out.find("7I92 (7I77+7I76 firmware), 7I77 on channel 0"), std::string::npos) << forced.out;
+  EXPECT_NE(forced.out.find("7i92t_stepgens_dpll.hal:14: error: the 7I92 (7I77+7I76 firmware) has no HM2DPLL"),
+            std::string::npos)
+      << forced.out;
+  EXPECT_NE(forced.out.find("stepgen.timer-number exists only on a firmware with an HM2DPLL"), std::string::npos)
+      << forced.out;
+  EXPECT_NE(forced.out.find("3 errors"), std::string::npos) << forced.out;
+  // A card of another LinuxCNC name, or a firmware it does not have.
+  const auto other = check(stepper, false, {"--card", "7I96S"});
+  EXPECT_EQ(other.exit, 1);
+  EXPECT_NE(other.out.find("no card 7I96S of the catalogue is hm2_7i92.0"), std::string::npos) << other.out;
+  const auto none = testing_process::run({"check-config", stepper.string(), "--card", "7I99"});
+  EXPECT_NE(none.exit, 0);
+  EXPECT_NE((none.out + none.err).find("7I92, 7I92T, 7I96S, 7I80HD-25"), std::string::npos) << none.out << none.err;
+}
+
+// The stepper-Z mill (a 7I92T + 7I77 + 7I76, a stepper on StepGen 0 timed by
+// the HM2DPLL) passes as the 7I92T with its 7I77+7I76 firmware.
+TEST(CheckConfig, TheStepperZMillPasses) {
+  const auto ini = fs::path(LBPKIT_SOURCE_DIR) / "examples/linuxcnc/mill-stepper-z/mill.ini";
+  if (!fs::exists(ini)) GTEST_SKIP() << ini << " is not there";
+  const auto r = check(ini);
+  EXPECT_EQ(r.exit, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("7I92T (7I77+7I76 firmware), 7I77 on channel 0 (mode 0)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("no problems"), std::string::npos) << r.out;
+}
+
+TEST(Pins, ListsEachCardsModules) {
+  auto pins = [](const std::vector<std::string>& extra, const std::string& config) {
+    std::vector<std::string> args{"pins", "--config", config, "--json"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto r = testing_process::run(args);
+    EXPECT_EQ(r.exit, 0) << r.err;
+    return json::parse(r.out, nullptr, false);
+  };
+  auto has = [](const json& j, const std::string& name, const std::string& type, const std::string& dir) {
+    for (const char* kind : {"pins", "params"})
+      for (const auto& i : j[kind])
+        if (i["name"] == name) return i["type"] == type && i["dir"] == dir;
+    return false;
+  };
+  const auto s96 = pins({"--card", "7I96S"}, "num_encoders=8 num_stepgens=5 num_pwmgens=1 sserial_port_0=00xx");
+  EXPECT_EQ(s96["board"], "hm2_7i96s.0");
+  EXPECT_TRUE(has(s96, "hm2_7i96s.0.stepgen.04.position-cmd", "float", "IN"));
+  EXPECT_TRUE(has(s96, "hm2_7i96s.0.stepgen.00.counts", "s32", "OUT"));
+  EXPECT_TRUE(has(s96, "hm2_7i96s.0.stepgen.00.dirsetup", "u32", "RW"));
+  EXPECT_TRUE(has(s96, "hm2_7i96s.0.stepgen.timer-number", "s32", "IN"));
+  EXPECT_TRUE(has(s96, "hm2_7i96s.0.encoder.timer-number", "s32", "IN"));
+  EXPECT_TRUE(has(s96, "hm2_7i96s.0.pwmgen.00.value", "float", "IN"));
+  EXPECT_TRUE(has(s96, "hm2_7i96s.0.pwmgen.pwm_frequency", "u32", "RW"));
+  EXPECT_TRUE(has(s96, "hm2_7i96s.0.dpll.01.timer-us", "float", "IN"));
+  EXPECT_TRUE(has(s96, "hm2_7i96s.0.dpll.phase-error-us", "float", "OUT"));
+  EXPECT_TRUE(has(s96, "hm2_7i96s.0.stepgen.00.step.invert_output", "bit", "RW"));
+  EXPECT_TRUE(has(s96, "hm2_7i96s.0.pwmgen.00.out0.is_opendrain", "bit", "RW"));
+  const auto few = pins({"--card", "7I96S"}, "num_stepgens=1 num_pwmgens=0 num_dplls=0 sserial_port_0=00xx");
+  EXPECT_TRUE(has(few, "hm2_7i96s.0.stepgen.00.enable", "bit", "IN"));
+  EXPECT_FALSE(has(few, "hm2_7i96s.0.stepgen.01.enable", "bit", "IN"));
+  EXPECT_FALSE(has(few, "hm2_7i96s.0.pwmgen.00.value", "float", "IN"));
+  EXPECT_FALSE(has(few, "hm2_7i96s.0.dpll.01.timer-us", "float", "IN"));
+  EXPECT_TRUE(has(few, "hm2_7i96s.0.stepgen.timer-number", "s32", "IN")) << "the DPLL is there, num_dplls or not";
+  EXPECT_TRUE(has(few, "hm2_7i96s.0.gpio.019.out", "bit", "IN")) << "StepGen 1's Step is GPIO again";
+  const auto plain = pins({}, "sserial_port_0=00xxxx");
+  EXPECT_EQ(plain["board"], "hm2_7i92.0");
+  EXPECT_FALSE(has(plain, "hm2_7i92.0.stepgen.timer-number", "s32", "IN"));
+  const auto i76 = pins({"--card", "7I92", "--pinout", "7I77+7I76"}, "num_stepgens=5 sserial_port_0=00x0x");
+  EXPECT_TRUE(has(i76, "hm2_7i92.0.stepgen.04.position-cmd", "float", "IN"));
+  EXPECT_TRUE(has(i76, "hm2_7i92.0.7i76.0.3.spinout", "float", "IN"));
+  EXPECT_FALSE(has(i76, "hm2_7i92.0.stepgen.timer-number", "s32", "IN")) << "no HM2DPLL on a 7I92";
+  EXPECT_EQ(pins({"--card", "7I80HD-25"}, "sserial_port_0=00x")["board"], "hm2_7i80.0");
+  const auto bad = testing_process::run({"pins", "--card", "7I92T", "--pinout", "7I77x9"});
+  EXPECT_NE(bad.exit, 0);
+  EXPECT_NE((bad.out + bad.err).find("\"7I77+7I76\", \"7I77x2\""), std::string::npos) << bad.out << bad.err;
 }
 
 }  // namespace

@@ -20,6 +20,8 @@ namespace {
 struct CheckOptions {
   std::string file;
   bool json = false;
+  std::string card;    // --card: only this card of the catalogue
+  std::string pinout;  // --pinout: only this firmware
 };
 
 // The configuration with every channel it enables in mode `digit`.
@@ -33,48 +35,84 @@ lbpkit::hal::Hm2Config inMode(lbpkit::hal::Hm2Config c, char digit) {
   return c;
 }
 
-// The boards lbpkit knows: the 7I92 it simulates, and the 5I25 and 6I25 PCI
-// cards with Mesa's 7I77x2 firmware (PIN_7I77x2_34, the pinout the virtual
-// 7I92 serves: the same modules on the same 34 IO pins).
-bool model(lbpkit::hal::Board& b, const lbpkit::hal::Hm2Config& config, unsigned sevenI77s) {
-  const auto dot = b.prefix.find('.');
-  const auto kind = b.prefix.substr(4, dot - 4);
+// What a board of the configuration may be. hm2_eth boards: every card of
+// the catalogue with that LinuxCNC name (hm2_7i92: the 7I92 and the 7I92T),
+// each firmware, in catalogue order (--card and --pinout narrow it down);
+// hm2_pci: the 5I25 and 6I25 with Mesa's 7I77x2 firmware (PIN_7I77x2_34, the
+// pinout of the 7I92's 7I77x2 firmware: the same modules on the same 34 IO
+// pins).
+std::vector<lbpkit::hal::Board> model(const CheckOptions& o, const lbpkit::hal::Board& loaded,
+                                      const lbpkit::hal::Hm2Config& config, unsigned sevenI77s, std::string& whyNot) {
+  const auto dot = loaded.prefix.find('.');
+  const auto kind = loaded.prefix.substr(4, dot - 4);
   unsigned index = 0;
   try {
-    index = static_cast<unsigned>(std::stoul(b.prefix.substr(dot + 1)));
+    index = static_cast<unsigned>(std::stoul(loaded.prefix.substr(dot + 1)));
   } catch (const std::exception&) {
-    b.description = "its name has no board number";
-    return false;
+    whyNot = "its name has no board number";
+    return {};
   }
-  std::string boardName;
-  lbpkit::hal::Driver driver = lbpkit::hal::Driver::Eth;
-  if (kind == "7i92") {
-    boardName = "MESA7I92";
-  } else if (kind == "5i25" || kind == "6i25") {
-    boardName = kind == "5i25" ? "MESA5I25" : "MESA6I25";
-    driver = lbpkit::hal::Driver::Pci;
-  } else {
-    b.description = "lbpkit knows the 7I92 (hm2_eth) and the 5I25 and 6I25 with the 7I77x2 firmware (hm2_pci)";
-    return false;
-  }
-  auto items = [&](const lbpkit::hal::Hm2Config& c, std::string* description) {
-    auto card = app::virtualCard(sevenI77s, c);
-    card.info.boardName = boardName;
-    if (description) {
-      *description = boardName.substr(4) + (driver == lbpkit::hal::Driver::Pci ? " (7I77x2 firmware)" : "");
-      for (const auto& r : card.remotes)
-        if (c.mode(r.port, r.channel) != 'x')
-          *description += fmt::format(", {} on channel {} (mode {})", r.name, r.channel, r.mode);
-    }
-    return lbpkit::hal::hostmot2Items(card.info, c, card.remotes, driver, index);
+  struct Candidate {
+    const hm2::cards::Card* card;
+    const hm2::cards::Firmware* firmware;
   };
-  b.items = items(config, &b.description);
-  for (char d = '0'; d <= '3'; ++d) b.itemsInMode[d] = items(inMode(config, d), nullptr);
-  return true;
+  std::vector<Candidate> candidates;
+  std::string pciName;
+  if (kind == "5i25" || kind == "6i25") {
+    pciName = kind == "5i25" ? "5I25" : "6I25";
+    const auto& card = hm2::cards::defaultCard();
+    candidates.push_back({&card, hm2::cards::firmware(card, hm2::cards::Pinout::SevenI77x2)});
+  } else {
+    std::string known;
+    for (const auto& card : hm2::cards::all()) {
+      known += fmt::format("{}{} ({})", known.empty() ? "" : ", ", lbpkit::hal::boardPrefix(std::string(card.halName), 0),
+                           card.name);
+      if (card.halName != kind) continue;
+      if (!o.card.empty() && hm2::cards::find(o.card) != &card) continue;
+      for (const auto& firmware : card.firmwares)
+        if (o.pinout.empty() || hm2::cards::firmware(card, o.pinout) == &firmware) candidates.push_back({&card, &firmware});
+    }
+    if (candidates.empty()) {
+      whyNot = !o.card.empty() || !o.pinout.empty()
+                   ? fmt::format("no card{}{} of the catalogue is {} (lbpkit knows {})",
+                                 o.card.empty() ? "" : " " + o.card, o.pinout.empty() ? "" : " with firmware " + o.pinout,
+                                 loaded.prefix, known)
+                   : fmt::format("lbpkit knows {} (hm2_eth) and the 5I25 and 6I25 with the 7I77x2 firmware (hm2_pci)",
+                                 known);
+      return {};
+    }
+  }
+  const auto driver = pciName.empty() ? lbpkit::hal::Driver::Eth : lbpkit::hal::Driver::Pci;
+  std::vector<lbpkit::hal::Board> out;
+  for (const auto& c : candidates) {
+    auto items = [&](const lbpkit::hal::Hm2Config& hm2Config, lbpkit::hal::Board* board) {
+      auto card = app::virtualCard(*c.card, *c.firmware, sevenI77s, hm2Config);
+      if (!pciName.empty()) card.info.boardName = "MESA" + pciName;
+      if (board) {
+        board->model = fmt::format("{} ({} firmware)", pciName.empty() ? std::string(c.card->name) : pciName,
+                                   c.firmware->name);
+        board->description = board->model;
+        board->modules = lbpkit::hal::moduleInstances(card.info);
+        for (const auto& r : card.remotes)
+          if (hm2Config.mode(r.port, r.channel) != 'x')
+            board->description += fmt::format(", {} on channel {} (mode {})", r.name, r.channel, r.mode);
+        board->loadProblems = lbpkit::hal::hm2CountProblems(card.info, hm2Config);
+      }
+      return lbpkit::hal::hostmot2Items(card.info, hm2Config, card.remotes, driver, index,
+                                        pciName.empty() ? card.halName : std::string());
+    };
+    auto b = loaded;
+    b.items = items(config, &b);
+    for (char d = '0'; d <= '3'; ++d) b.itemsInMode[d] = items(inMode(config, d), nullptr);
+    out.push_back(std::move(b));
+  }
+  return out;
 }
 
 int runCheck(const CheckOptions& o) {
-  const auto result = lbpkit::hal::checkConfig(o.file, model);
+  const auto result = lbpkit::hal::checkConfig(
+      o.file, [&o](const lbpkit::hal::Board& loaded, const lbpkit::hal::Hm2Config& config, unsigned sevenI77s,
+                   std::string& whyNot) { return model(o, loaded, config, sevenI77s, whyNot); });
   unsigned errors = 0, warnings = 0;
   for (const auto& f : result.findings) (f.severity == "error" ? errors : warnings)++;
   if (o.json) {
@@ -90,6 +128,7 @@ int runCheck(const CheckOptions& o) {
                                {"config", b.config},
                                {"loaded_at", fmt::format("{}:{}", b.file, b.line)},
                                {"model", b.description},
+                               {"candidates", b.candidates},
                                {"pins_and_params", b.items.size()}});
     out["findings"] = nlohmann::json::array();
     for (const auto& f : result.findings) {
@@ -125,5 +164,14 @@ void addCheckConfigCommand(CLI::App& app) {
                                  "hostmot2 pins and parameters the card will have; exit status 1 on a problem");
   cmd->add_option("file", o->file, "FILE.ini or FILE.hal")->required();
   cmd->add_flag("--json", o->json, "Machine-readable output");
-  cmd->callback([o] { app::gRun = [o] { return runCheck(*o); }; });
+  cmd->add_option("--card", o->card,
+                  "The card the hm2_eth board is (" + hm2::cards::names() +
+                      "; default: of the cards with the board's LinuxCNC name, the one whose firmware gives the "
+                      "fewest errors)");
+  cmd->add_option("--pinout", o->pinout, "Its firmware, as lbpkit sim's pinout (default: as --card)");
+  cmd->callback([o] {
+    if (!o->card.empty() && hm2::cards::find(o->card) == nullptr)
+      throw CLI::ValidationError("--card", o->card + ": lbpkit knows " + hm2::cards::names());
+    app::gRun = [o] { return runCheck(*o); };
+  });
 }

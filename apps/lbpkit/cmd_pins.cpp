@@ -8,6 +8,7 @@
 #include "common.hpp"
 #include "hal_card.hpp"
 #include "lbpkit/error.hpp"
+#include "lbpkit/lbp16_transport.hpp"
 
 namespace app {
 extern std::function<int()> gRun;
@@ -19,6 +20,8 @@ struct PinsOptions {
   app::CardOptions card;
   std::string config = "sserial_port_0=00000000";
   unsigned sevenI77s = 1;
+  std::string cardName;  // --card: the in-process card of the catalogue
+  std::string pinout;    // --pinout: its firmware
   bool json = false;
   bool params = true;
   bool pins = true;
@@ -31,21 +34,32 @@ int runPins(const PinsOptions& o) {
   if (!o.card.modes.empty()) throw lbpkit::Error("--modes: give the modes in --config as sserial_port_0=... (as LinuxCNC)");
   lbpkit::CardInfo info;
   std::vector<lbpkit::hal::Remote> remotes;
+  std::string halName;
   if (!o.card.addr.empty()) {
     if (o.sevenI77s != 1) throw lbpkit::Error("--7i77s is for the in-process card: a card on the network is what it is");
+    if (!o.cardName.empty() || !o.pinout.empty())
+      throw lbpkit::Error("--card and --pinout are for the in-process card: a card on the network is what it is");
     auto card = app::openCard(o.card);
     info = card.info;
+    // hm2_eth names the board from its LBP16 board name, not the IDROM's.
+    if (auto* lbp16 = dynamic_cast<lbpkit::Lbp16Transport*>(card.transport.get()))
+      halName = lbpkit::hal::hm2EthBoardName(lbp16->boardName());
     remotes = app::discoverRemotes(*card.transport, info, config);
   } else {
-    if (o.sevenI77s < 1 || o.sevenI77s > 2) throw lbpkit::Error("--7i77s: the virtual 7I92 carries 1 or 2 7I77s");
-    auto card = app::virtualCard(o.sevenI77s, config);
+    const auto [c, firmware] = app::catalogueChoice(o.cardName, o.pinout);
+    if (o.sevenI77s < 1 || o.sevenI77s > firmware->sevenI77s.size())
+      throw lbpkit::Error(fmt::format("--7i77s: the {}'s {} firmware carries {} 7I77{}", c->name, firmware->name,
+                                      firmware->sevenI77s.size() == 1 ? "one" : "1 or 2",
+                                      firmware->sevenI77s.size() == 1 ? "" : "s"));
+    auto card = app::virtualCard(*c, *firmware, o.sevenI77s, config);
     info = card.info;
     remotes = std::move(card.remotes);
+    halName = card.halName;
   }
-  const auto items = lbpkit::hal::hostmot2Items(info, config, remotes, lbpkit::hal::Driver::Eth);
+  const auto items = lbpkit::hal::hostmot2Items(info, config, remotes, lbpkit::hal::Driver::Eth, 0, halName);
   if (o.json) {
     nlohmann::json out;
-    out["board"] = lbpkit::hal::boardPrefix(info);
+    out["board"] = halName.empty() ? lbpkit::hal::boardPrefix(info) : lbpkit::hal::boardPrefix(halName, 0);
     out["config"] = o.config;
     out["pins"] = nlohmann::json::array();
     out["params"] = nlohmann::json::array();
@@ -79,7 +93,12 @@ void addPinsCommand(CLI::App& app) {
   cmd->add_option("--config", o->config,
                   "hostmot2's config= string, e.g. \"num_encoders=6 sserial_port_0=00xxxx\" (default: every module, "
                   "every channel in mode 0)");
-  cmd->add_option("--7i77s", o->sevenI77s, "With the in-process card: how many 7I77s it carries (1 or 2)");
+  cmd->add_option("--7i77s", o->sevenI77s,
+                  "With the in-process card: how many 7I77s it carries (2 on a 7I77x2 firmware)");
+  cmd->add_option("--card", o->cardName,
+                  "With the in-process card: which card of the catalogue (" + hm2::cards::names() +
+                      "; docs/cards.md), as lbpkit sim --card");
+  cmd->add_option("--pinout", o->pinout, "With the in-process card: its firmware (default: the card's first)");
   cmd->add_flag("!--no-params", o->params, "Pins only");
   cmd->add_flag("!--no-pins", o->pins, "Parameters only");
   cmd->add_flag("--json", o->json, "Machine-readable output");

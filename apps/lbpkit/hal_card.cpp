@@ -1,5 +1,8 @@
 #include "hal_card.hpp"
 
+#include <fmt/format.h>
+
+#include "lbpkit/error.hpp"
 #include "lbpkit/sserial.hpp"
 #include "sim_card/sim_transport.hpp"
 
@@ -31,14 +34,29 @@ std::vector<lbpkit::hal::Remote> discoverRemotes(lbpkit::Transport& t, const lbp
   return out;
 }
 
-VirtualCard virtualCard(unsigned sevenI77s, const lbpkit::hal::Hm2Config& config) {
+VirtualCard virtualCard(const hm2::cards::Card& card, const hm2::cards::Firmware& firmware, unsigned sevenI77s,
+                        const lbpkit::hal::Hm2Config& config) {
   hm2::HostMot2Card::Options options;
-  if (sevenI77s > 1) options.second.emplace();
+  options.card = &card;
+  options.pinout = firmware.pinout;
+  if (sevenI77s > 1 && firmware.sevenI77s.size() > 1) options.second.emplace();
   lbpkit::SimTransport sim(std::move(options));
   VirtualCard c;
   c.info = lbpkit::readCardInfo(sim);
   c.remotes = discoverRemotes(sim, c.info, config);
+  c.halName = std::string(card.halName);
   return c;
+}
+
+std::pair<const hm2::cards::Card*, const hm2::cards::Firmware*> catalogueChoice(const std::string& card,
+                                                                               const std::string& pinout) {
+  const auto* c = card.empty() ? &hm2::cards::defaultCard() : hm2::cards::find(card);
+  if (!c) throw lbpkit::Error(fmt::format("--card {}: lbpkit knows {}", card, hm2::cards::names()));
+  const auto* f = pinout.empty() ? &c->firmwares.front() : hm2::cards::firmware(*c, pinout);
+  if (!f)
+    throw lbpkit::Error(
+        fmt::format("--pinout {}: the {}'s firmwares are {}", pinout, c->name, hm2::cards::firmwareNames(*c)));
+  return {c, f};
 }
 
 }  // namespace app

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "hal/hm2_pins.hpp"
+#include "hostmot2/cards/catalogue.hpp"
 #include "lbpkit/transport.hpp"
 
 namespace app {
@@ -16,12 +17,22 @@ namespace app {
 std::vector<lbpkit::hal::Remote> discoverRemotes(lbpkit::Transport& t, const lbpkit::CardInfo& card,
                                                  const lbpkit::hal::Hm2Config& config);
 
-// The in-process virtual 7I92 with `sevenI77s` (1 or 2) 7I77s: its IDROM and
-// remotes, no network (check-config's model of a 7I92 or 7I76E machine).
+// An in-process virtual card of the catalogue (docs/cards.md) with one of
+// its firmwares and `sevenI77s` 7I77s (2 only where the firmware has a
+// second 7I77 connector): its IDROM, its remotes, no network (check-config's
+// model of a machine, `lbpkit pins` without --addr).
 struct VirtualCard {
   lbpkit::CardInfo info;
   std::vector<lbpkit::hal::Remote> remotes;
+  std::string halName;  // hm2_eth's name for it: "7i92"
 };
-VirtualCard virtualCard(unsigned sevenI77s, const lbpkit::hal::Hm2Config& config);
+VirtualCard virtualCard(const hm2::cards::Card& card, const hm2::cards::Firmware& firmware, unsigned sevenI77s,
+                        const lbpkit::hal::Hm2Config& config);
+
+// --card NAME and --pinout NAME as given (either may be empty): the card
+// (the default when no name) and its firmware (the card's default when no
+// name). Throws lbpkit::Error naming the cards or firmwares there are.
+std::pair<const hm2::cards::Card*, const hm2::cards::Firmware*> catalogueChoice(const std::string& card,
+                                                                               const std::string& pinout);
 
 }  // namespace app

@@ -261,6 +261,241 @@ std::string sserialSummary(const Hm2Config& c) {
   return s.empty() ? "no sserial_port_N (every channel in mode 0)" : trim(s);
 }
 
+// Why a module's name (stepgen.05.enable, dpll.01.timer-us,
+// stepgen.timer-number) is not there: no such module in the firmware, not
+// that many instances, left out by the config= string, or no HM2DPLL.
+std::string moduleReason(const Board& b, const std::string& module, const std::string& number, const std::string& rest,
+                         const Hm2Config& config) {
+  static const std::map<std::string, std::string> names = {{"stepgen", "StepGen"}, {"pwmgen", "PWMGen"},
+                                                           {"inm", "InM"},         {"ssr", "SSR"},
+                                                           {"outm", "OutM"},       {"encoder", "encoder"},
+                                                           {"dpll", "HM2DPLL"}};
+  const auto& name = names.at(module);
+  const auto key = module == "dpll" ? std::string("num_dplls") : "num_" + module + "s";
+  const auto at = b.modules.find(module);
+  const unsigned available = at == b.modules.end() ? 0 : at->second;
+  const bool dpll = b.modules.count("dpll") != 0;
+  const auto given = config.count(key) >= 0 ? fmt::format("{}={}", key, config.count(key)) : std::string("no " + key);
+  if (available == 0) {
+    if (module == "dpll")
+      return fmt::format("the {} has no HM2DPLL, so no dpll pins (Mesa's \"d\" firmwares have one)", b.model);
+    return fmt::format("the {} has no {}: no {} names", b.model, name, module);
+  }
+  // The instances hostmot2 makes names for (NN in <board>.<module>.NN.*).
+  std::set<std::string> enabled;
+  const auto head = b.prefix + "." + module + ".";
+  for (const auto& i : b.items)
+    if (i.name.rfind(head, 0) == 0 && i.name.size() > head.size() + 3 && std::isdigit(static_cast<unsigned char>(i.name[head.size()])) &&
+        i.name[head.size() + 2] == '.')
+      enabled.insert(i.name.substr(head.size(), 2));
+  if (rest == "timer-number" && number.empty() && !dpll)
+    return fmt::format("{}.timer-number exists only on a firmware with an HM2DPLL: the {} has none", module, b.model);
+  if (module == "dpll") {
+    if (config.count(key) == 0) return fmt::format("{} leaves the HM2DPLL out: no dpll pins", given);
+    return fmt::format("the HM2DPLL has no {}", rest);
+  }
+  if (number.empty()) {
+    if (enabled.empty()) return fmt::format("no {} is enabled ({}): no {} names", name, given, module);
+    return fmt::format("{} creates no {}.{}", b.prefix, module, rest);
+  }
+  const auto n = std::stoul(number);
+  if (n >= available)
+    return fmt::format("no {} {:02d}: the {} has {} {}{} ({:02d}..{:02d})", name, n, b.model, available, name,
+                       available == 1 ? "" : "s", 0, available - 1);
+  if (!enabled.count(number))
+    return fmt::format("{} {:02d} is left out: {} enables {} of the firmware's {}", name, n, given, enabled.size(),
+                       available);
+  return fmt::format("{} {:02d} has no {}", name, n, rest);
+}
+
+// Every reference checked against the boards chosen (boardIndex: prefix ->
+// index in `boards`); the findings go to r.findings.
+void evaluate(Reader& r, const std::vector<const Board*>& boards, const std::map<std::string, std::size_t>& boardIndex,
+              unsigned& references) {
+  for (const auto* b : boards)
+    for (const auto& problem : b->loadProblems) r.error(Where{b->file, b->line}, "config", problem);
+  // Every reference.
+  std::map<std::string, std::string> pinSignal;  // pin -> the signal it joined
+  for (const auto& ref : r.refs) {
+    const bool hm2 = ref.name.rfind("hm2_", 0) == 0;
+    if (ref.use == Use::Net || ref.use == Use::Link) {
+      const auto [it, fresh] = pinSignal.emplace(ref.name, ref.signal);
+      if (!fresh && it->second != ref.signal)
+        r.error(ref.at, ref.name,
+                fmt::format("{} is already on signal {}: a pin joins one signal (halcmd refuses)", ref.name, it->second));
+    }
+    if (!hm2) continue;
+    const auto prefix = boardOf(ref.name);
+    const auto bi = boardIndex.find(prefix);
+    if (bi == boardIndex.end()) continue;  // reported above
+    ++references;
+    const auto& b = *boards[bi->second];
+    const auto config = parseHm2Config(b.config);
+    if (ref.use == Use::Addf) {
+      if (find(b.items, ref.name + ".time")) continue;
+      std::string functions;
+      for (const auto& i : b.items)
+        if (i.origin.rfind("function ", 0) == 0 && i.kind == Kind::Pin) functions += " " + i.origin.substr(9);
+      r.error(ref.at, ref.name,
+              fmt::format("no function {}: {} exports{}", ref.name, prefix, functions),
+              [&] {
+                std::string best;
+                std::size_t d = std::string::npos;
+                for (const auto& i : b.items)
+                  if (i.origin.rfind("function ", 0) == 0 && i.kind == Kind::Pin &&
+                      editDistance(ref.name, i.origin.substr(9)) < d) {
+                    d = editDistance(ref.name, i.origin.substr(9));
+                    best = i.origin.substr(9);
+                  }
+                return best;
+              }());
+      continue;
+    }
+    const Item* item = find(b.items, ref.name);
+    const std::optional<Kind> wantKind =
+        ref.use == Use::Setp ? std::nullopt : std::optional<Kind>(Kind::Pin);
+    if (!item) {
+      std::string reason;
+      static const std::regex remote(R"(^hm2_[^.]+\.\d+\.([0-9a-z]+)\.(\d+)\.(\d+)\.(.+)$)");
+      static const std::regex encoder(R"(^hm2_[^.]+\.\d+\.encoder\.(\d+)\..+$)");
+      static const std::regex gpio(R"(^hm2_[^.]+\.\d+\.gpio\.(\d+)\..+$)");
+      static const std::regex instance(R"(^hm2_[^.]+\.\d+\.(stepgen|pwmgen|inm|ssr|outm)\.(\d+)\.(.+)$)");
+      static const std::regex global(R"(^hm2_[^.]+\.\d+\.(stepgen|pwmgen|encoder|dpll)()\.(.+)$)");
+      std::smatch m;
+      if (std::regex_match(ref.name, m, remote) && m[1] != "sserial" && m[1] != "encoder" && m[1] != "gpio") {
+        const unsigned port = static_cast<unsigned>(std::stoul(m[2]));
+        const unsigned channel = static_cast<unsigned>(std::stoul(m[3]));
+        // Which remote answers on that channel (from the items' origins).
+        std::string onChannel;
+        for (const auto& i : b.items) {
+          const auto tail = fmt::format("on smart-serial port {} channel {} ", port, channel);
+          if (i.origin.find(tail) != std::string::npos) {
+            onChannel = i.origin;
+            break;
+          }
+        }
+        std::string wrongMode;
+        for (const auto& [digit, items] : b.itemsInMode)
+          if (digit != config.mode(port, channel) && find(items, ref.name)) wrongMode += digit;
+        if (port > 3 || channel > 7) {
+          reason = fmt::format("no smart-serial port {} channel {}", port, channel);
+        } else if (config.mode(port, channel) == 'x') {
+          reason = fmt::format("smart-serial port {} channel {} is left out: 'x' in {}", port, channel,
+                               sserialSummary(config));
+        } else if (onChannel.empty()) {
+          std::string where;
+          std::set<std::string> seen;
+          for (const auto& i : b.items) {
+            const auto at = i.origin.find(" on smart-serial port ");
+            if (at != std::string::npos && seen.insert(i.origin).second) where += (where.empty() ? "" : "; ") + i.origin;
+          }
+          reason = fmt::format("no remote answers on smart-serial port {} channel {} ({})", port, channel,
+                               where.empty() ? "no remote found at all" : "found: " + where);
+        } else if (onChannel.rfind(upper(m[1]) + " ", 0) != 0) {
+          reason = fmt::format("the remote on smart-serial port {} channel {} is {}: no {}", port, channel,
+                               onChannel.substr(0, onChannel.find(' ')), std::string(m[1]));
+        } else if (!wrongMode.empty()) {
+          std::string modes;
+          for (char c : wrongMode) modes += (modes.empty() ? "" : ", ") + std::string(1, c);
+          reason = fmt::format("wrong mode: {} exists only in mode {} of the {} on port {} channel {}, and {} runs it "
+                               "in mode {}",
+                               m[4].str(), modes, onChannel.substr(0, onChannel.find(' ')), port, channel,
+                               sserialSummary(config), config.mode(port, channel));
+        } else {
+          reason = fmt::format("the {} on port {} channel {} has no {} in mode {}",
+                               onChannel.substr(0, onChannel.find(' ')), port, channel, m[4].str(),
+                               config.mode(port, channel));
+        }
+      } else if (std::regex_match(ref.name, m, encoder)) {
+        const auto n = std::stoul(m[1]);
+        unsigned enabled = 0;
+        for (const auto& i : b.items)
+          if (i.name.size() > prefix.size() + 9 && i.name.compare(prefix.size(), 9, ".encoder.") == 0 &&
+              i.name.ends_with(".count"))
+            ++enabled;
+        reason = n >= enabled ? fmt::format("no such channel: encoder {:02d}, and {} enables {} encoder{} ({})", n,
+                                            b.driver, enabled, enabled == 1 ? "" : "s",
+                                            config.count("num_encoders") >= 0
+                                                ? fmt::format("num_encoders={}", config.count("num_encoders"))
+                                                : "all the firmware has")
+                              : fmt::format("encoder {:02d} has no {}", n, ref.name.substr(ref.name.rfind('.') + 1));
+      } else if (std::regex_match(ref.name, m, instance) || std::regex_match(ref.name, m, global)) {
+        reason = moduleReason(b, m[1], m[2], m[3], config);
+      } else if (std::regex_match(ref.name, m, gpio)) {
+        const auto in = fmt::format("{}.gpio.{:03d}.in", prefix, std::stoul(m[1]));
+        const auto* p = find(b.items, in);
+        reason = p ? fmt::format("IO pin {} is not a plain GPIO ({}): only its .in and .in_not exist", m[1].str(),
+                                 p->origin.substr(p->origin.find(": ") + 2))
+                   : fmt::format("no IO pin {} on {}", m[1].str(), prefix);
+      } else {
+        reason = fmt::format("{} creates no {} of that name", prefix,
+                             ref.use == Use::Setp ? "pin or parameter" : "pin");
+      }
+      r.error(ref.at, ref.name, reason, nearest(b, ref.name, wantKind));
+      continue;
+    }
+    if (ref.use == Use::Setp) {
+      if (item->kind == Kind::Param && item->dir == Dir::RO)
+        r.error(ref.at, ref.name, fmt::format("{} is a read-only parameter: setp cannot change it", ref.name));
+      else if (item->kind == Kind::Pin && item->dir == Dir::Out)
+        r.error(ref.at, ref.name, fmt::format("{} is an output pin ({} writes it): setp cannot set it", ref.name, prefix));
+      else if (item->kind == Kind::Pin && pinSignal.count(ref.name))
+        r.error(ref.at, ref.name,
+                fmt::format("{} is on signal {}: setp cannot set a connected pin (use sets on the signal)", ref.name,
+                            pinSignal[ref.name]));
+    } else if (item->kind == Kind::Param) {
+      r.error(ref.at, ref.name, fmt::format("{} is a parameter: net and link* connect pins (give it a value with setp)",
+                                            ref.name),
+              nearest(b, ref.name, Kind::Pin));
+    }
+  }
+
+  // Signals: what LinuxCNC refuses (two outputs, an output with a
+  // bidirectional pin, mixed types) and inputs nothing writes.
+  for (const auto& [sig, pins] : r.signals) {
+    std::vector<std::pair<std::string, const Item*>> known;
+    bool allKnown = true;
+    for (const auto& pin : pins) {
+      const auto bi = boardIndex.find(boardOf(pin));
+      const Item* item = bi == boardIndex.end() || pin.rfind("hm2_", 0) != 0 ? nullptr
+                                                                            : find(boards[bi->second]->items, pin);
+      if (item && item->kind == Kind::Pin) known.emplace_back(pin, item);
+      else allKnown = false;
+    }
+    const Where at = r.signalFirst.count(sig) ? r.signalFirst[sig] : Where{};
+    const std::string& signal = sig;  // clang 14 cannot capture a structured binding (C++20 allows it)
+    auto lineOf = [&](const std::string& pin) {
+      for (const auto& ref : r.refs)
+        if (ref.name == pin && ref.signal == signal) return ref.at;
+      return at;
+    };
+    std::vector<std::string> outs, ios;
+    for (const auto& [pin, item] : known) {
+      if (item->dir == Dir::Out) outs.push_back(pin);
+      if (item->dir == Dir::IO) ios.push_back(pin);
+    }
+    if (outs.size() >= 2)
+      r.error(lineOf(outs[1]), sig,
+              fmt::format("two outputs on signal {}: {} and {} (halcmd refuses the second)", sig, outs[0], outs[1]));
+    else if (!outs.empty() && !ios.empty())
+      r.error(lineOf(ios[0]), sig,
+              fmt::format("signal {} has an output ({}) and a bidirectional pin ({}): halcmd refuses", sig, outs[0], ios[0]));
+    for (std::size_t i = 1; i < known.size(); ++i)
+      if (known[i].second->type != known[0].second->type) {
+        r.error(lineOf(known[i].first), sig,
+                fmt::format("signal {} joins {} {} and {} {}: HAL signals have one type", sig,
+                            typeName(known[0].second->type), known[0].first, typeName(known[i].second->type),
+                            known[i].first));
+        break;
+      }
+    if (allKnown && !known.empty() && outs.empty() && ios.empty() && !r.sets.count(sig))
+      r.error(at, sig,
+              fmt::format("signal {} has no writer: {} is an input and nothing on the signal drives it (no output "
+                          "pin, no sets)",
+                          sig, known[0].first));
+  }
+}
+
 }  // namespace
 
 bool CheckResult::ok() const {
@@ -347,6 +582,7 @@ CheckResult checkConfig(const std::filesystem::path& file, const BoardModel& mod
   for (const auto& ref : r.refs)
     if (ref.name.rfind("hm2_", 0) == 0 && !boardOf(ref.name).empty()) prefixes.insert(boardOf(ref.name));
   std::map<std::string, std::size_t> boardIndex;
+  std::vector<std::vector<Board>> candidates;  // per board, what it may be
   std::set<std::string> unknownBoards;
   for (const auto& prefix : prefixes) {
     const std::string want = isEthernet(prefix) ? "hm2_eth" : "hm2_pci";
@@ -380,191 +616,54 @@ CheckResult checkConfig(const std::filesystem::path& file, const BoardModel& mod
     b.config = d->config;
     b.file = d->at.file;
     b.line = d->at.line;
-    if (!model(b, config, sevenI77s)) {
-      r.error(first->at, prefix, fmt::format("lbpkit does not know the board {}: {}", prefix, b.description));
+    std::string why;
+    auto options = model(b, config, sevenI77s, why);
+    if (options.empty()) {
+      r.error(first->at, prefix, fmt::format("lbpkit does not know the board {}: {}", prefix, why));
       unknownBoards.insert(prefix);
       continue;
     }
-    boardIndex[prefix] = result.boards.size();
-    result.boards.push_back(std::move(b));
+    boardIndex[prefix] = candidates.size();
+    candidates.push_back(std::move(options));
   }
 
-  // Every reference.
-  std::map<std::string, std::string> pinSignal;  // pin -> the signal it joined
-  for (const auto& ref : r.refs) {
-    const bool hm2 = ref.name.rfind("hm2_", 0) == 0;
-    if (ref.use == Use::Net || ref.use == Use::Link) {
-      const auto [it, fresh] = pinSignal.emplace(ref.name, ref.signal);
-      if (!fresh && it->second != ref.signal)
-        r.error(ref.at, ref.name,
-                fmt::format("{} is already on signal {}: a pin joins one signal (halcmd refuses)", ref.name, it->second));
-    }
-    if (!hm2) continue;
-    const auto prefix = boardOf(ref.name);
-    const auto bi = boardIndex.find(prefix);
-    if (bi == boardIndex.end()) continue;  // reported above
-    ++result.references;
-    const auto& b = result.boards[bi->second];
-    const auto config = parseHm2Config(b.config);
-    if (ref.use == Use::Addf) {
-      if (find(b.items, ref.name + ".time")) continue;
-      std::string functions;
-      for (const auto& i : b.items)
-        if (i.origin.rfind("function ", 0) == 0 && i.kind == Kind::Pin) functions += " " + i.origin.substr(9);
-      r.error(ref.at, ref.name,
-              fmt::format("no function {}: {} exports{}", ref.name, prefix, functions),
-              [&] {
-                std::string best;
-                std::size_t d = std::string::npos;
-                for (const auto& i : b.items)
-                  if (i.origin.rfind("function ", 0) == 0 && i.kind == Kind::Pin &&
-                      editDistance(ref.name, i.origin.substr(9)) < d) {
-                    d = editDistance(ref.name, i.origin.substr(9));
-                    best = i.origin.substr(9);
-                  }
-                return best;
-              }());
-      continue;
-    }
-    const Item* item = find(b.items, ref.name);
-    const std::optional<Kind> wantKind =
-        ref.use == Use::Setp ? std::nullopt : std::optional<Kind>(Kind::Pin);
-    if (!item) {
-      std::string reason;
-      static const std::regex remote(R"(^hm2_[^.]+\.\d+\.([0-9a-z]+)\.(\d+)\.(\d+)\.(.+)$)");
-      static const std::regex encoder(R"(^hm2_[^.]+\.\d+\.encoder\.(\d+)\..+$)");
-      static const std::regex gpio(R"(^hm2_[^.]+\.\d+\.gpio\.(\d+)\..+$)");
-      std::smatch m;
-      if (std::regex_match(ref.name, m, remote) && m[1] != "sserial" && m[1] != "encoder" && m[1] != "gpio") {
-        const unsigned port = static_cast<unsigned>(std::stoul(m[2]));
-        const unsigned channel = static_cast<unsigned>(std::stoul(m[3]));
-        // Which remote answers on that channel (from the items' origins).
-        std::string onChannel;
-        for (const auto& i : b.items) {
-          const auto tail = fmt::format("on smart-serial port {} channel {} ", port, channel);
-          if (i.origin.find(tail) != std::string::npos) {
-            onChannel = i.origin;
-            break;
-          }
-        }
-        std::string wrongMode;
-        for (const auto& [digit, items] : b.itemsInMode)
-          if (digit != config.mode(port, channel) && find(items, ref.name)) wrongMode += digit;
-        if (port > 3 || channel > 7) {
-          reason = fmt::format("no smart-serial port {} channel {}", port, channel);
-        } else if (config.mode(port, channel) == 'x') {
-          reason = fmt::format("smart-serial port {} channel {} is left out: 'x' in {}", port, channel,
-                               sserialSummary(config));
-        } else if (onChannel.empty()) {
-          std::string where;
-          std::set<std::string> seen;
-          for (const auto& i : b.items) {
-            const auto at = i.origin.find(" on smart-serial port ");
-            if (at != std::string::npos && seen.insert(i.origin).second) where += (where.empty() ? "" : "; ") + i.origin;
-          }
-          reason = fmt::format("no remote answers on smart-serial port {} channel {} ({})", port, channel,
-                               where.empty() ? "no remote found at all" : "found: " + where);
-        } else if (onChannel.rfind(upper(m[1]) + " ", 0) != 0) {
-          reason = fmt::format("the remote on smart-serial port {} channel {} is {}: no {}", port, channel,
-                               onChannel.substr(0, onChannel.find(' ')), std::string(m[1]));
-        } else if (!wrongMode.empty()) {
-          std::string modes;
-          for (char c : wrongMode) modes += (modes.empty() ? "" : ", ") + std::string(1, c);
-          reason = fmt::format("wrong mode: {} exists only in mode {} of the {} on port {} channel {}, and {} runs it "
-                               "in mode {}",
-                               m[4].str(), modes, onChannel.substr(0, onChannel.find(' ')), port, channel,
-                               sserialSummary(config), config.mode(port, channel));
-        } else {
-          reason = fmt::format("the {} on port {} channel {} has no {} in mode {}",
-                               onChannel.substr(0, onChannel.find(' ')), port, channel, m[4].str(),
-                               config.mode(port, channel));
-        }
-      } else if (std::regex_match(ref.name, m, encoder)) {
-        const auto n = std::stoul(m[1]);
-        unsigned enabled = 0;
-        for (const auto& i : b.items)
-          if (i.name.size() > prefix.size() + 9 && i.name.compare(prefix.size(), 9, ".encoder.") == 0 &&
-              i.name.ends_with(".count"))
-            ++enabled;
-        reason = n >= enabled ? fmt::format("no such channel: encoder {:02d}, and {} enables {} encoder{} ({})", n,
-                                            b.driver, enabled, enabled == 1 ? "" : "s",
-                                            config.count("num_encoders") >= 0
-                                                ? fmt::format("num_encoders={}", config.count("num_encoders"))
-                                                : "all the firmware has")
-                              : fmt::format("encoder {:02d} has no {}", n, ref.name.substr(ref.name.rfind('.') + 1));
-      } else if (std::regex_match(ref.name, m, gpio)) {
-        const auto in = fmt::format("{}.gpio.{:03d}.in", prefix, std::stoul(m[1]));
-        const auto* p = find(b.items, in);
-        reason = p ? fmt::format("IO pin {} is not a plain GPIO ({}): only its .in and .in_not exist", m[1].str(),
-                                 p->origin.substr(p->origin.find(": ") + 2))
-                   : fmt::format("no IO pin {} on {}", m[1].str(), prefix);
-      } else {
-        reason = fmt::format("{} creates no {} of that name", prefix,
-                             ref.use == Use::Setp ? "pin or parameter" : "pin");
+  // Each board with more than one candidate (cards of one LinuxCNC name,
+  // their firmwares): the one under which the configuration has the fewest
+  // errors, the first of them on a tie; boards one after the other.
+  std::vector<std::size_t> choice(candidates.size(), 0);
+  auto chosen = [&] {
+    std::vector<const Board*> boards;
+    for (std::size_t k = 0; k < candidates.size(); ++k) boards.push_back(&candidates[k][choice[k]]);
+    return boards;
+  };
+  auto run = [&](std::vector<Finding>& findings, unsigned& references) {
+    r.findings = &findings;
+    evaluate(r, chosen(), boardIndex, references);
+    r.findings = &result.findings;
+  };
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    if (candidates[k].size() < 2) continue;
+    std::size_t best = 0, fewest = std::string::npos;
+    for (std::size_t c = 0; c < candidates[k].size(); ++c) {
+      choice[k] = c;
+      std::vector<Finding> findings;
+      unsigned references = 0;
+      run(findings, references);
+      const auto errors = static_cast<std::size_t>(
+          std::count_if(findings.begin(), findings.end(), [](const Finding& f) { return f.severity == "error"; }));
+      if (errors < fewest) {
+        fewest = errors;
+        best = c;
       }
-      r.error(ref.at, ref.name, reason, nearest(b, ref.name, wantKind));
-      continue;
     }
-    if (ref.use == Use::Setp) {
-      if (item->kind == Kind::Param && item->dir == Dir::RO)
-        r.error(ref.at, ref.name, fmt::format("{} is a read-only parameter: setp cannot change it", ref.name));
-      else if (item->kind == Kind::Pin && item->dir == Dir::Out)
-        r.error(ref.at, ref.name, fmt::format("{} is an output pin ({} writes it): setp cannot set it", ref.name, prefix));
-      else if (item->kind == Kind::Pin && pinSignal.count(ref.name))
-        r.error(ref.at, ref.name,
-                fmt::format("{} is on signal {}: setp cannot set a connected pin (use sets on the signal)", ref.name,
-                            pinSignal[ref.name]));
-    } else if (item->kind == Kind::Param) {
-      r.error(ref.at, ref.name, fmt::format("{} is a parameter: net and link* connect pins (give it a value with setp)",
-                                            ref.name),
-              nearest(b, ref.name, Kind::Pin));
-    }
+    choice[k] = best;
+  }
+  run(result.findings, result.references);
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    result.boards.push_back(candidates[k][choice[k]]);
+    result.boards.back().candidates = candidates[k].size();
   }
 
-  // Signals: what LinuxCNC refuses (two outputs, an output with a
-  // bidirectional pin, mixed types) and inputs nothing writes.
-  for (const auto& [sig, pins] : r.signals) {
-    std::vector<std::pair<std::string, const Item*>> known;
-    bool allKnown = true;
-    for (const auto& pin : pins) {
-      const auto bi = boardIndex.find(boardOf(pin));
-      const Item* item = bi == boardIndex.end() || pin.rfind("hm2_", 0) != 0 ? nullptr
-                                                                            : find(result.boards[bi->second].items, pin);
-      if (item && item->kind == Kind::Pin) known.emplace_back(pin, item);
-      else allKnown = false;
-    }
-    const Where at = r.signalFirst.count(sig) ? r.signalFirst[sig] : Where{};
-    const std::string& signal = sig;  // clang 14 cannot capture a structured binding (C++20 allows it)
-    auto lineOf = [&](const std::string& pin) {
-      for (const auto& ref : r.refs)
-        if (ref.name == pin && ref.signal == signal) return ref.at;
-      return at;
-    };
-    std::vector<std::string> outs, ios;
-    for (const auto& [pin, item] : known) {
-      if (item->dir == Dir::Out) outs.push_back(pin);
-      if (item->dir == Dir::IO) ios.push_back(pin);
-    }
-    if (outs.size() >= 2)
-      r.error(lineOf(outs[1]), sig,
-              fmt::format("two outputs on signal {}: {} and {} (halcmd refuses the second)", sig, outs[0], outs[1]));
-    else if (!outs.empty() && !ios.empty())
-      r.error(lineOf(ios[0]), sig,
-              fmt::format("signal {} has an output ({}) and a bidirectional pin ({}): halcmd refuses", sig, outs[0], ios[0]));
-    for (std::size_t i = 1; i < known.size(); ++i)
-      if (known[i].second->type != known[0].second->type) {
-        r.error(lineOf(known[i].first), sig,
-                fmt::format("signal {} joins {} {} and {} {}: HAL signals have one type", sig,
-                            typeName(known[0].second->type), known[0].first, typeName(known[i].second->type),
-                            known[i].first));
-        break;
-      }
-    if (allKnown && !known.empty() && outs.empty() && ios.empty() && !r.sets.count(sig))
-      r.error(at, sig,
-              fmt::format("signal {} has no writer: {} is an input and nothing on the signal drives it (no output "
-                          "pin, no sets)",
-                          sig, known[0].first));
-  }
   std::stable_sort(result.findings.begin(), result.findings.end(), [](const Finding& a, const Finding& b) {
     return a.file == b.file ? a.line < b.line : false;
   });

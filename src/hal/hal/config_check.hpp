@@ -32,17 +32,30 @@ struct Board {
   std::string config;  // the config= string
   std::string file;
   unsigned line = 0;
-  std::string description;  // "7I92, 7I77 on channels 0 and 1"
+  std::string model;        // "7I92T (7I77+7I76 firmware)"
+  std::string description;  // the model, then its remotes: "..., 7I77 on channel 0 (mode 0), ..."
+  // The firmware's module instances by HAL name (moduleInstances()).
+  std::map<std::string, unsigned> modules;
   std::vector<Item> items;
+  // What hostmot2 refuses in the config= string for this card (reported at
+  // the driver's line): "num_stepgens=6, but the firmware has 5 StepGens".
+  std::vector<std::string> loadProblems;
+  // How many cards and firmwares the board could be (the checker keeps the
+  // one under which the configuration has the fewest errors).
+  std::size_t candidates = 1;
   // The same board's items with every channel in each other mode (for "wrong
   // mode" reasons): mode digit -> items.
   std::map<char, std::vector<Item>> itemsInMode;
 };
 
-// What the checker asks its caller: the board `prefix` ("hm2_5i25.0") loaded
-// by `driver` with `config`, carrying `sevenI77s` 7I77s (1 or 2). Returns
-// false when lbpkit does not know that board (the description says why).
-using BoardModel = std::function<bool(Board& board, const Hm2Config& config, unsigned sevenI77s)>;
+// What the checker asks its caller: what the board `loaded.prefix`
+// ("hm2_7i92.0") loaded by `loaded.driver` with `config`, carrying
+// `sevenI77s` 7I77s (1 or 2) where its firmware can, may be: one Board per
+// card and firmware of that LinuxCNC name (copies of `loaded` with the
+// items, description and load problems filled in), in the order to prefer
+// on a tie. None when lbpkit does not know that board (`whyNot` says why).
+using BoardModel =
+    std::function<std::vector<Board>(const Board& loaded, const Hm2Config& config, unsigned sevenI77s, std::string& whyNot)>;
 
 struct CheckResult {
   std::vector<Finding> findings;

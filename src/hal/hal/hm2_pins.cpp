@@ -15,6 +15,16 @@ namespace lbpkit::hal {
 namespace tag = wire::hm2::tag;
 namespace pinbits = wire::hm2::pin;
 
+// Module tags lbpkit's wire library does not name (LinuxCNC hostmot2.h
+// HM2_GTAG_*; mesaflash's hostmot2_def.h has the same numbers).
+constexpr std::uint8_t kTagDpll = 0x1A;  // HM2_GTAG_HM2DPLL
+constexpr std::uint8_t kTagInM = 0x23;   // HM2_GTAG_INM
+constexpr std::uint8_t kTagOutM = 0x2D;  // HM2_GTAG_OUTM
+constexpr std::uint8_t kTagSsr = 0xC3;   // HM2_GTAG_SSR
+// hostmot2's default config.stepgen_width: StepGen output pins past Step and
+// Dir (table mode) stay GPIO unless stepgen_width= says otherwise.
+constexpr int kDefaultStepgenWidth = 2;
+
 std::string kindName(Kind k) { return k == Kind::Pin ? "pin" : "param"; }
 std::string typeName(Type t) {
   switch (t) {
@@ -95,6 +105,17 @@ std::optional<std::string> secondaryName(const PinInfo& p) {
       if (code >= 0x1 && code <= 0x8) return fmt::format("tx{}", code - 1);
       if (code >= 0x11 && code <= 0x18) return fmt::format("txen{}", code - 0x11);
       return std::nullopt;
+    case tag::kStepGen: {
+      static const char* const names[] = {"step",   "direction", "table2", "table3", "table4",
+                                          "table5", "table6",    "table7", "index",  "probe"};
+      if (code >= 1 && code <= 10) return names[code - 1];
+      return std::nullopt;
+    }
+    case tag::kPwm:
+      if (code == 1) return "out0";
+      if (code == 2) return "out1";
+      if (code == 3) return "enable";
+      return std::nullopt;
     default: return std::nullopt;
   }
 }
@@ -107,6 +128,8 @@ std::optional<std::string> generalName(std::uint8_t t) {
     case tag::kSSerial: return "sserial";
     case tag::kStepGen: return "stepgen";
     case tag::kPwm: return "pwmgen";
+    // InM, SSR and OutM have hostmot2 names, but no names for their pins'
+    // functions: their output pins keep only the gpio.NNN parameters.
     default: return std::nullopt;
   }
 }
@@ -166,6 +189,119 @@ void remoteItems(Builder& b, const std::string& base, const Remote& r) {
       case DataType::Float:
       case DataType::NonVolFloat: b.param(name, Type::Float, d, origin); break;
       default: break;
+    }
+  }
+}
+
+// The HM2DPLL (dpll.c): one set of pins for the module, whatever
+// num_dplls says beyond 0.
+void dpllItems(Builder& b, const std::string& p) {
+  struct Named {
+    const char* name;
+    Type type;
+    Dir dir;
+  };
+  static const Named pins[] = {{"01.timer-us", Type::Float, Dir::In},   {"02.timer-us", Type::Float, Dir::In},
+                               {"03.timer-us", Type::Float, Dir::In},   {"04.timer-us", Type::Float, Dir::In},
+                               {"base-freq-khz", Type::Float, Dir::In}, {"phase-error-us", Type::Float, Dir::Out},
+                               {"time-const", Type::U32, Dir::In},      {"plimit", Type::U32, Dir::In},
+                               {"ddsize", Type::U32, Dir::Out},         {"prescale", Type::U32, Dir::Out}};
+  for (const auto& n : pins) b.pin(p + ".dpll." + n.name, n.type, n.dir, "the HM2DPLL");
+}
+
+// StepGens (stepgen.c, hostmot2(9) "stepgen"). Version 0x42 adds
+// swap_step_dir, 0xC2 also the index and probe pins. The table-data
+// parameters come when a pin descriptor of the instance has a secondary pin
+// code above 2; hostmot2 compares the whole code, output bit included, so
+// every StepGen with Step and Dir outputs has them.
+void stepgenItems(Builder& b, const std::string& p, const CardInfo& card, const ModuleInfo& m, int n, bool dpll) {
+  const bool swap = m.version == 0x42 || m.version == 0xC2;
+  const bool index = m.version == 0xC2;
+  if (dpll) b.pin(p + ".stepgen.timer-number", Type::S32, Dir::In, "the StepGens (HM2DPLL timer)");
+  for (int i = 0; i < n; ++i) {
+    const auto s = fmt::format("{}.stepgen.{:02d}", p, i);
+    const auto origin = fmt::format("StepGen {}", i);
+    for (const char* x : {"position-cmd", "velocity-cmd"}) b.pin(s + "." + x, Type::Float, Dir::In, origin);
+    for (const char* x : {"velocity-fb", "position-fb"}) b.pin(s + "." + x, Type::Float, Dir::Out, origin);
+    b.pin(s + ".counts", Type::S32, Dir::Out, origin);
+    for (const char* x : {"enable", "control-type", "position-reset"}) b.pin(s + "." + x, Type::Bit, Dir::In, origin);
+    if (index) {
+      b.pin(s + ".position-latch", Type::Float, Dir::Out, origin);
+      for (const char* x : {"index-enable", "probe-enable"}) b.pin(s + "." + x, Type::Bit, Dir::IO, origin);
+      for (const char* x : {"index-invert", "probe-invert"}) b.pin(s + "." + x, Type::Bit, Dir::In, origin);
+    }
+    for (const char* x : {"dbg_pos_minus_prev_cmd", "dbg_ff_vel", "dbg_s_to_match", "dbg_vel_error", "dbg_err_at_match"})
+      b.pin(s + "." + x, Type::Float, Dir::Out, origin);
+    b.pin(s + ".dbg_step_rate", Type::S32, Dir::Out, origin);
+    for (const char* x : {"position-scale", "maxvel", "maxaccel"}) b.param(s + "." + x, Type::Float, Dir::RW, origin);
+    for (const char* x : {"steplen", "stepspace", "dirsetup", "dirhold", "step_type"})
+      b.param(s + "." + x, Type::U32, Dir::RW, origin);
+    if (swap) b.param(s + ".swap_step_dir", Type::Bit, Dir::RW, origin);
+    unsigned width = 0;
+    for (const auto& pin : card.pins)
+      if (pin.secondaryTag == tag::kStepGen && static_cast<int>(pin.secondaryUnit) == i) width = std::max<unsigned>(width, pin.secondaryPin);
+    if (width > 2)
+      for (int t = 0; t < 4; ++t) b.param(fmt::format("{}.table-data-{}", s, t), Type::U32, Dir::RW, origin);
+  }
+}
+
+// PWMGens (pwmgen.c, hostmot2(9) "pwmgen").
+void pwmgenItems(Builder& b, const std::string& p, int n) {
+  for (const char* x : {"pwm_frequency", "pdm_frequency"})
+    b.param(p + ".pwmgen." + x, Type::U32, Dir::RW, "the PWMGens");
+  for (int i = 0; i < n; ++i) {
+    const auto s = fmt::format("{}.pwmgen.{:02d}", p, i);
+    const auto origin = fmt::format("PWMGen {}", i);
+    b.pin(s + ".value", Type::Float, Dir::In, origin);
+    b.pin(s + ".enable", Type::Bit, Dir::In, origin);
+    b.param(s + ".offset-mode", Type::Bit, Dir::RW, origin);
+    b.param(s + ".scale", Type::Float, Dir::RW, origin);
+    b.param(s + ".output-type", Type::S32, Dir::RW, origin);
+  }
+}
+
+// InM (inm.c): per instance its scan width's inputs, four MPG counters.
+// hostmot2 reads the width from the control register (MaxBit + 1); lbpkit
+// takes the highest input the pin descriptors wire to the instance (input
+// n is secondary pin n + 1), which is the same on Mesa's firmwares.
+void inmItems(Builder& b, const std::string& p, const CardInfo& card, int n) {
+  for (int i = 0; i < n; ++i) {
+    const auto s = fmt::format("{}.inm.{:02d}", p, i);
+    const auto origin = fmt::format("InM {}", i);
+    unsigned width = 0;
+    for (const auto& pin : card.pins)
+      if (pin.secondaryTag == kTagInM && static_cast<int>(pin.secondaryUnit) == i)
+        width = std::max<unsigned>(width, pin.secondaryPin & pinbits::kCodeMask);
+    for (const char* x : {"scan_rate", "slow_scans", "fast_scans"}) b.param(s + "." + x, Type::U32, Dir::RW, origin);
+    for (int e = 0; e < 4; ++e) b.param(fmt::format("{}.enc{}_4xmode", s, e), Type::Bit, Dir::RW, origin);
+    b.param(s + ".scan_width", Type::U32, Dir::RO, origin);
+    for (unsigned j = 0; j < width; ++j) {
+      for (const char* x : {"input-{:02d}", "raw-input-{:02d}", "input-{:02d}-not", "raw-input-{:02d}-not"})
+        b.pin(s + "." + fmt::format(fmt::runtime(x), j), Type::Bit, Dir::Out, origin);
+      b.pin(fmt::format("{}.input-{:02d}-slow", s, j), Type::Bit, Dir::In, origin);
+    }
+    for (int e = 0; e < 4; ++e) {
+      b.pin(fmt::format("{}.enc{}-count", s, e), Type::S32, Dir::Out, origin);
+      b.pin(fmt::format("{}.enc{}-reset", s, e), Type::Bit, Dir::In, origin);
+    }
+  }
+}
+
+// SSR (ssr.c) and OutM (outm.c): an out-NN and invert-NN pin per output pin
+// of the instance (secondary pin NN + 1; the SSR's 32nd, its internal AC
+// reference, has none); the SSR also its rate.
+void outputModuleItems(Builder& b, const std::string& p, const CardInfo& card, std::uint8_t t, int n) {
+  const bool ssr = t == kTagSsr;
+  for (int i = 0; i < n; ++i) {
+    const auto s = fmt::format("{}.{}.{:02d}", p, ssr ? "ssr" : "outm", i);
+    const auto origin = fmt::format("{} {}", ssr ? "SSR" : "OutM", i);
+    if (ssr) b.pin(s + ".rate", Type::U32, Dir::In, origin);
+    for (const auto& pin : card.pins) {
+      if (pin.secondaryTag != t || static_cast<int>(pin.secondaryUnit) != i) continue;
+      const unsigned number = (pin.secondaryPin & pinbits::kCodeMask) - 1U;
+      if (number >= (ssr ? 31U : 32U)) continue;
+      b.pin(fmt::format("{}.out-{:02d}", s, number), Type::Bit, Dir::In, origin);
+      b.pin(fmt::format("{}.invert-{:02d}", s, number), Type::Bit, Dir::In, origin);
     }
   }
 }
@@ -251,19 +387,77 @@ std::string boardPrefix(const CardInfo& card, unsigned index) {
   return fmt::format("hm2_{}.{}", lower(name), index);
 }
 
+std::string boardPrefix(const std::string& halName, unsigned index) { return fmt::format("hm2_{}.{}", halName, index); }
+
+std::string hm2EthBoardName(const std::string& lbp16Name) {
+  // hm2_eth copies four characters of most names, eight (the whole name) of
+  // the 7I94, 7I95, 7I96, 7I96S and 7I97, five of the 7I76E-16; it lowers
+  // the I (and a fifth letter).
+  std::size_t keep = 4;
+  if (lbp16Name.rfind("7I76E-16", 0) == 0) keep = 5;
+  for (const char* whole : {"7I94", "7I95", "7I96", "7I96S", "7I97"})
+    if (lbp16Name == whole) keep = 8;
+  return lower(lbp16Name.substr(0, std::min(keep, lbp16Name.size())));
+}
+
 unsigned ledCount(const std::string& boardName) {
   const auto b = lower(boardName);
   if (b.find("5i25") != std::string::npos || b.find("6i25") != std::string::npos) return 2;
-  if (b.find("7i92") != std::string::npos || b.find("7i76e") != std::string::npos ||
-      b.find("7i96") != std::string::npos)
-    return 4;
+  for (const char* four : {"7i92", "7i76e", "7i96", "7i80", "7i93", "7i94", "7i95", "7i97", "7i98"})
+    if (b.find(four) != std::string::npos) return 4;
   return 0;
 }
 
+std::map<std::string, unsigned> moduleInstances(const CardInfo& card) {
+  std::map<std::string, unsigned> out;
+  for (const auto& m : card.modules) {
+    switch (m.tag) {
+      case tag::kQCount:
+      case tag::kMuxedQCount: out["encoder"] = m.instances; break;
+      case tag::kStepGen: out["stepgen"] = m.instances; break;
+      case tag::kPwm: out["pwmgen"] = m.instances; break;
+      case kTagDpll: out["dpll"] = m.instances; break;
+      case kTagInM: out["inm"] = m.instances; break;
+      case kTagSsr: out["ssr"] = m.instances; break;
+      case kTagOutM: out["outm"] = m.instances; break;
+      default: break;
+    }
+  }
+  return out;
+}
+
+std::vector<std::string> hm2CountProblems(const CardInfo& card, const Hm2Config& config) {
+  struct Counted {
+    const char* key;
+    std::uint8_t tag;
+    const char* module;
+  };
+  // The modules whose parse_md refuses a count above what the firmware has
+  // (the HM2DPLL and the LEDs take what there is instead).
+  static const Counted counted[] = {{"num_encoders", tag::kMuxedQCount, "MuxedQCount"},
+                                    {"num_encoders", tag::kQCount, "QCount"},
+                                    {"num_stepgens", tag::kStepGen, "StepGen"},
+                                    {"num_pwmgens", tag::kPwm, "PWMGen"},
+                                    {"num_inms", kTagInM, "InM"},
+                                    {"num_ssrs", kTagSsr, "SSR"},
+                                    {"num_outms", kTagOutM, "OutM"}};
+  std::vector<std::string> out;
+  for (const auto& c : counted) {
+    const auto* m = card.module(c.tag);
+    const int n = config.count(c.key);
+    if (m && n > static_cast<int>(m->instances))
+      out.push_back(fmt::format("{}={}, but the firmware has {} {}{}: hostmot2 does not load (\"config.{}={}, but only "
+                                "{} are available\")",
+                                c.key, n, m->instances, c.module, m->instances == 1 ? "" : "s", c.key, n,
+                                m->instances));
+  }
+  return out;
+}
+
 std::vector<Item> hostmot2Items(const CardInfo& card, const Hm2Config& config, const std::vector<Remote>& remotes,
-                                Driver driver, unsigned boardIndex) {
+                                Driver driver, unsigned boardIndex, const std::string& halName) {
   Builder b;
-  const auto p = boardPrefix(card, boardIndex);
+  const auto p = halName.empty() ? boardPrefix(card, boardIndex) : boardPrefix(halName, boardIndex);
   const std::string board = "the board";
 
   b.param(p + ".io_error", Type::Bit, Dir::RW, board);
@@ -291,7 +485,7 @@ std::vector<Item> hostmot2Items(const CardInfo& card, const Hm2Config& config, c
     b.param(p + ".watchdog.timeout_ns", Type::U32, Dir::RW, "the watchdog");
   }
   if (card.module(tag::kLed)) {
-    const int n = enabled(config, "num_leds", ledCount(card.boardName));
+    const int n = enabled(config, "num_leds", ledCount(halName.empty() ? card.boardName : halName));
     for (int i = 0; i < n; ++i) b.pin(fmt::format("{}.led.CR{:02d}", p, i + 1), Type::Bit, Dir::In, "the LEDs");
   }
 
@@ -315,11 +509,33 @@ std::vector<Item> hostmot2Items(const CardInfo& card, const Hm2Config& config, c
     b.param(e + ".scale", Type::Float, Dir::RW, origin);
     b.param(e + ".vel-timeout", Type::Float, Dir::RW, origin);
   }
+  // A firmware with an HM2DPLL: hostmot2 gives the encoders and StepGens a
+  // timer-number pin (when the encoder's DPLL timer register reads back 0,
+  // as on the cards with one), whatever num_dplls says.
+  const bool dpll = card.module(kTagDpll) != nullptr;
   if (encoders > 0) {
     b.pin(p + ".encoder.hires-timestamp", Type::Bit, Dir::In, "the encoders");
     b.pin(p + (muxed ? ".encoder.muxed-sample-frequency" : ".encoder.sample-frequency"), Type::U32, Dir::In,
           "the encoders");
+    if (dpll) b.pin(p + ".encoder.timer-number", Type::S32, Dir::In, "the encoders (HM2DPLL timer)");
   }
+  if (dpll && enabled(config, "num_dplls", 1) > 0) dpllItems(b, p);
+  const ModuleInfo* stepgen = card.module(tag::kStepGen);
+  const int stepgens = stepgen ? enabled(config, "num_stepgens", stepgen->instances) : 0;
+  if (stepgens > 0) stepgenItems(b, p, card, *stepgen, stepgens, dpll);
+  const ModuleInfo* pwmgen = card.module(tag::kPwm);
+  const int pwmgens = pwmgen ? enabled(config, "num_pwmgens", pwmgen->instances) : 0;
+  if (pwmgens > 0) pwmgenItems(b, p, pwmgens);
+  auto instances = [&](std::uint8_t t, const char* key) {
+    const ModuleInfo* m = card.module(t);
+    return m ? enabled(config, key, m->instances) : 0;
+  };
+  const int inms = instances(kTagInM, "num_inms");
+  const int ssrs = instances(kTagSsr, "num_ssrs");
+  const int outms = instances(kTagOutM, "num_outms");
+  inmItems(b, p, card, inms);
+  outputModuleItems(b, p, card, kTagSsr, ssrs);
+  outputModuleItems(b, p, card, kTagOutM, outms);
 
   // Smart-serial ports: those the configuration names with a mode digit
   // (all of them when it names none).
@@ -370,12 +586,17 @@ std::vector<Item> hostmot2Items(const CardInfo& card, const Hm2Config& config, c
         taken = unit < ports && config.mode(unit, ch) != 'x' && remoteAt(unit, ch) != nullptr;
         break;
       }
-      case tag::kStepGen:
-        if (const auto* m = card.module(tag::kStepGen)) taken = upTo(enabled(config, "num_stepgens", m->instances));
+      case tag::kStepGen: {
+        // Outputs past stepgen_width (table mode) stay GPIO (stepgen.c).
+        const int width = config.count("stepgen_width") >= 0 ? config.count("stepgen_width") : kDefaultStepgenWidth;
+        taken = (global || static_cast<int>(unit) < stepgens) &&
+                !(pin.output() && static_cast<int>(pin.secondaryPin & pinbits::kCodeMask) > width);
         break;
-      case tag::kPwm:
-        if (const auto* m = card.module(tag::kPwm)) taken = upTo(enabled(config, "num_pwmgens", m->instances));
-        break;
+      }
+      case tag::kPwm: taken = upTo(pwmgens); break;
+      case kTagInM: taken = upTo(inms); break;
+      case kTagSsr: taken = upTo(ssrs); break;
+      case kTagOutM: taken = upTo(outms); break;
       default: break;
     }
     if (taken) gtag[i] = pin.secondaryTag;

@@ -67,15 +67,35 @@ struct Remote {
 
 enum class Driver : std::uint8_t { Eth, Pci };
 
-// "hm2_7i92.0": LinuxCNC's name for the first board of that kind.
+// "hm2_7i92.0": LinuxCNC's name for the first board of that kind, from
+// the IDROM's board name (what hm2_pci goes by).
 std::string boardPrefix(const CardInfo& card, unsigned index = 0);
+// "hm2_7i96s.0" from hm2_eth's board name ("7i96s").
+std::string boardPrefix(const std::string& halName, unsigned index);
+
+// hm2_eth's name for a board from its LBP16 board name (hm2_eth.c's table):
+// "7I92T" -> "7i92" (four characters), "7I96S" -> "7i96s", "7I80HD-25" ->
+// "7i80", "7I76E-16" -> "7i76e".
+std::string hm2EthBoardName(const std::string& lbp16Name);
 
 // Every pin and parameter, sorted by name. `remotes`: one per channel that
-// answered and that the configuration enables.
+// answered and that the configuration enables. `halName`: hm2_eth's name of
+// the board ("7i96s"; empty: from the IDROM's board name, as hm2_pci does).
 std::vector<Item> hostmot2Items(const CardInfo& card, const Hm2Config& config, const std::vector<Remote>& remotes,
-                                Driver driver, unsigned boardIndex = 0);
+                                Driver driver, unsigned boardIndex = 0, const std::string& halName = {});
 
 // The LEDs LinuxCNC gives a board (its low-level driver's table).
 unsigned ledCount(const std::string& boardName);
+
+// The instances of each module hostmot2 makes HAL names for, as the
+// firmware has them, by the HAL name: "encoder", "stepgen", "pwmgen",
+// "dpll", "inm", "ssr", "outm" -> count (absent: no such module).
+std::map<std::string, unsigned> moduleInstances(const CardInfo& card);
+
+// The module counts the configuration asks for beyond what the firmware has
+// ("num_stepgens=6, but the firmware has 5 StepGens"): hostmot2 refuses to
+// load then ("config.num_stepgens=6, but only 5 are available, not loading
+// driver").
+std::vector<std::string> hm2CountProblems(const CardInfo& card, const Hm2Config& config);
 
 }  // namespace lbpkit::hal
