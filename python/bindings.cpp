@@ -20,6 +20,7 @@ namespace py = pybind11;
 using pylbpkit::Card;
 using pylbpkit::VirtualBoard;
 using pylbpkit::VirtualMachine;
+using pylbpkit::VirtualSevenI76;
 
 namespace {
 
@@ -68,6 +69,13 @@ std::vector<std::string> channelNames(const std::vector<machine::EncoderChannel>
   return out;
 }
 
+// A stepper axis' state; lbpkit.Error for a servo axis.
+machine::Machine::State::Stepper stepperOf(VirtualMachine& vm, const std::string& axis) {
+  const auto s = vm.stepper(axis);
+  if (!s) throw lbpkit::Error("axis " + axis + " is a servo axis, not a stepper: it has drives, not a StepGen");
+  return *s;
+}
+
 void bindCardTypes(py::module_& m) {
   py::class_<lbpkit::ModuleInfo>(m, "Module", "A module of the card's IDROM (HostMot2 regmap)")
       .def_readonly("name", &lbpkit::ModuleInfo::name)
@@ -76,6 +84,8 @@ void bindCardTypes(py::module_& m) {
       .def_readonly("instances", &lbpkit::ModuleInfo::instances)
       .def_readonly("base_address", &lbpkit::ModuleInfo::baseAddress)
       .def_readonly("clock_hz", &lbpkit::ModuleInfo::clockHz)
+      .def_readonly("register_stride", &lbpkit::ModuleInfo::registerStride)
+      .def_readonly("instance_stride", &lbpkit::ModuleInfo::instanceStride)
       .def("__repr__", [](const lbpkit::ModuleInfo& i) {
         return "<lbpkit.Module " + i.name + " x" + std::to_string(i.instances) + ">";
       });
@@ -135,8 +145,11 @@ void bindCard(py::module_& m) {
       .def_static(
           "sim",
           [](const std::optional<std::string>& machine, unsigned daughtercards, bool sinking,
-             const std::optional<std::string>& state, double fieldVoltage) {
+             const std::optional<std::string>& state, double fieldVoltage, const std::optional<std::string>& card,
+             const std::optional<std::string>& pinout) {
             Card::SimOptions o;
+            o.card = card.value_or("");
+            o.pinout = pinout.value_or("");
             o.machine = machine.value_or("");
             o.daughtercards = daughtercards;
             o.sinking = sinking;
@@ -145,9 +158,11 @@ void bindCard(py::module_& m) {
             return Card::openSim(o);
           },
           py::arg("machine") = py::none(), py::arg("daughtercards") = 1, py::arg("sinking") = false,
-          py::arg("state") = py::none(), py::arg("field_voltage") = 24.0,
+          py::arg("state") = py::none(), py::arg("field_voltage") = 24.0, py::arg("card") = py::none(),
+          py::arg("pinout") = py::none(),
           "The in-process virtual 7I92 with 7I77s, in simulated time; `machine`: \"mill\", \"lathe\", \"gantry\" "
-          "or a machine file behind the first 7I77")
+          "or a machine file behind the first 7I77; `card`: \"7I92T\" (a 7I77 and a 7I76 with StepGens), ... as "
+          "lbpkit sim --card; `pinout`: its firmware, e.g. \"7I77+7I76\"")
       .def_property_readonly("board_name", [](Card& c) { return c.info().boardName; })
       .def_property_readonly("config_name", [](Card& c) { return c.info().configName; })
       .def_property_readonly("modules", [](Card& c) { return c.info().modules; })
@@ -210,6 +225,9 @@ void bindCard(py::module_& m) {
             return last;
           },
           py::arg("cycles"), "`cycles` cycle()s without the GIL; the last one's status")
+      .def("read32", locked(&Card::read32), py::arg("address"), "A HostMot2 register (Module.base_address + ...)")
+      .def("write32", locked(&Card::write32), py::arg("address"), py::arg("value"),
+           "A HostMot2 register, written at once (e.g. a StepGen's rate, as LinuxCNC's hostmot2 writes it)")
       .def_property_readonly("cycles", &Card::cycles, "Cycles whose inputs were read")
       .def_property_readonly("lost_cycles", &Card::lostCycles)
       .def("cs", locked(&Card::cs), py::arg("channel"), "The channel's CS register after the last cycle")
@@ -276,11 +294,42 @@ void bindBoard(py::module_& m) {
       .def("set_encoder", &VirtualBoard::setEncoder, py::arg("encoder"), py::arg("counts_per_second") = py::none(),
            py::arg("counts_per_rev") = py::none())
       .def("encoder_count", &VirtualBoard::encoderCount, py::arg("encoder"), "The card's 16-bit count register")
+      .def_property_readonly(
+          "seven_i76",
+          [](VirtualBoard& b) -> std::optional<VirtualSevenI76> {
+            {
+              auto l = b.card()->lock();
+              if (b.card()->board().sevenI76() == nullptr) return std::nullopt;
+            }
+            return VirtualSevenI76(b.card());
+          },
+          "The 7I76 beside the 7I77 on the 7I77+7I76 firmwares (Card.sim(card=\"7I92T\")), or None")
       .def_property_readonly("time", [](VirtualBoard& b) { return b.card()->time(); })
       .def("step", [](VirtualBoard& b, double s) {
         auto l = b.card()->lock();
         b.card()->step(s);
       }, py::arg("seconds"), "Let simulated time pass (the same as Card.step)");
+}
+
+void bindSevenI76(py::module_& m) {
+  py::class_<VirtualSevenI76>(m, "VirtualSevenI76",
+                              "The 7I76's field I/O processor from the outside: inputs, outputs, field power, spindle")
+      .def_property_readonly("channel", &VirtualSevenI76::channel, "Its SSerial channel (3)")
+      .def("set_input", &VirtualSevenI76::setInput, py::arg("input"), py::arg("on") = true,
+           "Input switched to field power (on) or ground")
+      .def("set_input_voltage", &VirtualSevenI76::setInputVoltage, py::arg("input"), py::arg("volts"))
+      .def("input", &VirtualSevenI76::input, py::arg("input"), "What the processor reads")
+      .def_property_readonly("inputs", &VirtualSevenI76::inputs, "Inputs 0..31 as bits")
+      .def("output", &VirtualSevenI76::output, py::arg("output"), "Output driver on")
+      .def_property_readonly("outputs", &VirtualSevenI76::outputs, "Outputs 0..15 as bits")
+      .def("output_voltage", &VirtualSevenI76::outputVoltage, py::arg("output"))
+      .def("set_field_voltage", &VirtualSevenI76::setFieldVoltage, py::arg("volts"))
+      .def_property_readonly("field_voltage", &VirtualSevenI76::fieldVoltage)
+      .def_property_readonly("spindle_volts", &VirtualSevenI76::spindleVolts, "SpinOut, 0..10 V")
+      .def_property_readonly("spindle_enable", &VirtualSevenI76::spindleEnable, "SpinEna")
+      .def_property_readonly("spindle_direction", &VirtualSevenI76::spindleDirection, "SpinDir")
+      .def_property_readonly("faults", &VirtualSevenI76::faults, "The fault byte (lbpkit.FAULT_NAMES)")
+      .def_property_readonly("powered", &VirtualSevenI76::powered);
 }
 
 void bindMachine(py::module_& m) {
@@ -290,7 +339,19 @@ void bindMachine(py::module_& m) {
       .def_property_readonly("kind", [](const machine::Switches::State& s) { return kind(s.kind); })
       .def_readonly("input", &machine::Switches::State::input)
       .def_readonly("tripped", &machine::Switches::State::tripped)
-      .def_readonly("input_on", &machine::Switches::State::inputOn);
+      .def_readonly("input_on", &machine::Switches::State::inputOn)
+      .def_property_readonly("daughtercard", [](const machine::Switches::State& s) {
+        return std::string(machine::daughtercardName(s.daughtercard));
+      }, "\"7I77\" or \"7I76\": whose input");
+  py::class_<State::Stepper>(m, "StepperState", "A stepper axis' motor on a StepGen")
+      .def_readonly("stepgen", &State::Stepper::stepGen)
+      .def_readonly("steps", &State::Stepper::steps, "The StepGen's steps since the machine was built")
+      .def_readonly("lost_steps", &State::Stepper::lostSteps, "Those the motor did not follow")
+      .def_readonly("stalled", &State::Stepper::stalled, "Out of step now (commanded past its pull-out rate)")
+      .def("__repr__", [](const State::Stepper& s) {
+        return "<lbpkit.StepperState stepgen " + std::to_string(s.stepGen) + ": " + std::to_string(s.steps) +
+               " steps, " + std::to_string(s.lostSteps) + " lost" + (s.stalled ? ", stalled" : "") + ">";
+      });
   py::class_<State::Drive>(m, "DriveState")
       .def_readonly("analog_output", &State::Drive::analogOutput)
       .def_readonly("command_volts", &State::Drive::commandVolts)
@@ -312,17 +373,24 @@ void bindMachine(py::module_& m) {
       .def_readonly("command_velocity", &State::Axis::commandVelocity)
       .def_readonly("following_error", &State::Axis::followingError)
       .def_readonly("drives", &State::Axis::drives)
+      .def_readonly("stepper", &State::Axis::stepper, "A stepper axis' StepperState; None for a servo axis")
       .def_readonly("switches", &State::Axis::switches);
   py::class_<State::Spindle>(m, "SpindleState")
       .def_readonly("command_rpm", &State::Spindle::commandRpm)
       .def_readonly("rpm", &State::Spindle::rpm)
       .def_readonly("revolutions", &State::Spindle::revolutions)
       .def_readonly("running", &State::Spindle::running)
-      .def_readonly("encoder_count", &State::Spindle::encoderCount);
+      .def_readonly("encoder_count", &State::Spindle::encoderCount)
+      .def_property_readonly("daughtercard", [](const State::Spindle& s) {
+        return std::string(machine::daughtercardName(s.daughtercard));
+      }, "\"7I77\" (AOUT5, ENA5) or \"7I76\" (SpinOut, SpinEna, SpinDir)");
   py::class_<State::Output>(m, "OutputState")
       .def_readonly("name", &State::Output::name)
       .def_readonly("output", &State::Output::output)
-      .def_readonly("on", &State::Output::on);
+      .def_readonly("on", &State::Output::on)
+      .def_property_readonly("daughtercard", [](const State::Output& o) {
+        return std::string(machine::daughtercardName(o.daughtercard));
+      });
   py::class_<State>(m, "MachineState")
       .def_readonly("name", &State::name)
       .def_property_readonly("time", [](const State& s) { return seconds(s.time); })
@@ -343,6 +411,14 @@ void bindMachine(py::module_& m) {
       .def("brake_engaged", &VirtualMachine::brakeEngaged, py::arg("axis"))
       .def_property_readonly("spindle_rpm", &VirtualMachine::spindleRpm)
       .def("state", &VirtualMachine::state)
+      .def("stepper", &VirtualMachine::stepper, py::arg("axis"),
+           "A stepper axis' StepperState (steps, lost_steps, stalled); None for a servo axis")
+      .def("steps", [](VirtualMachine& vm, const std::string& a) { return stepperOf(vm, a).steps; }, py::arg("axis"),
+           "A stepper axis' StepGen steps since the machine was built")
+      .def("lost_steps", [](VirtualMachine& vm, const std::string& a) { return stepperOf(vm, a).lostSteps; },
+           py::arg("axis"), "The steps a stepper axis' motor did not follow")
+      .def("stalled", [](VirtualMachine& vm, const std::string& a) { return stepperOf(vm, a).stalled; },
+           py::arg("axis"), "A stepper axis' motor is out of step now")
       .def("set_switch", &VirtualMachine::setSwitch, py::arg("name"), py::arg("tripped") = true)
       .def("estop", &VirtualMachine::estop, py::arg("pressed") = true)
       .def("probe", &VirtualMachine::probe, py::arg("touching") = true)
@@ -375,6 +451,7 @@ PYBIND11_MODULE(_lbpkit, m) {
   m.def("describe_cs", [](std::uint32_t cs) { return lbpkit::describeCs(cs); }, py::arg("cs"));
   bindCardTypes(m);
   bindCard(m);
+  bindSevenI76(m);
   bindBoard(m);
   bindMachine(m);
 }

@@ -130,6 +130,19 @@ std::shared_ptr<Card> Card::openSim(const SimOptions& o) {
   std::optional<machine::MachineDescription> description;
   if (!o.machine.empty()) description = config::loadMachine(o.machine);
   hm2::HostMot2Card::Options card;
+  if (!o.card.empty()) {
+    card.card = hm2::cards::find(o.card);
+    if (card.card == nullptr)
+      throw std::invalid_argument(fmt::format("card: \"{}\" is not one lbpkit models ({})", o.card, hm2::cards::names()));
+  }
+  if (!o.pinout.empty()) {
+    const auto& which = card.card != nullptr ? *card.card : hm2::cards::defaultCard();
+    const auto* firmware = hm2::cards::firmware(which, o.pinout);
+    if (firmware == nullptr)
+      throw std::invalid_argument(fmt::format("pinout: the {} has no firmware \"{}\" (it has {})", which.name,
+                                              o.pinout, hm2::cards::firmwareNames(which)));
+    card.pinout = firmware->pinout;
+  }
   auto daughter = [&](hm2::HostMot2Card::DaughterOptions& d) {
     if (o.sinking) d.fieldIo.outputs = remote::OutputType::Sinking;
     d.fieldIo.fieldVoltage = o.fieldVoltage;
@@ -148,6 +161,18 @@ std::shared_ptr<Card> Card::openSim(const SimOptions& o) {
   if (description) c->machine_ = std::make_unique<machine::Machine>(std::move(*description), c->sim_->card(),
                                                                     c->sim_->now(), 0);
   return c;
+}
+
+std::uint32_t Card::read32(std::uint16_t address) {
+  const auto v = transport_->read32(address);
+  catchUpMachine();
+  return v;
+}
+
+void Card::write32(std::uint16_t address, std::uint32_t value) {
+  // The machine first sees the terminals as they were up to now.
+  catchUpMachine();
+  transport_->write32(address, value);
 }
 
 std::unique_lock<std::mutex> Card::lock() {

@@ -46,6 +46,8 @@ class Card {
     bool sinking = false;        // 7I77D
     std::string state;           // EEPROM file of the first 7I77's field I/O processor ("" : in memory)
     double fieldVoltage = 24.0;
+    std::string card;    // "" : the 7I92; "7I92T" (7I77+7I76 firmware by default), ...: lbpkit sim --card
+    std::string pinout;  // "" : the card's default firmware; "7I77+7I76", ...: as the sim's TOML `pinout`
   };
 
   // LBP16 over UDP; `timeout`: how long set-up waits for a reply (seconds).
@@ -115,6 +117,11 @@ class Card {
   void setEncoderScale(unsigned n, double countsPerUnit);
   void enableIndex(unsigned n);
   [[nodiscard]] bool indexEnabled(unsigned n) const;
+
+  // --- HostMot2 registers (any card): the raw 32-bit accesses LinuxCNC's
+  // hostmot2 makes, e.g. a StepGen's rate (its base from modules).
+  [[nodiscard]] std::uint32_t read32(std::uint16_t address);
+  void write32(std::uint16_t address, std::uint32_t value);
 
   // --- In process only ------------------------------------------------------------------
   // The virtual card; throws lbpkit::Error on a card on the network.

@@ -21,6 +21,118 @@ void checkVolts(double v, const char* what) {
 }
 }  // namespace
 
+// --- VirtualSevenI76 --------------------------------------------------------------------------
+
+VirtualSevenI76::VirtualSevenI76(std::shared_ptr<Card> card) : card_(std::move(card)) {
+  auto l = card_->lock();
+  (void)io();
+}
+
+remote::SevenI76FieldIo& VirtualSevenI76::io() {
+  auto* i76 = card_->board().sevenI76();
+  if (i76 == nullptr)
+    throw Error(fmt::format("this card's firmware ({}) has no 7I76: Card.sim(card=\"7I92T\") or "
+                            "pinout=\"7I77+7I76\" has one",
+                            card_->board().firmware().name));
+  return *i76;
+}
+
+void VirtualSevenI76::checkInput(unsigned input) const {
+  if (input >= remote::SevenI76FieldIo::kInputs)
+    throw std::out_of_range(
+        fmt::format("input {}: the 7I76 has inputs 0..{}", input, remote::SevenI76FieldIo::kInputs - 1));
+}
+
+void VirtualSevenI76::checkOutput(unsigned output) const {
+  if (output >= remote::SevenI76FieldIo::kOutputs)
+    throw std::out_of_range(
+        fmt::format("output {}: the 7I76 has outputs 0..{}", output, remote::SevenI76FieldIo::kOutputs - 1));
+}
+
+unsigned VirtualSevenI76::channel() {
+  auto l = card_->lock();
+  (void)io();
+  return hm2::cards::sevenI76Channel(card_->board().firmware()).value_or(0);
+}
+
+void VirtualSevenI76::setInput(unsigned input, bool on) {
+  auto l = card_->lock();
+  checkInput(input);
+  auto& i = io();
+  const double volts = on ? i.fieldVoltage() : 0.0;
+  l.unlock();
+  setInputVoltage(input, volts);
+}
+
+void VirtualSevenI76::setInputVoltage(unsigned input, double volts) {
+  auto l = card_->lock();
+  checkInput(input);
+  checkVolts(volts, "input voltage");
+  auto& i = io();
+  // The machine sets its switches' inputs at every plant step (as on the 7I77).
+  if (const auto* m = card_->machine())
+    for (const auto& s : m->description().switches)
+      if (s.daughtercard == machine::Daughtercard::SevenI76 && s.input == input)
+        throw Error(fmt::format("7I76 input {} is wired to the machine's switch \"{}\": trip it with "
+                                "machine.set_switch(\"{}\", True) instead",
+                                input, s.name, s.name));
+  i.setInputVoltage(input, volts);
+}
+
+bool VirtualSevenI76::input(unsigned input) {
+  auto l = card_->lock();
+  checkInput(input);
+  return io().input(input);
+}
+std::uint32_t VirtualSevenI76::inputs() {
+  auto l = card_->lock();
+  return io().inputs();
+}
+bool VirtualSevenI76::output(unsigned output) {
+  auto l = card_->lock();
+  checkOutput(output);
+  return io().outputOn(output);
+}
+std::uint16_t VirtualSevenI76::outputs() {
+  auto l = card_->lock();
+  return io().outputs();
+}
+double VirtualSevenI76::outputVoltage(unsigned output) {
+  auto l = card_->lock();
+  checkOutput(output);
+  return io().outputVoltage(output);
+}
+void VirtualSevenI76::setFieldVoltage(double volts) {
+  auto l = card_->lock();
+  checkVolts(volts, "field voltage");
+  auto& i = io();
+  i.setFieldVoltage(volts, card_->board().now());
+}
+double VirtualSevenI76::fieldVoltage() {
+  auto l = card_->lock();
+  return io().fieldVoltage();
+}
+double VirtualSevenI76::spindleVolts() {
+  auto l = card_->lock();
+  return io().spindleVolts();
+}
+bool VirtualSevenI76::spindleEnable() {
+  auto l = card_->lock();
+  return io().spindleEnable();
+}
+bool VirtualSevenI76::spindleDirection() {
+  auto l = card_->lock();
+  return io().spindleDirection();
+}
+std::uint8_t VirtualSevenI76::faults() {
+  auto l = card_->lock();
+  return io().faults();
+}
+bool VirtualSevenI76::powered() {
+  auto l = card_->lock();
+  return io().powered();
+}
+
 // --- VirtualBoard ---------------------------------------------------------------------------
 
 VirtualBoard::VirtualBoard(std::shared_ptr<Card> card) : card_(std::move(card)) {
@@ -231,14 +343,16 @@ std::vector<std::string> VirtualMachine::axes() {
   return out;
 }
 
+// A servo axis' mechanics or a stepper's motor (Machine::position; a
+// stepper axis' Axis holds only its faults).
 double VirtualMachine::position(const std::string& name) {
   auto l = card_->lock();
-  return m().axis(axis(name)).position();
+  return m().position(axis(name));
 }
 
 double VirtualMachine::velocity(const std::string& name) {
   auto l = card_->lock();
-  return m().axis(axis(name)).velocity();
+  return m().state().axes.at(axis(name)).velocity;
 }
 
 double VirtualMachine::followingError(const std::string& name) {
@@ -261,6 +375,12 @@ std::optional<double> VirtualMachine::spindleRpm() {
 machine::Machine::State VirtualMachine::state() {
   auto l = card_->lock();
   return m().state();
+}
+
+std::optional<machine::Machine::State::Stepper> VirtualMachine::stepper(const std::string& name) {
+  auto l = card_->lock();
+  const auto a = axis(name);
+  return m().state().axes.at(a).stepper;
 }
 
 void VirtualMachine::setSwitch(const std::string& name, bool tripped) {

@@ -68,6 +68,38 @@ class VirtualBoard {
   std::shared_ptr<Card> card_;
 };
 
+// The 7I76 beside the 7I77 on the 7I77+7I76 firmwares (Card.sim(card="7I92T")):
+// its field I/O processor on its SSerial channel, from the outside: 32
+// inputs, 16 sourcing outputs, field power and the spindle interface
+// (SpinOut volts, SpinEna, SpinDir; docs/cards.md#the-7i76-field-io).
+class VirtualSevenI76 {
+ public:
+  // Throws lbpkit::Error when the card's firmware has no 7I76.
+  explicit VirtualSevenI76(std::shared_ptr<Card> card);
+
+  [[nodiscard]] unsigned channel();  // its SSerial channel (3)
+  void setInput(unsigned input, bool on);
+  void setInputVoltage(unsigned input, double volts);
+  [[nodiscard]] bool input(unsigned input);
+  [[nodiscard]] std::uint32_t inputs();
+  [[nodiscard]] bool output(unsigned output);
+  [[nodiscard]] std::uint16_t outputs();
+  [[nodiscard]] double outputVoltage(unsigned output);
+  void setFieldVoltage(double volts);
+  [[nodiscard]] double fieldVoltage();
+  [[nodiscard]] double spindleVolts();
+  [[nodiscard]] bool spindleEnable();
+  [[nodiscard]] bool spindleDirection();
+  [[nodiscard]] std::uint8_t faults();
+  [[nodiscard]] bool powered();
+
+ private:
+  remote::SevenI76FieldIo& io();  // the lock held
+  void checkInput(unsigned input) const;
+  void checkOutput(unsigned output) const;
+  std::shared_ptr<Card> card_;
+};
+
 class VirtualMachine {
  public:
   // Throws lbpkit::Error when the card has no machine.
@@ -81,6 +113,8 @@ class VirtualMachine {
   [[nodiscard]] bool brakeEngaged(const std::string& axis);
   [[nodiscard]] std::optional<double> spindleRpm();
   [[nodiscard]] machine::Machine::State state();
+  // A stepper axis' StepGen steps, lost steps and stall (None for a servo axis).
+  [[nodiscard]] std::optional<machine::Machine::State::Stepper> stepper(const std::string& axis);
 
   // Faults and the operator (the daemon's POST /api/machine actions).
   void setSwitch(const std::string& name, bool tripped);

@@ -313,6 +313,71 @@ TEST(Mesaflash, ReadsEveryCardOfTheCatalogue) {
   }
 }
 
+// An Efinix .bin as mesaflash's bitfile.c reads one: text lines, the 7th
+// naming the part after a blank, then (made-up) data.
+std::string fakeEfinixBin() {
+  const auto path = (std::filesystem::temp_directory_path() / ("lbpkit-" + std::to_string(::getpid()) + ".bin")).string();
+  std::ofstream f(path, std::ios::binary);
+  f << "Version: lbpkit\nDate: 2026-12-02\nMode: active\nWidth: 4\nFamily: Trion\nFPGA: T20\n"
+    << "Device: T20F256\nProject: lbpkit_test\nPadded: yes\nEnd: 1\n";
+  std::uint32_t x = 7;
+  for (int i = 0; i < 70000; ++i) f.put(static_cast<char>((x = x * 1664525U + 1013904223U) >> 24));
+  return path;
+}
+
+// Issue 17: each card's LBP16 face as mesaflash --verbose prints it (its
+// name in the board-info space and the EEPROM, its flash), where mesaflash
+// programs it (the user area of a 16 Mbit part: 0x100000; an Efinix card
+// without the Xilinx boot block) and that --reload reloads its FPGA the way
+// its family does (Xilinx ICAP IPROG, Efinix configuration register): the
+// modules come back at power-up.
+TEST(Mesaflash, EachCardAnswersWithItsOwnLbp16DetailsAndReloads) {
+  if (!have("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
+  struct Case {
+    std::string card, device, part;
+    bool efinix;
+  };
+  const std::vector<Case> cases = {{"7I92", "7i92", "6slx9tqg144", false},
+                                   {"7I92T", "7i92t", "T20F256", true},
+                                   {"7I96S", "7i96s", "T20F256", true},
+                                   {"7I80HD-25", "7i80hd-25", "6slx25ftg256", false}};
+  const auto bin = fakeEfinixBin();
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.card);
+    Sim sim(loopback(), {"--card", c.card});
+    ASSERT_TRUE(sim.up());
+    const std::string card = "timeout 120 mesaflash --device " + c.device + " --addr " + loopback();
+    auto r = sh(card + " --verbose");
+    ASSERT_EQ(r.exit, 0) << r.out;
+    for (const auto& line : {"ETH device " + c.card + " at ip=", "    board name: " + c.card + "\n  " + "  user leds",
+                             "[space 7] LBP16 info:\n    board name: " + c.card + "\n", "FPGA type: " + c.part,
+                             std::string("flash size: 16Mb (id: 0x164014)"),
+                             std::string("3: FPGAFlsh (flash, RW, 32-bit) [size=2M], page size: 256, erase size: 65536"),
+                             std::string("LBP16 protocol version 3")})
+      EXPECT_NE(r.out.find(line), std::string::npos) << line << "\n" << r.out;
+    if (c.efinix) {
+      r = sh(card + " --write " + bin);
+      EXPECT_EQ(r.exit, 0) << r.out;
+      EXPECT_NE(r.out.find("File type: Efinix bin file"), std::string::npos) << r.out;
+      EXPECT_NE(r.out.find("sectors starting from 0x100000"), std::string::npos) << r.out;
+      EXPECT_EQ(r.out.find("Boot"), std::string::npos) << "no boot block on an Efinix card: " << r.out;
+      r = sh(card + " --verify " + bin);
+      EXPECT_EQ(r.exit, 0) << r.out;
+      EXPECT_NE(r.out.find("verified successfully"), std::string::npos) << r.out;
+    }
+    // A register the FPGA's reload puts back to power-up: IOPort output invert.
+    sh(card + " --wpo 0x1400=0x5");
+    ASSERT_EQ(sh(card + " --rpo 0x1400").out, "00000005\n");
+    r = sh(card + " --reload");
+    EXPECT_EQ(r.exit, 0) << r.out;
+    EXPECT_TRUE(waitFor([&] { return sh(card + " --rpo 0x1400").out == "00000000\n"; }, 3000ms))
+        << sh(card + " --rpo 0x1400").out;
+    EXPECT_EQ(sh(card + " --rpo 0x100").out, "55AACAFE\n");  // and answers again
+    EXPECT_EQ(sim.stop(), 0);
+  }
+  std::filesystem::remove(bin);
+}
+
 TEST(Lbp16, GarbageFromAnotherPortDoesNotStopService) {
   Sim sim(loopback());
   ASSERT_TRUE(sim.up());
@@ -1041,6 +1106,206 @@ TEST_F(LinuxCnc, Hm2EthCreatesThe7I76sPinsOnChannel3) {
   EXPECT_TRUE(waitFor([&] { return std::atof(getp("hm2_7i92.0.7i76.0.3.fieldvoltage").c_str()) > 23.5; }, 1000ms))
       << getp("hm2_7i92.0.7i76.0.3.fieldvoltage");
   EXPECT_EQ(getp("hm2_7i92.0.io_error"), "FALSE");
+}
+
+// Issue 17: the 7I96S's TB3 as Mesa's 7I96S firmwares carry it (pncconf's
+// 7i96s_d): hm2_eth makes InM's inputs IN0..IN10, SSR's OUT0..OUT3 and
+// OutM's OUT4 and OUT5 from the pin descriptors (inm.c, ssr.c, outm.c), and
+// what LinuxCNC writes lands in those modules' registers.
+TEST_F(LinuxCnc, Hm2EthCreatesThe7I96SsTb3InmSsrAndOutmPins) {
+  if (!have("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
+  const Cleanup cleanup{[&] {
+    hal("halrun -U");
+    sim_.reset();
+  }};
+  sim_ = std::make_unique<Sim>(cardIp_, std::vector<std::string>{"--card", "7I96S"});
+  ASSERT_TRUE(sim_->up());
+  const auto file = fifo_ + ".hal";
+  std::ofstream(file) << "loadrt hostmot2\nloadrt hm2_eth board_ip=" << cardIp_
+                      << " config=\"num_encoders=8 num_stepgens=5 num_pwmgens=1 sserial_port_0=00xx\"\n"
+                      << "loadrt threads name1=servo period1=1000000\n"
+                      << "addf hm2_7i96s.0.read servo\naddf hm2_7i96s.0.write servo\nstart\n";
+  const auto r = loadRetrying([&](const std::string& command_) { return hal(command_); }, "halcmd -f " + file);
+  std::filesystem::remove(file);
+  ASSERT_EQ(r.exit, 0) << r.out;
+  const auto pins = hal("halcmd show pin").out + hal("halcmd show param").out;
+  const std::string b = "hm2_7i96s.0.";
+  for (const char* p : {"inm.00.input-00", "inm.00.input-10", "inm.00.input-10-not", "inm.00.raw-input-05",
+                        "inm.00.input-03-slow", "inm.00.enc0-count", "inm.00.enc3-reset", "inm.00.scan_rate",
+                        "inm.00.enc1_4xmode", "ssr.00.rate", "ssr.00.out-00", "ssr.00.out-03", "ssr.00.invert-03",
+                        "outm.00.out-04", "outm.00.out-05", "outm.00.invert-05", "stepgen.04.position-cmd"})
+    EXPECT_NE(pins.find(b + p), std::string::npos) << p << "\n" << pins;
+  for (const char* p : {"inm.00.input-11", "ssr.00.out-04", "outm.00.out-03", "outm.00.out-06"})
+    EXPECT_EQ(pins.find(b + p + std::string(" ")), std::string::npos) << p;
+  EXPECT_EQ(getp(b + "inm.00.scan_width"), "11");  // MaxBit + 1, read from the control register
+  // Idle inputs: pins high, inverted to "off".
+  EXPECT_TRUE(waitFor([&] { return getp(b + "inm.00.input-00-not") == "TRUE"; }, 1000ms));
+  EXPECT_EQ(getp(b + "inm.00.raw-input-10"), "FALSE");
+  hal("halcmd setp " + b + "ssr.00.out-02 1");
+  hal("halcmd setp " + b + "outm.00.out-05 1");
+  hal("halcmd setp " + b + "outm.00.invert-04 1");
+  const std::string rpo = "timeout 30 mesaflash --device 7i96s --addr " + cardIp_ + " --rpo ";
+  auto reg = [&](const char* address) {
+    auto v = sh(rpo + address).out;
+    while (!v.empty() && v.back() == '\n') v.pop_back();
+    return v;
+  };
+  EXPECT_TRUE(waitFor([&] { return reg("0x7D00") == "00000004"; }, 2000ms)) << reg("0x7D00");  // SSR data
+  EXPECT_EQ(reg("0x7E00"), "00001030");  // 1 MHz: divisor 48, enable
+  EXPECT_TRUE(waitFor([&] { return reg("0xB000") == "00000030"; }, 2000ms)) << reg("0xB000");  // OutM 4 (inverted), 5
+  // inm.c's control word: invert, divisor 112 (20 kHz x 11 inputs), 5 and 500 scans; MaxBit 10.
+  EXPECT_EQ(reg("0x8500"), "7D051C2A");
+  // Item 3: encoder.timer-number reaches the counters' DPLL timer register
+  // (base + 5 strides: 0x3A00), (1 << 12) | 0x8000, and the card still keeps time.
+  hal("halcmd setp " + b + "dpll.01.timer-us -100");
+  hal("halcmd setp " + b + "encoder.timer-number 1");
+  EXPECT_TRUE(waitFor([&] { return reg("0x3A00") == "00009000"; }, 2000ms)) << reg("0x3A00");
+  std::this_thread::sleep_for(300ms);
+  EXPECT_EQ(getp(b + "io_error"), "FALSE");
+}
+
+// `lbpkit sim` arguments for a card of the catalogue and one of its
+// firmwares (none: its default), the firmware through a sim configuration
+// written to `toml`.
+std::vector<std::string> catalogueCard(const std::string& card, const std::string& pinout, const std::string& toml) {
+  std::vector<std::string> args{"--card", card};
+  if (pinout.empty()) return args;
+  std::ofstream(toml) << "[card]\nname = \"" << card << "\"\npinout = \"" << pinout << "\"\n";
+  args.insert(args.end(), {"--config", toml});
+  return args;
+}
+
+// Issue 17 follow-up: `lbpkit pins` knows every card of the catalogue with
+// its modules (StepGen, PWMGen, HM2DPLL, the 7I96S's InM, SSR and OutM, the
+// 7I76 on channel 3): what it lists from the card on the network (hm2_eth's
+// board name from the LBP16 name) is what hm2_eth creates, pin for pin and
+// parameter for parameter, for each card's default firmware and the 7I92's
+// 7I77+7I76, with every module and with some left out (their IO pins become
+// GPIO again).
+TEST_F(LinuxCnc, PinsListsExactlyWhatHm2EthCreatesOnEveryCardOfTheCatalogue) {
+  struct Case {
+    std::string card, pinout, board, config;
+  };
+  const std::vector<Case> cases = {
+      {"7I92", "", "hm2_7i92.0", "sserial_port_0=00xxxx"},
+      {"7I92", "7I77+7I76", "hm2_7i92.0", "num_encoders=8 num_stepgens=5 sserial_port_0=00x0x"},
+      {"7I92T", "", "hm2_7i92.0", "num_encoders=8 num_stepgens=5 sserial_port_0=00x2x"},
+      {"7I92T", "", "hm2_7i92.0", "num_encoders=6 num_stepgens=2 num_dplls=0 sserial_port_0=00xxx"},
+      {"7I96S", "", "hm2_7i96s.0", "num_encoders=8 num_stepgens=5 num_pwmgens=1 sserial_port_0=00xx"},
+      {"7I96S", "", "hm2_7i96s.0",
+       "num_encoders=2 num_stepgens=3 num_pwmgens=0 num_inms=0 num_ssrs=0 num_outms=0 sserial_port_0=0xxx"},
+      {"7I80HD-25", "", "hm2_7i80.0", "num_encoders=6 sserial_port_0=00x"},
+  };
+  const auto toml = fifo_ + "-pinout.toml";
+  const Cleanup cleanup{[&] {
+    hal("halrun -U");
+    sim_.reset();
+    std::filesystem::remove(toml);
+  }};
+  // halcmd's show pin / show param lines of one board: "pin NAME TYPE DIR".
+  auto shown = [&](const std::string& board) {
+    std::set<std::string> out;
+    for (const auto& [command, kind] : {std::pair{"halcmd show pin", "pin"}, std::pair{"halcmd show param", "param"}}) {
+      std::istringstream in(hal(command).out);
+      for (std::string line; std::getline(in, line);) {
+        std::istringstream words(line);
+        std::vector<std::string> w;
+        for (std::string x; words >> x;) w.push_back(x);
+        if (w.size() >= 5 && w[4].rfind(board + ".", 0) == 0)
+          out.insert(std::string(kind) + " " + w[4] + " " + w[1] + " " + w[2]);
+      }
+    }
+    return out;
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.card + " " + c.pinout + ": " + c.config);
+    sim_ = std::make_unique<Sim>(cardIp_, catalogueCard(c.card, c.pinout, toml));
+    ASSERT_TRUE(sim_->up());
+    const auto listed = testing_process::run({"pins", "--addr", cardIp_, "--config", c.config, "--json"});
+    ASSERT_EQ(listed.exit, 0) << listed.err;
+    const auto j = json::parse(listed.out, nullptr, false);
+    ASSERT_FALSE(j.is_discarded()) << listed.out;
+    EXPECT_EQ(j["board"], c.board);
+    std::set<std::string> predicted;
+    for (const auto& [key, kind] : {std::pair{"pins", "pin"}, std::pair{"params", "param"}})
+      for (const auto& i : j[key])
+        predicted.insert(std::string(kind) + " " + i["name"].get<std::string>() + " " + i["type"].get<std::string>() +
+                         " " + i["dir"].get<std::string>());
+    const auto file = fifo_ + ".hal";
+    std::ofstream(file) << "loadrt hostmot2\nloadrt hm2_eth board_ip=" << cardIp_ << " config=\"" << c.config << "\"\n"
+                        << "loadrt threads name1=servo period1=1000000\n"
+                        << "addf " << c.board << ".read servo\naddf " << c.board << ".write servo\nstart\n";
+    const auto r = loadRetrying([&](const std::string& command_) { return hal(command_); }, "halcmd -f " + file);
+    std::filesystem::remove(file);
+    ASSERT_EQ(r.exit, 0) << r.out;
+    const auto actual = shown(c.board);
+    EXPECT_GT(actual.size(), 200U);
+    EXPECT_EQ(predicted, actual) << "LinuxCNC created, lbpkit pins did not list:\n"
+                                 << difference(actual, predicted) << "lbpkit pins listed, LinuxCNC did not create:\n"
+                                 << difference(predicted, actual);
+    hal("halrun -U");
+    sim_.reset();
+  }
+}
+
+// Issue 17 follow-up: check-config's verdicts on the catalogue's cards are
+// LinuxCNC's. What it passes (a 7I92T with StepGens and the HM2DPLL, a
+// 7I96S with every module, a 7I80HD-25) loads against `lbpkit sim` of that
+// card; what it catches (a sixth StepGen, DPLL pins on a 7I92's firmware, a
+// StepGen num_stepgens leaves out, more StepGens than the firmware has),
+// halcmd refuses at the line check-config names.
+TEST_F(LinuxCnc, CheckConfigsVerdictsOnEveryCardOfTheCatalogueAreLinuxCncs) {
+  const std::filesystem::path corpus = std::filesystem::path(LBPKIT_SOURCE_DIR) / "tests/check_config";
+  struct Case {
+    std::string file, card, pinout;
+    bool good;
+  };
+  const std::vector<Case> cases = {{"good/7i92t_stepgens_dpll", "7I92T", "", true},
+                                   {"good/7i96s_modules", "7I96S", "", true},
+                                   {"good/7i80hd_7i77", "7I80HD-25", "", true},
+                                   {"broken/stepgen_not_in_firmware", "7I92T", "", false},
+                                   {"broken/dpll_without_hm2dpll", "7I92", "7I77+7I76", false},
+                                   {"broken/stepgen_left_out", "7I96S", "", false},
+                                   {"broken/too_many_stepgens", "7I96S", "", false}};
+  const auto toml = fifo_ + "-pinout.toml";
+  const Cleanup cleanup{[&] {
+    hal("halrun -U");
+    sim_.reset();
+    std::filesystem::remove(toml);
+  }};
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.file);
+    const auto file = corpus / (c.file + ".hal");
+    std::vector<std::string> check{"check-config", file.string(), "--json"};
+    if (!c.pinout.empty()) check.insert(check.end(), {"--card", c.card, "--pinout", c.pinout});
+    const auto checked = testing_process::run(check);
+    ASSERT_EQ(checked.exit, c.good ? 0 : 1) << checked.out << checked.err;
+    sim_ = std::make_unique<Sim>(cardIp_, catalogueCard(c.card, c.pinout, toml));
+    ASSERT_TRUE(sim_->up());
+    std::ifstream in(file);
+    std::ostringstream text;
+    for (std::string l; std::getline(in, l);) {
+      const auto at = l.find("board_ip=10.10.10.10");
+      text << (at == std::string::npos ? l : l.replace(at, 20, "board_ip=" + cardIp_)) << "\n";
+    }
+    const auto own = fifo_ + "-catalogue.hal";
+    std::ofstream(own) << text.str();
+    const auto r = loadRetrying([&](const std::string& command_) { return hal(command_); }, "halcmd -f " + own);
+    std::filesystem::remove(own);
+    if (c.good) {
+      EXPECT_EQ(r.exit, 0) << r.out;
+      EXPECT_EQ(r.out.find("rror"), std::string::npos) << r.out;
+    } else {
+      const auto findings = json::parse(checked.out)["findings"];
+      ASSERT_FALSE(findings.empty());
+      const auto line = findings[0]["line"].get<unsigned>();
+      EXPECT_NE(r.exit, 0) << r.out;
+      EXPECT_NE(r.out.find(own + ":" + std::to_string(line) + ":"), std::string::npos)
+          << "check-config says line " << line << " (" << findings[0]["reason"] << "); halcmd says:\n" << r.out;
+    }
+    hal("halrun -U");
+    sim_.reset();
+  }
 }
 
 }  // namespace

@@ -127,6 +127,41 @@ TEST(MonitorView, AnAnswerItDoesNotUnderstandShowsQuestionMarksNotACrash) {
   EXPECT_NO_THROW((void)app::machineSection(json(42)));
 }
 
+// Issue 17: a stepper axis (no drives) shows its StepGen's steps, the steps
+// its motor lost and a stall; parts wired to the 7I76 say so.
+TEST(MonitorView, AStepperAxisShowsItsStepsLostStepsAndStall) {
+  auto m = cannedMill();
+  auto& z = m["axes"][1];
+  z["drives"] = json::array();
+  z["jammed"] = false;
+  z["brake_engaged"] = false;
+  z["stepper"] = {{"stepgen", 0}, {"steps", 4000}, {"lost_steps", 12}, {"stalled", true}, {"commanded_position", -70.0}};
+  m["axes"][0]["stepper"] = nullptr;  // a servo axis, as the API says it
+  const auto s = app::machineSection(m);
+  EXPECT_TRUE(has(s, "  z         -75.000      0.000  StepGen 0: 4000 steps, 12 lost  STALLED\n")) << s;
+  EXPECT_TRUE(has(s, "  x         402.123     -1.500  AOUT0  -0.250 V  ENA on  enabled   enc0  1234  pushed\n")) << s;
+  z["stepper"]["stalled"] = false;
+  z["stepper"]["lost_steps"] = 0;
+  const auto following = app::machineSection(m);
+  EXPECT_TRUE(has(following, "StepGen 0: 4000 steps, 0 lost\n")) << following;
+  EXPECT_FALSE(has(following, "STALLED")) << following;
+  // Mistyped: question marks, no crash.
+  z["stepper"] = {{"stepgen", "zero"}, {"steps", nullptr}};
+  EXPECT_TRUE(has(app::machineSection(m), "StepGen ?: ? steps, ? lost  stall ?\n")) << app::machineSection(m);
+}
+
+TEST(MonitorView, PartsWiredToThe7I76SaySo) {
+  auto m = cannedMill();
+  m["axes"][0]["switches"][2]["daughtercard"] = "7I76";
+  m["outputs"][1]["daughtercard"] = "7I76";
+  m["outputs"][0]["daughtercard"] = "7I77";
+  m["spindle"]["daughtercard"] = "7I76";
+  const auto s = app::machineSection(m);
+  EXPECT_TRUE(has(s, "switches: x-home TRIPPED  x-min -  x-max (7I76) TRIPPED\n")) << s;
+  EXPECT_TRUE(has(s, "outputs:  coolant (out 0) ON  lube (7I76 out 1) off\n")) << s;
+  EXPECT_TRUE(has(s, "spindle (7I76): command 12000 rpm")) << s;
+}
+
 // A control API of the test's own on a free loopback port, answering
 // GET /api/machine with `status` and `body`.
 class CannedApi {
@@ -222,6 +257,32 @@ TEST(MonitorView, TheMonitorShowsTheMillOfARunningSim) {
     EXPECT_EQ(sim.stop(), 0);
   }
   for (const char* suffix : {"", ".analog"}) std::filesystem::remove(state + suffix);
+}
+
+// The same with a stepper: `lbpkit sim --card 7I92T` (the 7I77+7I76
+// firmware, five StepGens) and a machine file whose Z is on StepGen 0.
+TEST(MonitorView, TheMonitorShowsTheStepperAxisOfARunningSim) {
+  const auto tmp = std::filesystem::temp_directory_path();
+  const auto state = (tmp / ("lbpkit-monitor-stepper-" + std::to_string(::getpid()))).string();
+  // tests/machines/router_stepper.toml, beside examples/.
+  const std::string file = LBPKIT_EXAMPLES_DIR "/../tests/machines/router_stepper.toml";
+  {
+    testing_process::Daemon sim({"sim", "--card", "7I92T", "--machine", file, "--bind", "127.0.0.1:0", "--api",
+                                 "127.0.0.1:0", "--state", state, "--no-realtime"});
+    const auto udp = sim.value("on UDP 127.0.0.1:");
+    const auto api = sim.value("control API: http://127.0.0.1:");
+    ASSERT_FALSE(udp.empty());
+    ASSERT_FALSE(api.empty());
+    const auto r = run({"monitor", "--addr", "127.0.0.1:" + udp, "--api", api.substr(0, api.find('/')), "--frames", "2",
+                        "--plain", "--display", "20"},
+                       std::chrono::seconds(30));
+    EXPECT_EQ(r.exit, 0) << r.err;
+    EXPECT_TRUE(has(r.out, "machine: router at ")) << r.out;
+    EXPECT_TRUE(has(r.out, "  x         200.000      0.000  AOUT0  +0.000 V  ENA off disabled")) << r.out;
+    EXPECT_TRUE(has(r.out, "  z       -1000.000      0.000  StepGen 0: 0 steps, 0 lost\n")) << r.out;
+    EXPECT_EQ(sim.stop(), 0);
+  }
+  for (const auto& f : {state, state + ".analog"}) std::filesystem::remove(f);
 }
 
 TEST(MonitorView, AnApiThatWantsATokenSaysSo) {

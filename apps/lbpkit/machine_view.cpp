@@ -45,14 +45,24 @@ std::string fixed(std::optional<double> v, int decimals, bool sign = false) {
 std::string whole(std::optional<double> v) { return v ? fmt::format("{:.0f}", *v) : "?"; }
 std::string onOff(std::optional<bool> v, const char* on, const char* off) { return v ? (*v ? on : off) : "?"; }
 
+// " (7I76)" for what is wired to the 7I76 rather than the 7I77.
+std::string board(const json& part) { return text(part, "daughtercard") == "7I76" ? " (7I76)" : ""; }
+
 // "x-home -" while clear, "x-max TRIPPED" when the cam (or the operator) has it.
 std::string switches(const json& all) {
   std::string s;
   for (const auto& sw : all) {
     if (!s.empty()) s += "  ";
-    s += fmt::format("{} {}", text(sw, "name"), onOff(flag(sw, "tripped"), "TRIPPED", "-"));
+    s += fmt::format("{}{} {}", text(sw, "name"), board(sw), onOff(flag(sw, "tripped"), "TRIPPED", "-"));
   }
   return s;
+}
+
+// A stepper axis' StepGen: "StepGen 0: 4000 steps, 12 lost  STALLED".
+std::string stepper(const json& st) {
+  const auto stalled = flag(st, "stalled");
+  return fmt::format("StepGen {}: {} steps, {} lost{}", whole(number(st, "stepgen")), whole(number(st, "steps")),
+                     whole(number(st, "lost_steps")), !stalled ? "  stall ?" : *stalled ? "  STALLED" : "");
 }
 
 std::string drive(const json& d) {
@@ -84,7 +94,9 @@ std::string machineSection(const json& m) {
     if (flag(a, "jammed").value_or(false)) state += "  JAMMED";
     if (flag(a, "pushing").value_or(false)) state += "  pushed";
     const auto& drives = list(a, "drives");
-    const std::string first = drives.empty() ? "(no drive)" : drive(drives[0]);
+    const auto it = a.is_object() ? a.find("stepper") : a.end();
+    const bool isStepper = a.is_object() && it != a.end() && it->is_object();
+    const std::string first = isStepper ? stepper(*it) : drives.empty() ? "(no drive)" : drive(drives[0]);
     s += fmt::format("  {:<6} {:>10} {:>10}  {}{}\n", text(a, "name"), fixed(number(a, "position"), 3),
                      fixed(number(a, "velocity"), 3), first, state);
     for (std::size_t i = 1; i < drives.size(); ++i) s += fmt::format("  {:<6} {:>10} {:>10}  {}\n", "", "", "", drive(drives[i]));
@@ -102,14 +114,15 @@ std::string machineSection(const json& m) {
   if (const auto it = m.is_object() ? m.find("spindle") : m.end(); m.is_object() && it != m.end() && it->is_object()) {
     const auto& sp = *it;
     const auto count = number(sp, "encoder_count");
-    s += fmt::format("spindle: command {} rpm, actual {} rpm, {}{}\n", whole(number(sp, "command_rpm")),
+    s += fmt::format("spindle{}: command {} rpm, actual {} rpm, {}{}\n", board(sp), whole(number(sp, "command_rpm")),
                      whole(number(sp, "rpm")), onOff(flag(sp, "running"), "running", "stopped"),
                      count ? fmt::format(", encoder {:.0f}", *count) : "");
   }
   if (!list(m, "outputs").empty()) {
     s += "outputs:";
     for (const auto& o : list(m, "outputs"))
-      s += fmt::format("  {} (out {}) {}", text(o, "name"), whole(number(o, "output")), onOff(flag(o, "on"), "ON", "off"));
+      s += fmt::format("  {} ({}out {}) {}", text(o, "name"), text(o, "daughtercard") == "7I76" ? "7I76 " : "",
+                       whole(number(o, "output")), onOff(flag(o, "on"), "ON", "off"));
     s += "\n";
   }
   return s;

@@ -14,6 +14,7 @@
 #include <httplib.h>
 
 #include <atomic>
+#include <cmath>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -27,6 +28,7 @@
 #include <vector>
 
 #include "../process.hpp"
+#include "../stepgen_registers.hpp"
 #include "lbpkit/hostmot2.hpp"
 #include "lbpkit/lbp16_transport.hpp"
 #include "lbpkit/sserial.hpp"
@@ -156,6 +158,78 @@ class Host {
   lbpkit::Lbp16Transport transport_;
   std::unique_ptr<lbpkit::SmartSerial> ss_;
   lbpkit::ElementRef input_{}, output_{}, analog0_{}, analogEnable_{};
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+// A host for the 7I77+7I76 firmwares' other half (issue 17): cycles the
+// 7I76 on SSerial channel 3 at about 1 kHz (outputs, SpinOut, SpinEna) and
+// commands StepGen 0's rate (StepGenRegisters), on its own thread until
+// destroyed.
+class SevenI76Host {
+ public:
+  static constexpr unsigned kChannel = 3;
+  explicit SevenI76Host(const Sim& sim) : transport_(sim.address(), static_cast<std::uint16_t>(sim.udpPort())) {
+    transport_.setCycleTimeout(500ms);
+    const auto info = lbpkit::readCardInfo(transport_);
+    stepGen_ = std::make_unique<testing_stepgen::StepGenRegisters>(transport_, info);
+    lbpkit::SmartSerial::Options o;
+    o.channelMask = 1U << kChannel;
+    ss_ = std::make_unique<lbpkit::SmartSerial>(transport_, info, o);
+    ss_->discover(1U << kChannel);
+    ss_->startNormal();
+    input_ = ss_->find(kChannel, "input");
+    output_ = ss_->find(kChannel, "output");
+    spinOut_ = ss_->find(kChannel, "spinout");
+    spinEna_ = ss_->find(kChannel, "spinena");
+    thread_ = std::thread([this] { run(); });
+  }
+  ~SevenI76Host() {
+    stop_ = true;
+    if (thread_.joinable()) thread_.join();
+  }
+  SevenI76Host(const SevenI76Host&) = delete;
+  SevenI76Host& operator=(const SevenI76Host&) = delete;
+
+  std::atomic<std::uint32_t> outputs{0};
+  std::atomic<double> spindleVolts{0.0};  // SpinOut; SpinEna on when not 0
+  std::atomic<double> stepRate{0.0};      // StepGen 0, steps per second
+  std::atomic<std::uint64_t> inputs{0};
+  std::atomic<std::uint64_t> cycles{0};
+
+ private:
+  void run() {
+    double rate = 0.0;
+    while (!stop_) {
+      if (const double want = stepRate.load(); want != rate) {
+        rate = want;
+        try {
+          stepGen_->setRate(want);
+        } catch (const std::exception&) {
+          rate = std::nan("");  // not sent: again next cycle
+        }
+      }
+      ss_->setRaw(output_, outputs.load());
+      const double v = spindleVolts.load();
+      ss_->set(spinOut_, v);
+      ss_->setRaw(spinEna_, v != 0.0 ? 1 : 0);
+      const auto st = ss_->cycle();
+      if (st.ok) inputs = ss_->raw(input_);
+      if (st.needsRecovery() != 0 || (ss_->remoteFaults(0) & 0x01U) != 0) {
+        try {
+          ss_->recover(0);
+        } catch (const std::exception&) {
+        }
+      }
+      ++cycles;
+      transport_.sleep(1ms);
+    }
+  }
+
+  lbpkit::Lbp16Transport transport_;
+  std::unique_ptr<testing_stepgen::StepGenRegisters> stepGen_;
+  std::unique_ptr<lbpkit::SmartSerial> ss_;
+  lbpkit::ElementRef input_{}, output_{}, spinOut_{}, spinEna_{};
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };

@@ -135,4 +135,61 @@ TEST_F(WebView, WithTheMillAnAxisMovesOnThePlotWhileAHostDrivesIt) {
   host->volts0 = 0.0;
 }
 
+// Issue 17: on the 7I92T's 7I77+7I76 firmware, a stepper axis' row shows its
+// StepGen's steps, the steps its motor lost and whether it stalled, and the
+// 7I76 has a panel of its own: inputs a click sets, outputs and the spindle
+// interface as a host on channel 3 drives them.
+TEST_F(WebView, AStepperAxisAndThe7I76ShowWhatTheCardAndMachineDo) {
+  SKIP_WITHOUT_BROWSER();
+  ASSERT_NO_FATAL_FAILURE(start(6, {"--card", "7I92T", "--machine", LBPKIT_TESTS_DIR "/machines/router_stepper.toml"}, false));
+  auto text = [&](const std::string& id) {
+    return b->run("return document.getElementById('" + id + "').textContent;").get<std::string>();
+  };
+  // The stepper's row: no encoder buttons (it has none), its StepGen.
+  ASSERT_TRUE(b->waitFor("return document.getElementById('steps-z').textContent === '0';"));
+  EXPECT_EQ(text("amp-z").rfind("StepGen 0: 0 steps, 0 lost, in step", 0), 0U) << text("amp-z");
+  EXPECT_FALSE(b->run("return !!document.getElementById('enc-z-A');").get<bool>());
+  EXPECT_TRUE(b->run("return !!document.getElementById('enc-x-A');").get<bool>());
+  EXPECT_FALSE(b->run("return !!document.getElementById('steps-x');").get<bool>());
+  // The 7I76's panel: every input and output, channel 3.
+  for (const char* id : {"i76-in-0", "i76-in-31", "i76-out-15", "i76-spinout", "i76-spinena", "i76-spindir", "i76-vfield"})
+    EXPECT_TRUE(b->run(std::string("return !!document.getElementById('") + id + "');").get<bool>()) << id;
+  EXPECT_NE(text("i76-card").find("SSerial channel 3"), std::string::npos);
+
+  SevenI76Host host76(*sim);
+  // A click on INPUT20 reaches the host through channel 3.
+  b->click("#i76-in-20");
+  EXPECT_TRUE(Host::waitFor([&] { return (host76.inputs.load() >> 20) & 1U; })) << "the host never read 7I76 INPUT20 on";
+  EXPECT_TRUE(b->waitFor("return document.getElementById('i76-in-20').dataset.on === 'true';"));
+  EXPECT_EQ(sim->get()["daughtercards"][1]["field_io"]["inputs"][20]["on"], true);
+  // The host's outputs and spindle command show on the panel.
+  host76.outputs = 1U << 3;
+  host76.spindleVolts = 5.0;
+  EXPECT_TRUE(b->waitFor("return document.getElementById('i76-out-3').dataset.on === 'true';"));
+  EXPECT_TRUE(b->waitFor("return document.getElementById('i76-spinena').textContent === 'enabled';"));
+  EXPECT_TRUE(b->waitFor("return document.getElementById('i76-spinout').textContent === '5.000';"))
+      << text("i76-spinout");
+  EXPECT_EQ(b->run("return document.getElementById('i76-out-2').dataset.on;").get<std::string>(), "false");
+  // Z stepping at 20 000 steps/s (25 mm/s): the row counts its steps, none lost.
+  host76.stepRate = 20000.0;
+  EXPECT_TRUE(b->waitFor("return Number(document.getElementById('steps-z').textContent) > 5000;", 10000ms))
+      << text("amp-z");
+  EXPECT_EQ(text("lost-z"), "0");
+  EXPECT_EQ(b->run("return document.getElementById('stall-z').dataset.stalled;").get<std::string>(), "false");
+  // Past the motor's pull-out rate (40 000 steps/s) it stalls and loses them.
+  host76.stepRate = 60000.0;
+  EXPECT_TRUE(b->waitFor("return document.getElementById('stall-z').dataset.stalled === 'true';", 10000ms))
+      << text("amp-z");
+  EXPECT_TRUE(b->waitFor("return Number(document.getElementById('lost-z').textContent) > 1000;", 10000ms))
+      << text("amp-z");
+  EXPECT_NE(text("stall-z").find("STALLED"), std::string::npos);
+  const auto z = sim->get("/api/machine")["axes"][1];
+  EXPECT_TRUE(z["stepper"]["stalled"].get<bool>()) << z.dump();
+  EXPECT_GT(z["stepper"]["lost_steps"].get<std::int64_t>(), 1000) << z.dump();
+  std::printf("stepper Z on the page: %s; API: %s\n", text("amp-z").c_str(), z["stepper"].dump().c_str());
+  b->run("document.getElementById('i76-card').scrollIntoView();");
+  b->screenshot("web-7i76-stepper");
+  host76.stepRate = 0.0;
+}
+
 }  // namespace

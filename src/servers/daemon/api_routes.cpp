@@ -61,11 +61,28 @@ json body(const httplib::Request& req) {
   return j;
 }
 
+// The 7I76 on the 7I77+7I76 firmwares is on the card's second connector
+// (IO17..33: PIN_7I77_7I76_34.vhd), where no 7I77 is.
+constexpr unsigned kSevenI76Connector = SimState::SevenI76::kConnector;
+
 // "connector" (0 when absent), checked against the 7I77s the card carries.
-unsigned connector(const json& j, const hm2::HostMot2Card& card) {
+unsigned connector(const json& j, hm2::HostMot2Card& card) {
   const auto d = j.contains("connector") ? index(j, "connector", 2) : 0U;
-  if (d >= card.daughtercards()) throw std::invalid_argument(fmt::format("no 7I77 on connector {}", d));
+  if (d >= card.daughtercards())
+    throw std::invalid_argument(d == kSevenI76Connector && card.sevenI76() != nullptr
+                                    ? fmt::format("connector {} carries the 7I76: only its inputs (/api/input), field "
+                                                  "voltage (/api/field) and output loads (/api/output) can be set",
+                                                  d)
+                                    : fmt::format("no 7I77 on connector {}", d));
   return d;
+}
+
+// The 7I76 when "connector" names its connector, else nullptr (a 7I77's).
+remote::SevenI76FieldIo* sevenI76At(const json& j, hm2::HostMot2Card& card) {
+  if (card.sevenI76() == nullptr || !j.contains("connector")) return nullptr;
+  return index(j, "connector", 2) == kSevenI76Connector && card.daughtercards() <= kSevenI76Connector
+             ? card.sevenI76()
+             : nullptr;
 }
 
 // Field power and VIN are rated up to 32 V (7I77 manual: SPECIFICATIONS; the
@@ -227,6 +244,12 @@ void machineRouteAction(const ApiTarget& t, const json& j) {
 }
 
 void inputAction(const ApiTarget& t, const json& j) {
+  if (auto* i76 = sevenI76At(j, t.card)) {
+    const auto n = index(j, "input", remote::SevenI76FieldIo::kInputs);
+    i76->setInputVoltage(n, j.contains("volts") ? number(j, "volts", 0, kMaxVolts, kVoltsRange)
+                                                : (flag(j, "on") ? i76->fieldVoltage() : 0.0));
+    return;
+  }
   auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
   const auto n = index(j, "input", remote::FieldIoProcessor::kInputs);
   const double v = j.contains("volts") ? number(j, "volts", 0, kMaxVolts, kVoltsRange)
@@ -235,6 +258,12 @@ void inputAction(const ApiTarget& t, const json& j) {
 }
 
 void fieldAction(const ApiTarget& t, const json& j) {
+  if (auto* i76 = sevenI76At(j, t.card)) {
+    // Its processor runs from field power (seven_i76.hpp): it has no VIN.
+    if (j.contains("vin")) throw std::invalid_argument("\"vin\": the 7I76 has no VIN (it runs from field power)");
+    i76->setFieldVoltage(number(j, "volts", 0, kMaxVolts, kVoltsRange), t.card.now());
+    return;
+  }
   auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
   // Both checked before either changes anything.
   const bool volts = j.contains("volts"), vin = j.contains("vin");
@@ -267,8 +296,9 @@ void cableAction(const ApiTarget& t, const json& j) {
 }
 
 void outputAction(const ApiTarget& t, const json& j) {
-  auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
-  const auto n = index(j, "output", remote::FieldIoProcessor::kOutputs);
+  auto* i76 = sevenI76At(j, t.card);
+  auto* io = i76 != nullptr ? nullptr : &t.card.daughtercard(connector(j, t.card)).fieldIo;
+  const auto n = index(j, "output", i76 != nullptr ? remote::SevenI76FieldIo::kOutputs : remote::FieldIoProcessor::kOutputs);
   double ohms = std::numeric_limits<double>::infinity();  // {} or null: an open terminal
   if (flag(j, "short", false))
     ohms = 0;
@@ -277,7 +307,10 @@ void outputAction(const ApiTarget& t, const json& j) {
                   fmt::format("above 0 and at most {:g}, or null for an open output (\"short\": true "
                               "for a short)",
                               kMaxOhms));
-  io.setOutputLoad(n, ohms);
+  if (i76 != nullptr)
+    i76->setOutputLoad(n, ohms);
+  else
+    io->setOutputLoad(n, ohms);
 }
 
 void overtempAction(const ApiTarget& t, const json& j) {

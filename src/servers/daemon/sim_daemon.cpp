@@ -191,6 +191,12 @@ SimState SimDaemon::state() {
       board.encoders[n] = encoders.counter.at(SimState::kEncodersPerDaughtercard * d + n);
     s.daughtercards.push_back(board);
   }
+  if (auto* i76 = card_.sevenI76()) {
+    // PIN_7I77_7I76_34.vhd: the 7I76 on IO17..33, the card's second connector.
+    constexpr unsigned kConnector = SimState::SevenI76::kConnector;
+    s.sevenI76 = SimState::SevenI76{kConnector, std::string(card_.description().connectors.at(kConnector)),
+                                    hm2::cards::sevenI76Channel(card_.firmware()).value_or(0), i76->state()};
+  }
   if (machine_) s.machine = machine_->state();
   return s;
 }
@@ -220,6 +226,11 @@ std::string SimDaemon::banner() const {
                      b.fieldIo.unitNumber(), 3 * d, b.analog.unitNumber(), 3 * d + 1, b.fieldIo.fieldVoltage(),
                      b.fieldIo.nvStore().file().empty() ? "" : ", EEPROM " + b.fieldIo.nvStore().file().string());
   }
+  if (auto* i76 = const_cast<hm2::HostMot2Card&>(card_).sevenI76())
+    s += fmt::format("  connector {}: 7I76 field I/O unit 0x{:08X} on channel {} (32 inputs, 16 outputs, spindle), "
+                     "field {:.1f} V\n",
+                     SimState::SevenI76::kConnector, i76->unitNumber(), hm2::cards::sevenI76Channel(card_.firmware()).value_or(0),
+                     i76->fieldVoltage());
   for (const auto& p : ptyChannels_)
     s += fmt::format("  channel {}: external remote on {} (LBP at {} baud; reply timeouts x{})\n", p->channel(),
                      p->path(), p->baud(), hm2::SmartSerial::kExternalTimeoutFactor);

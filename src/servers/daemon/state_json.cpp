@@ -62,6 +62,23 @@ json toJson(const hm2::MuxedEncoder::State::Counter& s) {
           {"counts_per_rev", s.signal.countsPerRev}};
 }
 
+namespace {
+
+// What a field I/O processor (the 7I77's, the 7I76's) shows of itself.
+json fieldProcessor(const remote::RemoteDevice::DeviceState& d, double fieldVoltage, json inputs, json outputs) {
+  return {{"powered", d.powered},
+          {"field_voltage", fieldVoltage},
+          {"mode", d.softwareMode},
+          {"unit_number", hex32(d.unitNumber)},
+          {"watchdog_ms", d.watchdogMs},
+          {"faults", faultNames(d.faults)},
+          {"baud", d.baud},
+          {"inputs", std::move(inputs)},
+          {"outputs", std::move(outputs)}};
+}
+
+}  // namespace
+
 json toJson(const remote::FieldIoProcessor::State& s) {
   json inputs = json::array(), outputs = json::array();
   for (const auto& in : s.inputs) inputs.push_back({{"volts", in.volts}, {"on", in.on}});
@@ -71,17 +88,10 @@ json toJson(const remote::FieldIoProcessor::State& s) {
                        {"volts", out.volts},
                        {"amps", std::isinf(out.amps) ? -1.0 : out.amps},
                        {"tripped", out.tripped}});
-  return {{"powered", s.device.powered},
-          {"field_voltage", s.fieldVoltage},
-          {"vin", s.vin},
-          {"mode", s.device.softwareMode},
-          {"unit_number", hex32(s.device.unitNumber)},
-          {"watchdog_ms", s.device.watchdogMs},
-          {"faults", faultNames(s.device.faults)},
-          {"baud", s.device.baud},
-          {"inputs", inputs},
-          {"outputs", outputs},
-          {"mpg", s.mpg}};
+  json j = fieldProcessor(s.device, s.fieldVoltage, inputs, outputs);
+  j["vin"] = s.vin;
+  j["mpg"] = s.mpg;
+  return j;
 }
 
 json toJson(const remote::AnalogProcessor::State& s) {
@@ -148,6 +158,25 @@ json toJson(const SimState::Daughtercard& s, unsigned connector) {
           {"encoders", enc}};
 }
 
+json toJson(const SimState::SevenI76& s) {
+  const auto& io = s.fieldIo;
+  json inputs = json::array(), outputs = json::array();
+  for (unsigned i = 0; i < remote::SevenI76FieldIo::kInputs; ++i) inputs.push_back({{"on", ((io.inputs >> i) & 1U) != 0}});
+  // Sourcing outputs: one that is on is at field power (seven_i76.hpp).
+  for (unsigned i = 0; i < remote::SevenI76FieldIo::kOutputs; ++i) {
+    const bool on = ((io.outputs >> i) & 1U) != 0;
+    const double amps = io.outputAmps[i];
+    outputs.push_back({{"on", on}, {"volts", on ? io.fieldVoltage : 0.0}, {"amps", std::isinf(amps) ? -1.0 : amps}});
+  }
+  return {{"connector", s.connector},
+          {"connector_name", s.connectorName},
+          {"type", "7I76"},
+          {"channel", s.channel},
+          {"field_io", fieldProcessor(io.device, io.fieldVoltage, inputs, outputs)},
+          {"spindle",
+           {{"volts", io.spindleVolts}, {"enable", io.spindleEnable}, {"direction", io.spindleDirection}}}};
+}
+
 namespace {
 
 const char* kindName(machine::SwitchKind k) {
@@ -173,7 +202,12 @@ json channelNames(const std::vector<machine::EncoderChannel>& channels) {
 }  // namespace
 
 json toJson(const machine::Switches::State& s) {
-  return {{"name", s.name}, {"kind", kindName(s.kind)}, {"input", s.input}, {"tripped", s.tripped}, {"input_on", s.inputOn}};
+  return {{"name", s.name},
+          {"kind", kindName(s.kind)},
+          {"input", s.input},
+          {"tripped", s.tripped},
+          {"input_on", s.inputOn},
+          {"daughtercard", machine::daughtercardName(s.daughtercard)}};
 }
 
 json toJson(const machine::Machine::State& s) {
@@ -195,6 +229,16 @@ json toJson(const machine::Machine::State& s) {
                         {"encoder_count", d.encoderCount},
                         {"true_counts", d.trueCounts},
                         {"encoder_broken", channelNames(d.encoderBroken)}});
+    // A stepper axis (no drives): its StepGen's steps, those the motor lost,
+    // whether it is out of step, and where the steps say the axis is (its
+    // following error is the lost steps in machine units). null on a servo axis.
+    json stepper = nullptr;
+    if (a.stepper)
+      stepper = {{"stepgen", a.stepper->stepGen},
+                 {"steps", a.stepper->steps},
+                 {"lost_steps", a.stepper->lostSteps},
+                 {"stalled", a.stepper->stalled},
+                 {"commanded_position", a.position + a.followingError}};
     axes.push_back({{"name", a.name},
                     {"position", a.position},
                     {"velocity", a.velocity},
@@ -205,6 +249,7 @@ json toJson(const machine::Machine::State& s) {
                     {"jammed", a.jammed},
                     {"pushing", a.pushing},
                     {"drives", drives},
+                    {"stepper", stepper},
                     {"switches", switches(a.switches)}});
   }
   json spindle = nullptr;
@@ -215,10 +260,14 @@ json toJson(const machine::Machine::State& s) {
                {"revolutions", sp.revolutions},
                {"running", sp.running},
                {"encoder_count", sp.encoderCount ? json(*sp.encoderCount) : json(nullptr)},
-               {"encoder_broken", channelNames(sp.encoderBroken)}};
+               {"encoder_broken", channelNames(sp.encoderBroken)},
+               {"daughtercard", machine::daughtercardName(sp.daughtercard)}};
   }
   json outputs = json::array();
-  for (const auto& o : s.outputs) outputs.push_back({{"name", o.name}, {"output", o.output}, {"on", o.on}});
+  for (const auto& o : s.outputs) outputs.push_back({{"name", o.name},
+                                                      {"output", o.output},
+                                                      {"on", o.on},
+                                                      {"daughtercard", machine::daughtercardName(o.daughtercard)}});
   return {{"name", s.name},
           {"time_s", std::chrono::duration<double>(s.time).count()},
           {"axes", axes},
@@ -253,6 +302,7 @@ json toJson(const SimState& s) {
   j["access_counters"] = toJson(s.accessCounters);
   json boards = json::array();
   for (unsigned d = 0; d < s.daughtercards.size(); ++d) boards.push_back(toJson(s.daughtercards[d], d));
+  if (s.sevenI76) boards.push_back(toJson(*s.sevenI76));
   j["daughtercards"] = boards;
   j["machine"] = s.machine ? toJson(*s.machine) : json(nullptr);
   return j;

@@ -24,6 +24,7 @@
 #include "machine/machine.hpp"
 #include "remote/analog.hpp"
 #include "remote/field_io.hpp"
+#include "remote/seven_i76.hpp"
 
 namespace net {
 
@@ -82,6 +83,18 @@ struct SimState {
     std::array<hm2::MuxedEncoder::State::Counter, kEncodersPerDaughtercard> encoders{};
   };
   std::vector<Daughtercard> daughtercards;
+  // The 7I76 on the 7I77+7I76 firmwares (issue 17): its field I/O
+  // processor, on SSerial channel `channel`, the card's connector
+  // `connector` (IO17..33: PIN_7I77_7I76_34.vhd). Listed after the 7I77s in
+  // "daughtercards", with "type": "7I76".
+  struct SevenI76 {
+    static constexpr unsigned kConnector = 1;  // IO17..33
+    unsigned connector = kConnector;
+    std::string connectorName;  // as mesaflash names it ("P1" on a 7I92)
+    unsigned channel = 3;
+    remote::SevenI76FieldIo::State fieldIo;
+  };
+  std::optional<SevenI76> sevenI76;
   // The machine behind connector 0's 7I77 (`lbpkit sim --machine`), if any.
   std::optional<machine::Machine::State> machine;
 };
@@ -97,6 +110,8 @@ nlohmann::json toJson(const hm2::AccessCounters& s);
 nlohmann::json toJson(const SimState::Server& s);
 // A daughtercard on connector `connector`, with its LEDs.
 nlohmann::json toJson(const SimState::Daughtercard& s, unsigned connector);
+// The 7I76: its inputs, outputs, field voltage and spindle interface.
+nlohmann::json toJson(const SimState::SevenI76& s);
 // The remote fault byte as the names of its set bits, lowest bit first.
 nlohmann::json faultNames(std::uint8_t faults);
 // GET /api/machine (and "machine" in GET /api/state): axes with their

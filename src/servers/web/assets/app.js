@@ -55,15 +55,24 @@
     const body = document.querySelector("#axes tbody");
     for (const a of m.axes) {
       const n = a.name;
-      const ctl = el("span", {},
+      // A stepper axis can be jammed, not pushed, and has no encoder
+      // (README: a stepper axis; the API refuses both).
+      const stepper = !!a.stepper;
+      const jam = el("button", { id: `jam-${n}`, text: "jam", onclick: (e) => L.post("machine", { action: "jam", axis: n,
+        jammed: e.target.dataset.jammed !== "true" }) });
+      const ctl = stepper ? el("span", {}, jam) : el("span", {},
         el("button", { text: "push -5", onclick: () => L.post("machine", { action: "push", axis: n, distance: -5 }) }), " ",
         el("button", { text: "push +5", onclick: () => L.post("machine", { action: "push", axis: n, distance: 5 }) }), " ",
-        el("button", { id: `jam-${n}`, text: "jam", onclick: (e) => L.post("machine", { action: "jam", axis: n,
-          jammed: e.target.dataset.jammed !== "true" }) }), " ",
+        jam, " ",
         ...["A", "B", "index"].map((ch) => el("button", { id: `enc-${n}-${ch}`, text: `break ${ch}`,
           onclick: (e) => L.post("machine", { action: "encoder", axis: n, channel: ch, broken: e.target.dataset.broken !== "true" }) })));
+      // The stepper's StepGen: steps made, steps the motor lost, stalled.
+      const amp = stepper
+        ? el("td", { id: `amp-${n}`, class: "stepper" }, `StepGen ${a.stepper.stepgen}: `, el("span", { id: `steps-${n}` }),
+          " steps, ", el("span", { id: `lost-${n}` }), " lost, ", el("span", { id: `stall-${n}` }))
+        : el("td", { id: `amp-${n}` });
       body.append(el("tr", { id: `axis-${n}` }, el("td", { text: n }), el("td", { id: `pos-${n}` }), el("td", { id: `vel-${n}` }),
-        el("td", { id: `cmd-${n}` }), el("td", { id: `fe-${n}` }), el("td", { id: `amp-${n}` }), el("td", { id: `sw-${n}` }),
+        el("td", { id: `cmd-${n}` }), el("td", { id: `fe-${n}` }), amp, el("td", { id: `sw-${n}` }),
         el("td", {}, ctl)));
       const canvas = el("canvas", { id: `plot-${n}` });
       document.getElementById("plots").append(el("div", {}, el("h3", { text: `${n}: commanded vs actual position, following error` }),
@@ -79,6 +88,9 @@
     }
   }
 
+  // What is wired to the 7I76 rather than the 7I77 says so.
+  const on76 = (part) => (part.daughtercard === "7I76" ? " (7I76)" : "");
+
   function updateMachine(m) {
     const chain = document.getElementById("estop-chain");
     chain.textContent = m.estop_ok ? "E-stop chain closed (ok)" : "E-stop chain OPEN";
@@ -93,10 +105,20 @@
       L.setText(`vel-${n}`, L.fmt(a.velocity));
       L.setText(`cmd-${n}`, L.fmt(a.command_velocity));
       L.setText(`fe-${n}`, L.fmt(a.following_error, 4));
-      L.setText(`amp-${n}`, a.drives.map((d) => (d.enabled ? "enabled" : "off") + (d.encoder_broken.length ? ` (encoder ${d.encoder_broken.join("+")} broken)` : "")).join(", ") + (a.jammed ? " JAMMED" : ""));
-      L.setText(`sw-${n}`, a.switches.map((s) => s.name + (s.tripped ? " TRIPPED" : "")).join(", "));
+      if (a.stepper) {
+        const st = a.stepper, stall = document.getElementById(`stall-${n}`);
+        L.setText(`steps-${n}`, String(st.steps));
+        L.setText(`lost-${n}`, String(st.lost_steps));
+        L.setText(`stall-${n}`, (st.stalled ? "STALLED" : "in step") + (a.jammed ? " JAMMED" : ""));
+        stall.classList.toggle("stalled", st.stalled);
+        stall.dataset.stalled = String(st.stalled);
+      } else {
+        L.setText(`amp-${n}`, a.drives.map((d) => (d.enabled ? "enabled" : "off") + (d.encoder_broken.length ? ` (encoder ${d.encoder_broken.join("+")} broken)` : "")).join(", ") + (a.jammed ? " JAMMED" : ""));
+      }
+      L.setText(`sw-${n}`, a.switches.map((s) => s.name + on76(s) + (s.tripped ? " TRIPPED" : "")).join(", "));
       document.getElementById(`jam-${n}`).dataset.jammed = String(a.jammed);
       document.getElementById(`jam-${n}`).textContent = a.jammed ? "free" : "jam";
+      if (a.stepper || !a.drives.length) continue;
       for (const ch of ["A", "B", "index"]) {
         const broken = a.drives[0].encoder_broken.includes(ch);
         const e = document.getElementById(`enc-${n}-${ch}`);
@@ -105,7 +127,7 @@
       }
     }
     const s = m.spindle;
-    L.setText("spindle", s ? `spindle: ${s.running ? "running" : "stopped"}, ${L.fmt(s.rpm, 0)} rpm (commanded ${L.fmt(s.command_rpm, 0)})` : "");
+    L.setText("spindle", s ? `spindle${on76(s)}: ${s.running ? "running" : "stopped"}, ${L.fmt(s.rpm, 0)} rpm (commanded ${L.fmt(s.command_rpm, 0)})` : "");
   }
 
   function collect(frame) {
@@ -164,13 +186,13 @@
       built = true;
       firstAt = performance.now();
       const root = document.getElementById("boards");
-      for (const d of st.daughtercards) L.buildBoard(root, d);
+      for (const d of st.daughtercards) (d.type === "7I76" ? L.build76 : L.buildBoard)(root, d);
       L.buildChannels(root, st.sserial.channels);
       if (st.machine) buildMachine(st.machine);
       L.setText("card-name", `: virtual ${st.card.name} at ${st.card.address}:${st.card.port}`);
       document.getElementById("paused").onchange = (e) => L.post("time", { paused: e.target.checked });
     }
-    for (const d of st.daughtercards) L.updateBoard(d);
+    for (const d of st.daughtercards) (d.type === "7I76" ? L.update76 : L.updateBoard)(d);
     L.updateChannels(st.sserial.channels);
     if (st.machine) updateMachine(st.machine);
     L.setText("simtime", `t = ${st.time_s.toFixed(3)} s${st.clock.paused ? " (paused)" : ""}`);
