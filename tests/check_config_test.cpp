@@ -352,14 +352,15 @@ TEST(CheckConfig, PicksTheCardAndFirmwareWithTheFewestErrors) {
   EXPECT_NE((none.out + none.err).find("7I92, 7I92T, 7I96S, 7I80HD-25"), std::string::npos) << none.out << none.err;
 }
 
-// The stepper-Z mill (a 7I92T + 7I77 + 7I76, a stepper on StepGen 0 timed by
-// the HM2DPLL) passes as the 7I92T with its 7I77+7I76 firmware.
+// The 7I76 mill (a 7I92T + 7I77 + 7I76, a stepper on StepGen 0 timed by the
+// HM2DPLL, Z's switches and the spindle on the 7I76) passes as the 7I92T with
+// its 7I77+7I76 firmware.
 TEST(CheckConfig, TheStepperZMillPasses) {
-  const auto ini = fs::path(LBPKIT_SOURCE_DIR) / "examples/linuxcnc/mill-stepper-z/mill.ini";
-  if (!fs::exists(ini)) GTEST_SKIP() << ini << " is not there";
+  const auto ini = fs::path(LBPKIT_SOURCE_DIR) / "examples/linuxcnc/mill-7i76/mill.ini";
   const auto r = check(ini);
   EXPECT_EQ(r.exit, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("7I92T (7I77+7I76 firmware), 7I77 on channel 0 (mode 0)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("7I76 on channel 3 (mode 0)"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("no problems"), std::string::npos) << r.out;
 }
 

@@ -698,17 +698,17 @@ TEST(LinuxCncMill, RunsGcodeAndRehearsesFaultsAgainstTheVirtualMill) {
               std::chrono::duration<double>(Clock::now() - started).count());
 }
 
-// Issue 17's done-when: examples/linuxcnc/mill-stepper-z, a 7I92T + 7I77 +
-// 7I76 configuration with servo X and Y on the 7I77 and a stepper Z on
-// StepGen 0, timed by the HM2DPLL (stepgen.timer-number 1), against the
-// mill with a stepper Z (examples/machines/mill-stepper-z.toml): it homes,
-// runs the MDI moves and the program, and Z is where its steps put it.
+// Issue 17's done-when: examples/linuxcnc/mill-7i76, a 7I92T + 7I77 + 7I76
+// configuration with servo X and Y on the 7I77 and a stepper Z on StepGen 0,
+// timed by the HM2DPLL (stepgen.timer-number 1), Z's switches, its brake and
+// the spindle on the 7I76, against examples/machines/mill-7i76.toml: it
+// homes, runs the MDI moves and the program, and Z is where its steps put it.
 TEST(LinuxCncMill, StepperZOnADpllTimedStepGenHomesAndRunsGcode) {
   if (const auto why = whyNotRunnable(); !why.empty()) GTEST_SKIP() << why;
   const auto started = Clock::now();
-  const std::string machine = std::string(LBPKIT_SOURCE_DIR) + "/examples/machines/mill-stepper-z.toml";
+  const std::string machine = std::string(LBPKIT_SOURCE_DIR) + "/examples/machines/mill-7i76.toml";
   const Outcome o =
-      runScenario({{"--card", "7I92T", "--machine", machine}, "mill-stepper-z", " --scenario stepper-z", "finished", {}});
+      runScenario({{"--card", "7I92T", "--machine", machine}, "mill-7i76", " --scenario stepper-z", "finished", {}});
   ASSERT_TRUE(o.setUp);
   auto r = o.reports;
   const std::string context =
@@ -717,14 +717,14 @@ TEST(LinuxCncMill, StepperZOnADpllTimedStepGenHomesAndRunsGcode) {
   ASSERT_TRUE(r.count("finished")) << "the display did not get through its steps" << context;
 
   // Machine On: X and Y's drives enabled; Z has none (its StepGen is enabled
-  // by joint.2.amp-enable-out) and its brake is released with it.
+  // by joint.2.amp-enable-out) and its brake (on the 7I76) is released with it.
   const auto& on = r["machine_on"];
   EXPECT_EQ(on["estop_reset"], true);
   EXPECT_EQ(on["on"], true);
   EXPECT_EQ(on["drive_ena"], json::parse(R"({"x":[true],"y":[true],"z":[]})")) << on.dump();
   EXPECT_EQ(on["z_brake_engaged"], false);
 
-  expectHomedAndRan(r, o.mdi, "mill-stepper-z");
+  expectHomedAndRan(r, o.mdi, "mill-7i76");
 
   // Z is where its steps put it: the StepGen's count that hm2 read moved by
   // the steps the motor took, none lost, and both are the command.
@@ -754,7 +754,7 @@ TEST(LinuxCncMill, StepperZOnADpllTimedStepGenHomesAndRunsGcode) {
               commanded - before["commanded_z"].get<double>(), 1.0 / scale)
       << "LinuxCNC's feedback, from the count";
   EXPECT_NEAR(after["model_z"].get<double>(), commanded, 1.0 / scale) << "where the machine's Z is";
-  std::printf("LinuxCNC mill-stepper-z: Z to %.4f mm took %ld steps, %ld counted by hm2, %ld lost; Z at %.4f mm; "
+  std::printf("LinuxCNC mill-7i76: Z to %.4f mm took %ld steps, %ld counted by hm2, %ld lost; Z at %.4f mm; "
               "DPLL phase error %.2f us; %d attempt(s), %.0f s in all\n",
               commanded, machineSteps, linuxcncCounts, after["stepper"]["lost_steps"].get<long>(),
               after["model_z"].get<double>(), z["dpll_phase_error_us"].get<double>(), o.attempts,

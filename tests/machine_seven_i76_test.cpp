@@ -368,7 +368,7 @@ TEST_F(SevenI76MachineFile, TheExampleLoadsAndRunsOnThe7I92T) {
   EXPECT_EQ(d.spindle->encoderDaughtercard, Daughtercard::SevenI76);
   EXPECT_EQ(d.spindle->encoderInput, 0U);
   ASSERT_TRUE(d.axes[kZ].stepper.has_value());
-  EXPECT_EQ(d.axes[kZ].stepper->stepsPerUnit, 640.0);
+  EXPECT_EQ(d.axes[kZ].stepper->stepsPerUnit, 320.0);
   unsigned on76 = 0;
   for (const auto& s : d.switches)
     if (s.daughtercard == Daughtercard::SevenI76) {
@@ -386,9 +386,10 @@ TEST_F(SevenI76MachineFile, TheExampleLoadsAndRunsOnThe7I92T) {
   EXPECT_EQ(card.sevenI76()->inputs(), 0b110U);
   EXPECT_EQ(card.daughtercard(0).fieldIo.inputs() & 0x3FU, 0b110110U);
   EXPECT_EQ(card.sevenI76()->outputLoad(0), 960.0);
+  EXPECT_EQ(card.sevenI76()->outputLoad(1), 240.0);
 
   // On the 7I92's default firmware it is refused, naming the first key that
-  // wires the 7I76 (the spindle's daughtercard).
+  // wires the 7I76 (Z's brake's board).
   hm2::HostMot2Card plain;
   try {
     machine::Machine refused(d, plain);
@@ -396,8 +397,8 @@ TEST_F(SevenI76MachineFile, TheExampleLoadsAndRunsOnThe7I92T) {
   } catch (const std::invalid_argument& e) {
     const std::string what = e.what();
     EXPECT_EQ(what.rfind(examplePath("mill-7i76.toml") + ":", 0), 0U) << what;
-    EXPECT_NE(what.find(": spindle.daughtercard: the 7I76 is not on the card: its firmware (7I77x2) has none (the "
-                        "spindle is on its SpinOut)"),
+    EXPECT_NE(what.find(": axis[2].brake_daughtercard: the 7I76 is not on the card: its firmware (7I77x2) has none "
+                        "(axis z's brake is on its field output 1)"),
               std::string::npos)
         << what;
   }

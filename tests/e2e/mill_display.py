@@ -13,8 +13,8 @@ tests/linuxcnc_mill_test.cpp to assert on.
 The last step starts a move and reports "ready_for_kill"; the test then kills
 LinuxCNC (all of it, at once) and watches the machine through the API.
 
---scenario stepper-z is for examples/linuxcnc/mill-stepper-z (Z a stepper on
-a DPLL-timed StepGen): start-up, homing, the MDI moves and the program, each
+--scenario stepper-z is for examples/linuxcnc/mill-7i76 (Z a stepper on a
+DPLL-timed StepGen): start-up, homing, the MDI moves and the program, each
 compared within one count or step per axis, then "stepper_z": Z's steps as
 the machine took them and as LinuxCNC counted them, and "finished".
 
@@ -559,7 +559,7 @@ def main():
     p.add_argument("--out", required=True, help="results, one JSON object a line")
     p.add_argument("--program", required=True, help="the G-code program to run")
     p.add_argument("--scenario", choices=["mill", "stepper-z"], default="mill",
-                   help="mill: every step; stepper-z: up to the program, then Z's steps (mill-stepper-z)")
+                   help="mill: every step; stepper-z: up to the program, then Z's steps (mill-7i76)")
     p.add_argument("--ferror-dump", help="write every servo period of the program (HAL sampler lines) here")
     args = p.parse_args()
     d = Display(args)
