@@ -65,7 +65,7 @@ unsigned externalRemoteChannel(const std::string& text) {
 }
 
 // The config string for hm2_eth's loadrt that uses this card as it is
-// plugged: the encoders of each 7I77 (six a connector), the firmware's
+// plugged: the encoders of each 7I77 (six a connector) and a 7I76's, the firmware's
 // StepGens and PWMGens, and smart-serial mode 0 on each channel a remote
 // answers on (the 7I77s' field I/O and analog processors, a 7I76's), 'x'
 // on the others (LinuxCNC hostmot2(9): config modparam).
@@ -84,8 +84,10 @@ std::string hm2EthConfig(const hm2::HostMot2Card::Options& o) {
   for (std::size_t i = 0; i < plugged; ++i)
     for (unsigned c = fw->sevenI77s[i].firstChannel; c < fw->sevenI77s[i].firstChannel + 2U && c < channels.size(); ++c)
       channels[c] = '0';
-  if (const auto c = hm2::cards::sevenI76Channel(*fw); c && *c < channels.size()) channels[*c] = '0';
-  std::string config = fmt::format("num_encoders={}", 6 * plugged);
+  // A 7I76's spindle encoder is the counter after the 7I77's six.
+  const auto sevenI76 = hm2::cards::sevenI76Channel(*fw);
+  if (sevenI76 && *sevenI76 < channels.size()) channels[*sevenI76] = '0';
+  std::string config = fmt::format("num_encoders={}", 6 * plugged + (sevenI76 ? 1 : 0));
   if (const auto n = count(hm2::cards::Part::StepGen)) config += fmt::format(" num_stepgens={}", n);
   if (const auto n = count(hm2::cards::Part::PwmGen)) config += fmt::format(" num_pwmgens={}", n);
   return config + " sserial_port_0=" + channels;

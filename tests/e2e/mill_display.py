@@ -137,7 +137,7 @@ class Display:
         return list(self.s.joint_position[:3])
 
     # -- positions at rest -----------------------------------------------
-    def settle_and_compare(self, timeout=3.0):
+    def settle_and_compare(self, timeout=5.0):
         """After a move: waits for the model to come within one count (a step
         on a stepper joint) of the commanded position (the PID's integrator
         takes the last counts), and returns the comparison at that moment or
