@@ -91,4 +91,9 @@ if(TARGET lbpkit_python AND LBPKIT_PYTHON_EXECUTABLE)
 endif()
 set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
 set(CPACK_STRIP_FILES ON)
+# Installing (and so cpack's preinstall step) takes the tree as built, as the
+# README says to build it first: it does not build every target, so that
+# scripts/test's optimised build, which leaves the unit tests' executables
+# to the ASan build, is packaged without compiling them.
+set(CMAKE_SKIP_INSTALL_ALL_DEPENDENCY ON)
 include(CPack)
