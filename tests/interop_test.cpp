@@ -434,6 +434,27 @@ TEST(ControlApi, ChangesTheWorldAndRefusesBadRequests) {
 
 // LinuxCNC's hm2_eth in a network namespace joined by a veth pair to the
 // namespace `lbpkit sim` answers in (Debian's hm2_eth cannot use loopback).
+// hm2_eth gives the card little time at set-up: a few milliseconds for the
+// MAC address (else "rtapi_app_main: Resource temporarily unavailable"), 51
+// ms for each smart-serial DoIt of the discovery (else "hm2_sserial_waitfor:
+// Timeout"). LinuxCNC runs without real-time priority here, and on a
+// machine busy with builds it now and then misses them, which says nothing
+// about the names: such a load is tried again (three times in all). `hal`
+// runs halcmd in the test's namespace.
+bool cardTooSlowAtSetUp(const std::string& out) {
+  return out.find("hm2_sserial_waitfor: Timeout") != std::string::npos ||
+         out.find("rtapi_app_main: Resource temporarily unavailable") != std::string::npos;
+}
+template <typename Hal>
+Shell loadRetrying(Hal&& hal, const std::string& command) {
+  auto r = hal(command);
+  for (int again = 0; again < 2 && cardTooSlowAtSetUp(r.out); ++again) {
+    hal("halrun -U");
+    r = hal(command);
+  }
+  return r;
+}
+
 class LinuxCnc : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -486,6 +507,30 @@ class LinuxCnc : public ::testing::Test {
     auto v = hal("halcmd getp " + pin, "nice -n 10 ").out;
     while (!v.empty() && (v.back() == '\n' || v.back() == ' ')) v.pop_back();
     return v;
+  }
+  // Loads hostmot2 and hm2_eth with `config`, `board`'s read and write in a
+  // 1 kHz servo thread; tried again when the card was too slow at set-up.
+  Shell loadBoard(const std::string& board, const std::string& config) {
+    const auto file = fifo_ + ".hal";
+    std::ofstream(file) << "loadrt hostmot2\nloadrt hm2_eth board_ip=" << cardIp_ << " config=\"" << config << "\"\n"
+                        << "loadrt threads name1=servo period1=1000000\n"
+                        << "addf " << board << ".read servo\naddf " << board << ".write servo\nstart\n";
+    auto r = loadRetrying([&](const std::string& command) { return hal(command); }, "halcmd -f " + file);
+    std::filesystem::remove(file);
+    return r;
+  }
+  // A copy of a corpus HAL file (board_ip=10.10.10.10) pointed at the sim:
+  // its path, `name` telling it apart.
+  std::string ownCopy(const std::filesystem::path& file, const std::string& name) {
+    std::ifstream in(file);
+    std::ostringstream text;
+    for (std::string l; std::getline(in, l);) {
+      const auto at = l.find("board_ip=10.10.10.10");
+      text << (at == std::string::npos ? l : l.replace(at, 20, "board_ip=" + cardIp_)) << "\n";
+    }
+    const auto own = fifo_ + "-" + name + ".hal";
+    std::ofstream(own) << text.str();
+    return own;
   }
   // Loads hostmot2 + hm2_eth with the servo thread running.
   Shell load(const std::string& sserialPort) {
@@ -843,7 +888,8 @@ TEST_F(LinuxCnc, AGarbageAndReplayFloodLeavesLinuxCncRunning) {
 // then creates: name, type and direction of every hm2_7i92.0.* item that
 // `halcmd show pin` and `halcmd show param` list, for each field I/O mode
 // with one 7I77, and for one and two 7I77s on channels 0..5.
-std::set<std::string> halcmdItems(const std::string& pins, const std::string& params) {
+std::set<std::string> halcmdItems(const std::string& pins, const std::string& params,
+                                  const std::string& board = "hm2_7i92.0") {
   std::set<std::string> out;
   for (const auto& [text, kind] : {std::pair{pins, "pin"}, std::pair{params, "param"}}) {
     std::istringstream in(text);
@@ -853,24 +899,28 @@ std::set<std::string> halcmdItems(const std::string& pins, const std::string& pa
       std::vector<std::string> w;
       for (std::string s; words >> s;) w.push_back(s);
       // Owner Type Dir Value Name [<== signal]
-      if (w.size() < 5 || w[4].rfind("hm2_7i92.0.", 0) != 0) continue;
+      if (w.size() < 5 || w[4].rfind(board + ".", 0) != 0) continue;
       out.insert(std::string(kind) + " " + w[4] + " " + w[1] + " " + w[2]);
     }
   }
   return out;
 }
 
-std::set<std::string> lbpkitPins(const std::string& cardIp, const std::string& config) {
-  const auto r = testing_process::run({"pins", "--addr", cardIp, "--config", config, "--json"});
-  EXPECT_EQ(r.exit, 0) << r.err;
+// `lbpkit pins --json`'s items in halcmdItems' form.
+std::set<std::string> pinsItems(const json& j) {
   std::set<std::string> out;
-  const auto j = json::parse(r.out, nullptr, false);
-  if (j.is_discarded()) return out;
   for (const auto& [key, kind] : {std::pair{"pins", "pin"}, std::pair{"params", "param"}})
     for (const auto& i : j[key])
       out.insert(std::string(kind) + " " + i["name"].get<std::string>() + " " + i["type"].get<std::string>() + " " +
                  i["dir"].get<std::string>());
   return out;
+}
+
+std::set<std::string> lbpkitPins(const std::string& cardIp, const std::string& config) {
+  const auto r = testing_process::run({"pins", "--addr", cardIp, "--config", config, "--json"});
+  EXPECT_EQ(r.exit, 0) << r.err;
+  const auto j = json::parse(r.out, nullptr, false);
+  return j.is_discarded() ? std::set<std::string>{} : pinsItems(j);
 }
 
 std::string difference(const std::set<std::string>& a, const std::set<std::string>& b) {
@@ -891,27 +941,6 @@ void removeTwoSevenI77s(const std::string& file) {
   const auto state = (std::filesystem::temp_directory_path() / ("lbpkit-interop-" + std::to_string(::getpid()))).string();
   std::filesystem::remove(state + ".2");
   std::filesystem::remove(state + ".analog.2");
-}
-
-// hm2_eth gives the card little time at set-up: a few milliseconds for the
-// MAC address (else "rtapi_app_main: Resource temporarily unavailable"), 51
-// ms for each smart-serial DoIt of the discovery (else "hm2_sserial_waitfor:
-// Timeout"). LinuxCNC runs without real-time priority here, and on a
-// machine busy with builds it now and then misses them, which says nothing
-// about the names: such a load is tried again (three times in all). `hal`
-// runs halcmd in the test's namespace.
-bool cardTooSlowAtSetUp(const std::string& out) {
-  return out.find("hm2_sserial_waitfor: Timeout") != std::string::npos ||
-         out.find("rtapi_app_main: Resource temporarily unavailable") != std::string::npos;
-}
-template <typename Hal>
-Shell loadRetrying(Hal&& hal, const std::string& command) {
-  auto r = hal(command);
-  for (int again = 0; again < 2 && cardTooSlowAtSetUp(r.out); ++again) {
-    hal("halrun -U");
-    r = hal(command);
-  }
-  return r;
 }
 
 // Removes a test's files at the end of its scope, however it ends.
@@ -945,12 +974,7 @@ TEST_F(LinuxCnc, PinsListsExactlyWhatHm2EthCreatesInEveryModeWithOneAndTwo7I77s)
                                                            : std::vector<std::string>{});
     ASSERT_TRUE(sim_->up());
     const auto predicted = lbpkitPins(cardIp_, c.config);
-    const auto file = fifo_ + ".hal";
-    std::ofstream(file) << "loadrt hostmot2\nloadrt hm2_eth board_ip=" << cardIp_ << " config=\"" << c.config << "\"\n"
-                        << "loadrt threads name1=servo period1=1000000\n"
-                        << "addf hm2_7i92.0.read servo\naddf hm2_7i92.0.write servo\nstart\n";
-    const auto r = loadRetrying([&](const std::string& command_) { return hal(command_); }, "halcmd -f " + file);
-    std::filesystem::remove(file);
+    const auto r = loadBoard("hm2_7i92.0", c.config);
     ASSERT_EQ(r.exit, 0) << r.out;
     const auto actual = halcmdItems(hal("halcmd show pin").out, hal("halcmd show param").out);
     EXPECT_GT(actual.size(), 300U);
@@ -1009,14 +1033,7 @@ TEST_F(LinuxCnc, CheckConfigsVerdictsAreLinuxCncs) {
     const auto findings = json::parse(checked.out)["findings"];
     ASSERT_FALSE(findings.empty());
     const auto line = findings[0]["line"].get<unsigned>();
-    std::ifstream in(hal_file);
-    std::ostringstream text;
-    for (std::string l; std::getline(in, l);) {
-      const auto at = l.find("board_ip=10.10.10.10");
-      text << (at == std::string::npos ? l : l.replace(at, 20, "board_ip=" + cardIp_)) << "\n";
-    }
-    const auto own = fifo_ + "-" + name + ".hal";
-    std::ofstream(own) << text.str();
+    const auto own = ownCopy(hal_file, name);
     const auto r = loadRetrying([&](const std::string& command_) { return hal(command_); }, "halcmd -f " + own);
     std::filesystem::remove(own);
     EXPECT_NE(r.exit, 0) << r.out;
@@ -1052,12 +1069,7 @@ TEST_F(LinuxCnc, Hm2EthCreatesEachCardsPinsForEveryModule) {
     SCOPED_TRACE(c.card);
     sim_ = std::make_unique<Sim>(cardIp_, std::vector<std::string>{"--card", c.card});
     ASSERT_TRUE(sim_->up());
-    const auto file = fifo_ + ".hal";
-    std::ofstream(file) << "loadrt hostmot2\nloadrt hm2_eth board_ip=" << cardIp_ << " config=\"" << c.config << "\"\n"
-                        << "loadrt threads name1=servo period1=1000000\n"
-                        << "addf " << c.board << ".read servo\naddf " << c.board << ".write servo\nstart\n";
-    const auto r = loadRetrying([&](const std::string& command_) { return hal(command_); }, "halcmd -f " + file);
-    std::filesystem::remove(file);
+    const auto r = loadBoard(c.board, c.config);
     ASSERT_EQ(r.exit, 0) << r.out;
     const auto pins = hal("halcmd show pin").out + hal("halcmd show param").out;
     for (const auto& p : c.pins) EXPECT_NE(pins.find(c.board + "." + p), std::string::npos) << p << "\n" << pins;
@@ -1087,13 +1099,7 @@ TEST_F(LinuxCnc, Hm2EthCreatesThe7I76sPinsOnChannel3) {
   }};
   sim_ = std::make_unique<Sim>(cardIp_, std::vector<std::string>{"--card", "7I92", "--config", config});
   ASSERT_TRUE(sim_->up());
-  const auto file = fifo_ + ".hal";
-  std::ofstream(file) << "loadrt hostmot2\nloadrt hm2_eth board_ip=" << cardIp_
-                      << " config=\"num_encoders=8 num_stepgens=5 sserial_port_0=00x20\"\n"
-                      << "loadrt threads name1=servo period1=1000000\n"
-                      << "addf hm2_7i92.0.read servo\naddf hm2_7i92.0.write servo\nstart\n";
-  const auto r = loadRetrying([&](const std::string& command_) { return hal(command_); }, "halcmd -f " + file);
-  std::filesystem::remove(file);
+  const auto r = loadBoard("hm2_7i92.0", "num_encoders=8 num_stepgens=5 sserial_port_0=00x20");
   ASSERT_EQ(r.exit, 0) << r.out;
   const auto pins = hal("halcmd show pin").out + hal("halcmd show param").out;
   for (const char* p : {"input-31", "input-00-not", "output-15", "spinout", "spinena", "spindir", "analog3",
@@ -1120,13 +1126,7 @@ TEST_F(LinuxCnc, Hm2EthCreatesThe7I96SsTb3InmSsrAndOutmPins) {
   }};
   sim_ = std::make_unique<Sim>(cardIp_, std::vector<std::string>{"--card", "7I96S"});
   ASSERT_TRUE(sim_->up());
-  const auto file = fifo_ + ".hal";
-  std::ofstream(file) << "loadrt hostmot2\nloadrt hm2_eth board_ip=" << cardIp_
-                      << " config=\"num_encoders=8 num_stepgens=5 num_pwmgens=1 sserial_port_0=00xx\"\n"
-                      << "loadrt threads name1=servo period1=1000000\n"
-                      << "addf hm2_7i96s.0.read servo\naddf hm2_7i96s.0.write servo\nstart\n";
-  const auto r = loadRetrying([&](const std::string& command_) { return hal(command_); }, "halcmd -f " + file);
-  std::filesystem::remove(file);
+  const auto r = loadBoard("hm2_7i96s.0", "num_encoders=8 num_stepgens=5 num_pwmgens=1 sserial_port_0=00xx");
   ASSERT_EQ(r.exit, 0) << r.out;
   const auto pins = hal("halcmd show pin").out + hal("halcmd show param").out;
   const std::string b = "hm2_7i96s.0.";
@@ -1202,21 +1202,6 @@ TEST_F(LinuxCnc, PinsListsExactlyWhatHm2EthCreatesOnEveryCardOfTheCatalogue) {
     sim_.reset();
     std::filesystem::remove(toml);
   }};
-  // halcmd's show pin / show param lines of one board: "pin NAME TYPE DIR".
-  auto shown = [&](const std::string& board) {
-    std::set<std::string> out;
-    for (const auto& [command, kind] : {std::pair{"halcmd show pin", "pin"}, std::pair{"halcmd show param", "param"}}) {
-      std::istringstream in(hal(command).out);
-      for (std::string line; std::getline(in, line);) {
-        std::istringstream words(line);
-        std::vector<std::string> w;
-        for (std::string x; words >> x;) w.push_back(x);
-        if (w.size() >= 5 && w[4].rfind(board + ".", 0) == 0)
-          out.insert(std::string(kind) + " " + w[4] + " " + w[1] + " " + w[2]);
-      }
-    }
-    return out;
-  };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.card + " " + c.pinout + ": " + c.config);
     sim_ = std::make_unique<Sim>(cardIp_, catalogueCard(c.card, c.pinout, toml));
@@ -1226,19 +1211,10 @@ TEST_F(LinuxCnc, PinsListsExactlyWhatHm2EthCreatesOnEveryCardOfTheCatalogue) {
     const auto j = json::parse(listed.out, nullptr, false);
     ASSERT_FALSE(j.is_discarded()) << listed.out;
     EXPECT_EQ(j["board"], c.board);
-    std::set<std::string> predicted;
-    for (const auto& [key, kind] : {std::pair{"pins", "pin"}, std::pair{"params", "param"}})
-      for (const auto& i : j[key])
-        predicted.insert(std::string(kind) + " " + i["name"].get<std::string>() + " " + i["type"].get<std::string>() +
-                         " " + i["dir"].get<std::string>());
-    const auto file = fifo_ + ".hal";
-    std::ofstream(file) << "loadrt hostmot2\nloadrt hm2_eth board_ip=" << cardIp_ << " config=\"" << c.config << "\"\n"
-                        << "loadrt threads name1=servo period1=1000000\n"
-                        << "addf " << c.board << ".read servo\naddf " << c.board << ".write servo\nstart\n";
-    const auto r = loadRetrying([&](const std::string& command_) { return hal(command_); }, "halcmd -f " + file);
-    std::filesystem::remove(file);
+    const auto predicted = pinsItems(j);
+    const auto r = loadBoard(c.board, c.config);
     ASSERT_EQ(r.exit, 0) << r.out;
-    const auto actual = shown(c.board);
+    const auto actual = halcmdItems(hal("halcmd show pin").out, hal("halcmd show param").out, c.board);
     EXPECT_GT(actual.size(), 200U);
     EXPECT_EQ(predicted, actual) << "LinuxCNC created, lbpkit pins did not list:\n"
                                  << difference(actual, predicted) << "lbpkit pins listed, LinuxCNC did not create:\n"
@@ -1282,14 +1258,7 @@ TEST_F(LinuxCnc, CheckConfigsVerdictsOnEveryCardOfTheCatalogueAreLinuxCncs) {
     ASSERT_EQ(checked.exit, c.good ? 0 : 1) << checked.out << checked.err;
     sim_ = std::make_unique<Sim>(cardIp_, catalogueCard(c.card, c.pinout, toml));
     ASSERT_TRUE(sim_->up());
-    std::ifstream in(file);
-    std::ostringstream text;
-    for (std::string l; std::getline(in, l);) {
-      const auto at = l.find("board_ip=10.10.10.10");
-      text << (at == std::string::npos ? l : l.replace(at, 20, "board_ip=" + cardIp_)) << "\n";
-    }
-    const auto own = fifo_ + "-catalogue.hal";
-    std::ofstream(own) << text.str();
+    const auto own = ownCopy(file, "catalogue");
     const auto r = loadRetrying([&](const std::string& command_) { return hal(command_); }, "halcmd -f " + own);
     std::filesystem::remove(own);
     if (c.good) {
