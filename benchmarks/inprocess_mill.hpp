@@ -30,7 +30,9 @@ inline machine::MachineDescription millWithSixEncoders(std::chrono::microseconds
   d.step = step;
   for (unsigned channel : {3U, 4U}) {
     machine::AxisDescription rotary = d.axes[0];  // X's drive and motor
-    rotary.name = channel == 3 ? "a" : "b";
+    // A new string moved in, not operator=(const char*) on X's copied name: GCC 12
+    // at -O3 warns on that (-Wrestrict, a false positive: GCC bugs 105329, 105651).
+    rotary.name = std::string(1, channel == 3 ? 'a' : 'b');
     rotary.drives[0].analogOutput = rotary.drives[0].enable = rotary.drives[0].encoderInput = channel;
     rotary.screwPitch = 10.0;  // degrees per motor revolution
     rotary.massKg = 20.0;

@@ -78,9 +78,9 @@ endfunction()
 
 # lbpkit_add_header_check(): every public header compiles on its own, seeing
 # only the two public include folders (no target is linked, so no other path
-# leaks in), with the project's warnings as errors: one generated .cpp per
-# header, compiled into the OBJECT library lbpkit_header_check, part of the
-# default build. scripts/check-layers --public-headers (run by the same
+# leaks in), with the project's warnings (errors with LBPKIT_WERROR): one
+# generated .cpp per header, compiled into the OBJECT library
+# lbpkit_header_check, part of the default build. scripts/check-layers --public-headers (run by the same
 # target) checks that they include only the standard library and lbpkit/
 # headers (the compile alone would let <fmt/...> from /usr/include pass).
 function(lbpkit_add_header_check)

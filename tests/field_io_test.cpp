@@ -407,7 +407,7 @@ TEST(FieldIo, AnNvWriteTheEepromDidNotSaveIsRefusedAndReported) {
   Host h(io);
   const auto nvwd = io.address(io.standard(remote::Standard::NvWatchdogTimeout));
   ASSERT_TRUE(h.setLocal(lbp::local_write::kNonVolatile, lbp::nonvolatile::kEeprom));
-  for (int attempt = 0; attempt < 2; ++attempt) {
+  for (int write = 0; write < 2; ++write) {  // each write fails alike
     ASSERT_TRUE(h.setLocal(lbp::local_write::kStatus, 0));
     const auto before = events.size();
     EXPECT_TRUE(h.write(nvwd, 2, 100));

@@ -51,16 +51,15 @@ using nlohmann::json;
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-constexpr double kCount = 1.0 / 1600.0;    // one encoder count, mm (docs/machine-mill.md)
 constexpr double kWatchdog = 0.050;        // the 7I77's analog and field I/O watchdog, s
-// mm: the bound on the following error in the program, over the servo
-// periods that ran on time. The tuned loop stays near 0.03 mm on a quiet
-// machine; with this kernel's late servo periods (no real-time kernel here)
-// the error a late period leaves takes a few periods to die away, and on a
-// busy 2-core machine that reached 0.32 mm. The bound is MIN_FERROR, the
-// configuration's own: over it a real LinuxCNC would stop the machine.
-constexpr double kFerrorBound = 1.0;
-constexpr auto kAttemptLimit = 100s;       // one run of the display, start to "ready_for_kill"
+// mm: the bound on LinuxCNC's following error over every servo period of
+// the program. On the host clock each period moves the machine one nominal
+// period whatever this kernel's scheduling (no real-time kernel here), so the
+// error is the tuned loop's alone: about 0.03 mm on each axis of the mill's
+// program, as on an on-time real-time machine. Twice that is the bound; the
+// configuration's MIN_FERROR (1 mm) is where a real LinuxCNC would stop.
+constexpr double kFerrorBound = 0.06;
+constexpr auto kRunLimit = 100s;           // one run of the display, start to "ready_for_kill"
 
 // A shell command's exit status; its output is dropped (only `ip`, `sh -c
 // command -v` and the like run through here).
@@ -246,8 +245,13 @@ class LinuxCncRun {
                                                       fs::perms::group_exec | fs::perms::others_read |
                                                       fs::perms::others_exec);
     // Only the DISPLAY line changes.
+    // LBPKIT_FERROR_DUMP=FILE: every servo period of the program (the HAL
+    // sampler's lines: the three joints' f-error, motion.servo.last-period
+    // in CPU cycles, packet-error) copied to FILE at the end, to look into.
+    const std::string dump = std::getenv("LBPKIT_FERROR_DUMP") ? " --ferror-dump /tmp/ferror.txt" : "";
     const std::string display = "DISPLAY = /tmp/e2e/mill_display.py --api " + apiUrl +
-                                " --out /tmp/results.jsonl --program /tmp/e2e/mill_program.ngc" + displayArguments;
+                                " --out /tmp/results.jsonl --program /tmp/e2e/mill_program.ngc" + displayArguments +
+                                dump;
     const std::string ini = slurp(tmp / "config/mill.ini");
     const std::regex line(R"(^DISPLAY = .*$)", std::regex::multiline);
     displayLines_ = static_cast<int>(std::distance(std::sregex_iterator(ini.begin(), ini.end(), line), {}));
@@ -277,6 +281,8 @@ class LinuxCncRun {
   ~LinuxCncRun() {
     kill();
     std::error_code ec;
+    if (const char* dump = std::getenv("LBPKIT_FERROR_DUMP"))
+      fs::copy_file(dir_ / "tmp/ferror.txt", dump, fs::copy_options::overwrite_existing, ec);
     fs::remove_all(dir_, ec);
   }
   LinuxCncRun(const LinuxCncRun&) = delete;
@@ -394,7 +400,7 @@ AfterKill killAndWatch(LinuxCncRun& run, MillSim& sim) {
   return k;
 }
 
-// The host, not the configuration, lost the run: hostmot2 gave the link up,
+// Why a run stopped short: hostmot2 gave the link up,
 // its watchdog bit, or the smart-serial port stopped (the PC's servo thread or
 // the card thread fell far behind), as the display's last report and
 // LinuxCNC's log say.
@@ -402,8 +408,8 @@ std::string hostTrouble(const std::map<std::string, json>& r, const std::vector<
   // A following error while the machine ran as it should (homing, MDI, the
   // program): LinuxCNC's servo thread (not real-time on this kernel) came
   // late, the drives ran on at their last command meanwhile, and the error
-  // outgrew MIN_FERROR; no configuration prevents that. A fault of the
-  // machine or the configuration trips every attempt.
+  // outgrew MIN_FERROR (on the host clock a late period moves the
+  // machine one nominal period, so this means the loop itself failed).
   auto followingError = [](const json& j) {
     if (j.contains("messages"))
       for (const auto& m : j["messages"])
@@ -412,7 +418,7 @@ std::string hostTrouble(const std::map<std::string, json>& r, const std::vector<
   };
   for (const char* step : {"home", "program", "stepper_z"})
     if (r.count(step) && followingError(r.at(step)))
-      return std::string(step) + ": a following error while the servo thread ran late (" +
+      return std::string(step) + ": a following error (" +
              r.at(step).value("ferror", json::object()).dump() + ")";
   for (const auto& j : mdi)
     if (followingError(j)) return "mdi " + j.value("command", std::string()) + ": a following error";
@@ -484,19 +490,19 @@ void expectHomedAndRan(std::map<std::string, json>& r, const std::vector<json>& 
   EXPECT_EQ(prog["spindle_running_after"], false);
   EXPECT_EQ(prog["coolant_after"], false);
   const auto& fe = prog["ferror"];
-  ASSERT_TRUE(fe.contains("max_ferror_on_time_mm")) << prog.dump();
-  std::printf("LinuxCNC %s: the program took %.1f s; largest following error X/Y/Z %.3f/%.3f/%.3f mm over all "
-              "%d servo periods, %.3f/%.3f/%.3f mm over the %d on time (%d periods late by over 20 %%, longest "
-              "%.1f ms; %d without feedback)\n",
+  ASSERT_TRUE(fe.contains("max_ferror_mm")) << prog.dump();
+  // LinuxCNC's own timing (its servo thread is not real-time here) is
+  // printed beside it: on the host clock it does not move the machine.
+  std::printf("LinuxCNC %s: the program took %.1f s; largest following error X/Y/Z %.4f/%.4f/%.4f mm over all "
+              "%d servo periods (LinuxCNC's servo thread: %d periods late by over 20 %%, longest %.1f ms; %d "
+              "without feedback)\n",
               name, prog["seconds"].get<double>(), fe["max_ferror_mm"][0].get<double>(),
               fe["max_ferror_mm"][1].get<double>(), fe["max_ferror_mm"][2].get<double>(), fe["periods"].get<int>(),
-              fe["max_ferror_on_time_mm"][0].get<double>(), fe["max_ferror_on_time_mm"][1].get<double>(),
-              fe["max_ferror_on_time_mm"][2].get<double>(),
-              fe["periods"].get<int>() - fe["periods_set_aside"].get<int>(), fe["late_periods"].get<int>(),
-              fe["longest_period_ms"].get<double>(), fe["lost_packet_periods"].get<int>());
-  EXPECT_GT(fe["periods"].get<int>() - fe["periods_set_aside"].get<int>(), 1000) << "too few periods on time";
+              fe["late_periods"].get<int>(), fe["longest_period_ms"].get<double>(),
+              fe["lost_packet_periods"].get<int>());
+  EXPECT_GT(fe["periods"].get<int>(), 1000) << "too few servo periods";
   for (std::size_t i = 0; i < 3; ++i)
-    EXPECT_LT(fe["max_ferror_on_time_mm"][i].get<double>(), kFerrorBound) << "axis " << "xyz"[i];
+    EXPECT_LT(fe["max_ferror_mm"][i].get<double>(), kFerrorBound) << "axis " << "xyz"[i] << " over all periods";
 
 }
 
@@ -525,75 +531,67 @@ struct Outcome {
   std::vector<json> mdi;
   std::string log;      // LinuxCNC's output
   std::string trouble;  // the host lost the run (hostTrouble); empty: it ran
-  int attempts = 0;
   bool setUp = false;   // the network, the sim and the configuration were there
 };
 
-// Up to three attempts when one is lost to the host's timing, not to what
-// the test checks. Every attempt ends with nothing of it left: LinuxCNC's
-// processes, the sim, the network namespace (checked).
+// One run of a scenario, once: the sim runs on the host clock (`--clock
+// host=1ms`, docs/clocks.md), so LinuxCNC's late servo periods on this
+// kernel move the machine one nominal period each, as an on-time real-time
+// machine would, and what the run shows is the machine and the
+// configuration. It ends with nothing of it left: LinuxCNC's processes, the
+// sim, the network namespace (checked).
 Outcome runScenario(const Scenario& scenario) {
-  constexpr int kAttempts = 3;
   Outcome o;
-  for (o.attempts = 1;; ++o.attempts) {
-    Network net;
-    if (!net.ok()) {
-      ADD_FAILURE() << "could not set up the network namespace";
-      return o;
-    }
-    char tmpl[] = "/tmp/lbpkit-mill-sim-XXXXXX";
-    const fs::path simDir = ::mkdtemp(tmpl);
-    MillSim sim(net.apiAddress(), simDir, scenario.simArguments);
-    if (!sim.up()) {
-      ADD_FAILURE() << "lbpkit sim did not start";
-      return o;
-    }
-    unsigned long pidNs = 0, netNs = 0;
-    {
-      ServoThreadPriority priority(net.inode());
-      LinuxCncRun run(net, sim.url(), scenario.config, scenario.displayArguments);
-      o.setUp = run.displayLines() == 1;
-      EXPECT_EQ(run.displayLines(), 1) << scenario.config << "/mill.ini should have one DISPLAY line";
-      const bool reached = o.setUp && run.waitForKillPoint(kAttemptLimit, scenario.last);
-      pidNs = run.pidNamespace();
-      netNs = run.netNamespace();
-      if (reached && scenario.atLast) scenario.atLast(run, sim);
-      run.kill();
-      o.mdi.clear();
-      o.reports = run.reports(&o.mdi);
-      o.log = run.log();
-      o.trouble = hostTrouble(o.reports, o.mdi, o.log);
-      if (!o.trouble.empty() && o.attempts < kAttempts) {
-        std::printf("LinuxCNC %s: attempt %d lost to the host's timing (%s); once more\n", scenario.config.c_str(),
-                    o.attempts, o.trouble.c_str());
-        std::fflush(stdout);
-      }
-    }
-    // Nothing of LinuxCNC is left (its namespace died with it).
-    const auto deadline = Clock::now() + 3s;
-    while (processesIn(pidNs, netNs) > 0 && Clock::now() < deadline) std::this_thread::sleep_for(50ms);
-    EXPECT_EQ(processesIn(pidNs, netNs), 0) << "LinuxCNC processes outlived the kill";
-    EXPECT_EQ(sim.stop(), 0);
-    std::error_code ec;
-    fs::remove_all(simDir, ec);
-    net.remove();
-    EXPECT_TRUE(net.gone()) << "the network namespace or a veth outlived the test";
-    if (o.trouble.empty() || o.attempts == kAttempts || !o.setUp) return o;
+  Network net;
+  if (!net.ok()) {
+    ADD_FAILURE() << "could not set up the network namespace";
+    return o;
   }
+  char tmpl[] = "/tmp/lbpkit-mill-sim-XXXXXX";
+  const fs::path simDir = ::mkdtemp(tmpl);
+  MillSim sim(net.apiAddress(), simDir, scenario.simArguments);
+  if (!sim.up()) {
+    ADD_FAILURE() << "lbpkit sim did not start";
+    return o;
+  }
+  unsigned long pidNs = 0, netNs = 0;
+  {
+    ServoThreadPriority priority(net.inode());
+    LinuxCncRun run(net, sim.url(), scenario.config, scenario.displayArguments);
+    o.setUp = run.displayLines() == 1;
+    EXPECT_EQ(run.displayLines(), 1) << scenario.config << "/mill.ini should have one DISPLAY line";
+    const bool reached = o.setUp && run.waitForKillPoint(kRunLimit, scenario.last);
+    pidNs = run.pidNamespace();
+    netNs = run.netNamespace();
+    if (reached && scenario.atLast) scenario.atLast(run, sim);
+    run.kill();
+    o.reports = run.reports(&o.mdi);
+    o.log = run.log();
+    o.trouble = hostTrouble(o.reports, o.mdi, o.log);
+  }
+  // Nothing of LinuxCNC is left (its namespace died with it).
+  const auto deadline = Clock::now() + 3s;
+  while (processesIn(pidNs, netNs) > 0 && Clock::now() < deadline) std::this_thread::sleep_for(50ms);
+  EXPECT_EQ(processesIn(pidNs, netNs), 0) << "LinuxCNC processes outlived the kill";
+  EXPECT_EQ(sim.stop(), 0);
+  std::error_code ec;
+  fs::remove_all(simDir, ec);
+  net.remove();
+  EXPECT_TRUE(net.gone()) << "the network namespace or a veth outlived the test";
+  return o;
 }
 
 TEST(LinuxCncMill, RunsGcodeAndRehearsesFaultsAgainstTheVirtualMill) {
   if (const auto why = whyNotRunnable(); !why.empty()) GTEST_SKIP() << why;
   const auto started = Clock::now();
   AfterKill k;
-  const Outcome o = runScenario({{"--machine", "mill"}, "mill", "", "ready_for_kill",
+  const Outcome o = runScenario({{"--machine", "mill", "--clock", "host=1ms"}, "mill", "", "ready_for_kill",
                                  [&k](LinuxCncRun& run, MillSim& sim) { k = killAndWatch(run, sim); }});
   ASSERT_TRUE(o.setUp);
   auto r = o.reports;
   const auto& mdi = o.mdi;
   const auto& log = o.log;
   const auto& trouble = o.trouble;
-  const int attempt = o.attempts;
   const std::string context = "\n--- LinuxCNC's output ---\n" + log.substr(log.size() > 6000 ? log.size() - 6000 : 0);
   ASSERT_TRUE(trouble.empty()) << trouble << context;
   ASSERT_TRUE(r.count("ready_for_kill")) << "the display did not get through its steps" << context;
@@ -694,7 +692,7 @@ TEST(LinuxCncMill, RunsGcodeAndRehearsesFaultsAgainstTheVirtualMill) {
   }
   EXPECT_EQ(k.atRest["axes"][2]["brake_engaged"], true) << "Z hangs on its brake";
 
-  std::printf("LinuxCNC mill: %d attempt(s), %.0f s in all\n", attempt,
+  std::printf("LinuxCNC mill: %.0f s in all\n",
               std::chrono::duration<double>(Clock::now() - started).count());
 }
 
@@ -708,7 +706,7 @@ TEST(LinuxCncMill, StepperZOnADpllTimedStepGenHomesAndRunsGcode) {
   const auto started = Clock::now();
   const std::string machine = std::string(LBPKIT_SOURCE_DIR) + "/examples/machines/mill-7i76.toml";
   const Outcome o =
-      runScenario({{"--card", "7I92T", "--machine", machine}, "mill-7i76", " --scenario stepper-z", "finished", {}});
+      runScenario({{"--card", "7I92T", "--machine", machine, "--clock", "host=1ms"}, "mill-7i76", " --scenario stepper-z", "finished", {}});
   ASSERT_TRUE(o.setUp);
   auto r = o.reports;
   const std::string context =
@@ -755,9 +753,9 @@ TEST(LinuxCncMill, StepperZOnADpllTimedStepGenHomesAndRunsGcode) {
       << "LinuxCNC's feedback, from the count";
   EXPECT_NEAR(after["model_z"].get<double>(), commanded, 1.0 / scale) << "where the machine's Z is";
   std::printf("LinuxCNC mill-7i76: Z to %.4f mm took %ld steps, %ld counted by hm2, %ld lost; Z at %.4f mm; "
-              "DPLL phase error %.2f us; %d attempt(s), %.0f s in all\n",
+              "DPLL phase error %.2f us; %.0f s in all\n",
               commanded, machineSteps, linuxcncCounts, after["stepper"]["lost_steps"].get<long>(),
-              after["model_z"].get<double>(), z["dpll_phase_error_us"].get<double>(), o.attempts,
+              after["model_z"].get<double>(), z["dpll_phase_error_us"].get<double>(),
               std::chrono::duration<double>(Clock::now() - started).count());
 }
 

@@ -80,8 +80,8 @@ bool fromIpv4(const std::uint8_t* p, std::size_t caplen, std::size_t len, unsign
   const std::uint8_t* u = p + ihl;
   const unsigned src = be16(u), dst = be16(u + 2), udpLength = be16(u + 4);
   if (src != port && dst != port) return false;
-  const std::uint32_t srcIp = static_cast<std::uint32_t>(p[12]) << 24 | p[13] << 16 | p[14] << 8 | p[15];
-  const std::uint32_t dstIp = static_cast<std::uint32_t>(p[16]) << 24 | p[17] << 16 | p[18] << 8 | p[19];
+  const std::uint32_t srcIp = std::uint32_t{be16(p + 12)} << 16 | be16(p + 14);
+  const std::uint32_t dstIp = std::uint32_t{be16(p + 16)} << 16 | be16(p + 18);
   const bool request = dst == port;
   out.kind = request ? Packet::Kind::Request : Packet::Kind::Reply;
   out.card = request ? (std::uint64_t{dstIp} << 16 | dst) : (std::uint64_t{srcIp} << 16 | src);

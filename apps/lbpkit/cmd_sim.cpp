@@ -41,6 +41,7 @@ struct SimCommandOptions {
   std::string apiToken;
   std::string logLevel = "info";
   double speed = 1.0;
+  std::string clock = "wall";  // --clock wall|host[=PERIOD]
   bool paused = false;
   bool noRealtime = false;
   bool demo = false;
@@ -91,6 +92,33 @@ std::string hm2EthConfig(const hm2::HostMot2Card::Options& o) {
   if (const auto n = count(hm2::cards::Part::StepGen)) config += fmt::format(" num_stepgens={}", n);
   if (const auto n = count(hm2::cards::Part::PwmGen)) config += fmt::format(" num_pwmgens={}", n);
   return config + " sserial_port_0=" + channels;
+}
+
+// --clock wall|host[=PERIOD]: PERIOD as LinuxCNC's SERVO_PERIOD gives it
+// (nanoseconds) or with a unit (1ms, 500us, 1000000ns); without it, the
+// period is learned from the host's first cycles.
+std::optional<net::HostClock> clockOption(const std::string& text) {
+  if (text == "wall") return std::nullopt;
+  net::HostClock host;
+  if (text == "host") return host;
+  const std::string bad = fmt::format(
+      "--clock \"{}\": give wall (the default), host, or host=PERIOD with PERIOD the host's servo period from 100us "
+      "to 10ms (1ms, 500us, or nanoseconds as SERVO_PERIOD: 1000000)",
+      text);
+  if (text.rfind("host=", 0) != 0) throw lbpkit::Error(bad);
+  const std::string period = text.substr(5);
+  const auto digits = period.find_first_not_of("0123456789");
+  if (digits == 0 || period.empty() || digits > 9) throw lbpkit::Error(bad);
+  const std::string unit = digits == std::string::npos ? "ns" : period.substr(digits);
+  const std::int64_t n = std::stoll(period.substr(0, digits));
+  std::int64_t ns = 0;
+  if (unit == "ns") ns = n;
+  else if (unit == "us") ns = n * 1000;
+  else if (unit == "ms") ns = n * 1'000'000;
+  else throw lbpkit::Error(bad);
+  if (ns < 100'000 || ns > 10'000'000) throw lbpkit::Error(bad);
+  host.period = lbp::SimTime{ns};
+  return host;
 }
 
 // --machine NAME|FILE: a built-in machine (mill, lathe, gantry) or a TOML
@@ -172,6 +200,10 @@ int runSim(const SimCommandOptions& o) {
                                   : ", if they have its token");
   s.speed = o.speed;
   s.paused = o.paused;
+  s.hostClock = clockOption(o.clock);
+  if (s.hostClock && o.speed != 1.0)
+    throw lbpkit::Error("--speed and --clock host exclude each other: on the host clock a servo period passes per host "
+                        "cycle");
   s.realtime = !o.noRealtime;
   s.demo = o.demo;
   if (!o.machine.empty()) {
@@ -293,6 +325,10 @@ void addSimCommand(CLI::App& app) {
       ->envname("LBPKIT_API_TOKEN");
   cmd->add_option("--speed", o->speed, "Simulated seconds per wall-clock second (above 0, at most 10000)")
       ->check(CLI::Range(0.0, 10000.0))
+      ->capture_default_str();
+  cmd->add_option("--clock", o->clock,
+                  "What simulated time follows: wall (the wall clock), or host[=PERIOD] (one servo period per host "
+                  "cycle, e.g. host=1ms; docs/clocks.md)")
       ->capture_default_str();
   cmd->add_flag("--demo", o->demo, "Demo world: field outputs 0..15 wired back to inputs 0..15, encoder 0 turning");
   cmd->add_option("--machine", o->machine,

@@ -30,10 +30,17 @@ std::uint64_t getLe(const std::uint8_t* p, int n) {
 }
 
 // "12 345": sizes in messages people read.
+// Built forwards, a digit at a time: GCC 12 at -O3 warns (-Wrestrict, a false
+// positive: GCC bugs 105329, 105651) on string::insert into the digits.
 std::string grouped(std::uint64_t n) {
-  std::string digits = std::to_string(n);
-  for (auto i = static_cast<std::ptrdiff_t>(digits.size()) - 3; i > 0; i -= 3) digits.insert(static_cast<std::size_t>(i), " ");
-  return digits;
+  const std::string digits = std::to_string(n);
+  std::string out;
+  out.reserve(digits.size() + digits.size() / 3);
+  for (std::size_t i = 0; i < digits.size(); ++i) {
+    if (i != 0 && (digits.size() - i) % 3 == 0) out.push_back(' ');
+    out.push_back(digits[i]);
+  }
+  return out;
 }
 
 // What a path is, for files the store will not use.

@@ -319,6 +319,12 @@ void overtempAction(const ApiTarget& t, const json& j) {
 }
 
 void timeAction(const ApiTarget& t, const json& j) {
+  // On the host clock a period passes per host cycle: no speed to set
+  // (pausing and stepping by hand still work).
+  if (j.contains("speed") && t.clock.source() == SimClock::Source::Host)
+    throw std::invalid_argument(
+        "\"speed\": time follows the host's servo cycles (lbpkit sim --clock host); a speed applies to the wall clock "
+        "only");
   const double speed =
       j.contains("speed")
           ? number(j, "speed", std::numeric_limits<double>::min(), kMaxSpeed,

@@ -5,23 +5,78 @@
 
 namespace net {
 
-SimClock::SimClock(double speed, bool paused) : wallBase_(Wall::now()), speed_(speed), paused_(paused) {}
+SimClock::SimClock(double speed, bool paused, WallNow wall)
+    : wallNow_(wall), wallBase_(wallNow_()), speed_(speed), paused_(paused) {}
 
-lbp::SimTime SimClock::now() const {
+SimClock::SimClock(const HostClock& host, bool paused, WallNow wall)
+    : wallNow_(wall),
+      source_(Source::Host),
+      wallBase_(wallNow_()),
+      speed_(1.0),
+      paused_(paused),
+      period_(host.period),
+      silence_(host.silence) {}
+
+lbp::SimTime SimClock::now() const { return at(wallNow_()); }
+
+lbp::SimTime SimClock::at(Wall::time_point wall) const {
   if (paused_) return simBase_;
-  const auto wall = std::chrono::duration<double, std::nano>(Wall::now() - wallBase_).count();
-  return simBase_ + lbp::SimTime{static_cast<std::int64_t>(wall * speed_)};
+  if (source_ == Source::Host && period_.count() > 0 && !silent(wall)) return simBase_;
+  // Never before the base: a moment before it (a datagram that came before
+  // the last change) is taken at the base.
+  const auto elapsed = std::max(0.0, std::chrono::duration<double, std::nano>(wall - wallBase_).count());
+  return simBase_ + lbp::SimTime{static_cast<std::int64_t>(elapsed * speed_)};
+}
+
+bool SimClock::drivenByHost() const {
+  return source_ == Source::Host && !paused_ && period_.count() > 0 && !silent(wallNow_());
 }
 
 void SimClock::set(double speed, bool paused) {
   simBase_ = now();
-  wallBase_ = Wall::now();
-  speed_ = speed;
+  wallBase_ = wallNow_();
+  if (source_ == Source::Wall) speed_ = speed;
   paused_ = paused;
 }
 
+void SimClock::hostCycle(std::chrono::nanoseconds wallAgo) {
+  if (source_ != Source::Host || paused_) return;
+  // When the DoIt came, not when the card thread got to it: a card thread
+  // the kernel held back must not make a host on time look silent.
+  const auto wall = std::max(wallBase_, wallNow_() - wallAgo);
+  const lbp::SimTime t = at(wall);
+  if (hostCycles_ > 0 && silent(wall)) ++silences_;
+  if (period_.count() == 0) learn(wall);
+  lastCycleWall_ = wall;
+  ++hostCycles_;
+  // The cycle's DOIT was taken at t; the host's next cycle meets the card
+  // one period later, the DOIT done and the plant moved under the outputs
+  // it wrote, as on a real-time machine on time.
+  simBase_ = t + period_;
+  wallBase_ = wall;
+}
+
+void SimClock::learn(Wall::time_point wall) {
+  // The spacing of the first cycles, taken after the host's first one
+  // (hostmot2's set-up exchanges come before it, not at the servo rate):
+  // the median of kLearnCycles spacings when at least three in four are
+  // within a fifth of it and it is a servo period (100 us to 10 ms),
+  // rounded to 10 us. Otherwise the window starts again.
+  if (hostCycles_ == 0) return;
+  spacings_[learned_++] = std::chrono::duration_cast<std::chrono::nanoseconds>(wall - lastCycleWall_).count();
+  if (learned_ < spacings_.size()) return;
+  learned_ = 0;
+  auto sorted = spacings_;
+  std::nth_element(sorted.begin(), sorted.begin() + kLearnCycles / 2, sorted.end());
+  const std::int64_t median = sorted[kLearnCycles / 2];
+  const auto near = std::count_if(spacings_.begin(), spacings_.end(),
+                                  [median](std::int64_t s) { return s * 5 >= median * 4 && s * 5 <= median * 6; });
+  if (median < 100'000 || median > 10'000'000 || static_cast<std::size_t>(near) * 4 < kLearnCycles * 3) return;
+  period_ = lbp::SimTime{(median + 5'000) / 10'000 * 10'000};
+}
+
 void SimClock::fallBackTo(lbp::SimTime t) {
-  const auto wall = Wall::now();
+  const auto wall = wallNow_();
   const auto lag = now() - t;
   if (lag <= lbp::SimTime{0}) return;
   simBase_ = t;
@@ -31,6 +86,7 @@ void SimClock::fallBackTo(lbp::SimTime t) {
 }
 
 lbp::SimTime SimClock::ago(std::chrono::nanoseconds wallAgo) const {
+  if (source_ == Source::Host) return at(wallNow_() - wallAgo);
   const lbp::SimTime t = now();
   if (paused_) return t;
   const auto back = lbp::SimTime{static_cast<std::int64_t>(static_cast<double>(wallAgo.count()) * speed_)};
@@ -41,7 +97,7 @@ lbp::SimTime SimClock::ago(std::chrono::nanoseconds wallAgo) const {
 
 void SimClock::advanceBy(lbp::SimTime t) {
   simBase_ = now() + t;
-  wallBase_ = Wall::now();
+  wallBase_ = wallNow_();
 }
 
 }  // namespace net

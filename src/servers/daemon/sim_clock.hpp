@@ -1,12 +1,27 @@
-// The clock of `lbpkit sim`: the one place it ties simulated time to the wall clock.
+// The clock of `lbpkit sim`: the one place it ties simulated time to a clock.
 //
 // The models run in simulated time only and never read a clock; `lbpkit sim`
-// makes that time follow the wall clock (scaled by a speed, or paused and
-// stepped by hand) so that the 7I77 and HostMot2 watchdogs bite when a host
-// really stops. Used on the card thread only.
+// makes that time follow one of two clocks (docs/clocks.md):
+//
+// - the wall clock (the default), scaled by a speed, or paused and stepped by
+//   hand: what a real card lives in, so the 7I77 and HostMot2 watchdogs bite
+//   when a host really stops, and a host that runs late sees a plant that
+//   moved on meanwhile, as real hardware would;
+// - the host's servo cycles (`--clock host[=PERIOD]`): simulated time moves
+//   one servo period for each cycle the host completes (each smart-serial
+//   DOIT it writes, which LinuxCNC's hostmot2 and lbpkit's host library both
+//   write once a cycle), so a host whose servo thread runs late on a kernel
+//   without real-time scheduling still meets the plant one period after its
+//   last cycle, exactly as an on-time real-time machine would. A host silent
+//   for longer than a bound well under the 7I77's 50 ms watchdog hands time
+//   back to the wall clock from its last cycle on, so a killed host still
+//   trips every watchdog on time.
+//
+// Used on the card thread only.
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <utility>
@@ -15,29 +30,75 @@
 
 namespace net {
 
+// `--clock host[=PERIOD]`.
+struct HostClock {
+  // One servo period of simulated time a host cycle; zero: learned from the
+  // wall-clock spacing of the host's first cycles (SimClock::kLearnCycles).
+  lbp::SimTime period{0};
+  // A host silent this long (wall clock) has stopped: time follows the wall
+  // clock again, counted from its last cycle, so the 7I77's 50 ms watchdog
+  // still bites 50 ms after it (any bound under 50 ms less a period does
+  // that). Over the longest late servo period seen from LinuxCNC without a
+  // real-time kernel (27 ms on a 2-core virtual machine; docs/clocks.md).
+  std::chrono::milliseconds silence{40};
+};
+
 class SimClock {
  public:
-  explicit SimClock(double speed = 1.0, bool paused = false);
+  enum class Source : std::uint8_t { Wall, Host };
+  using Wall = std::chrono::steady_clock;
+  // Where the clock reads the wall clock: steady_clock, or a test's own
+  // (so the clock's rules are tested in a time the test sets).
+  using WallNow = Wall::time_point (*)();
+  explicit SimClock(double speed = 1.0, bool paused = false, WallNow wall = &Wall::now);
+  SimClock(const HostClock& host, bool paused, WallNow wall = &Wall::now);
   [[nodiscard]] lbp::SimTime now() const;
   // Changes speed or pauses from now on: time so far is kept, never jumps.
+  // On the host clock the speed stays 1 (what follows the wall clock).
   void set(double speed, bool paused);
   [[nodiscard]] double speed() const { return speed_; }
   [[nodiscard]] bool paused() const { return paused_; }
   void advanceBy(lbp::SimTime t);  // while paused: step time by hand
   // The simulated time it was `wallAgo` of wall-clock time ago (now() while
-  // paused: paused time does not move).
+  // paused; on the host clock, the time of the cycle a datagram came in, or
+  // the wall clock's if the host was silent by then).
   [[nodiscard]] lbp::SimTime ago(std::chrono::nanoseconds wallAgo) const;
+
+  // --- The host clock --------------------------------------------------------------
+  [[nodiscard]] Source source() const { return source_; }
+  // A host completed a servo cycle (its DOIT, which came `wallAgo` ago, was
+  // taken): simulated time moves on by one period from then. Ignored on the
+  // wall clock and while paused; before the period is known, each cycle's
+  // wall-clock spacing is learned from and time follows the wall clock.
+  void hostCycle(std::chrono::nanoseconds wallAgo = std::chrono::nanoseconds{0});
+  // The period a host cycle moves time (zero while still being learned).
+  [[nodiscard]] lbp::SimTime period() const { return period_; }
+  [[nodiscard]] std::chrono::milliseconds silence() const { return silence_; }
+  [[nodiscard]] std::uint64_t hostCycles() const { return hostCycles_; }
+  // True when time follows a host's cycles right now; false on the wall
+  // clock, while paused, while the period is learned and while the host
+  // is silent beyond the bound.
+  [[nodiscard]] bool drivenByHost() const;
+  // How many times a host came back after a silence beyond the bound.
+  [[nodiscard]] std::uint64_t silences() const { return silences_; }
 
   // Brings a model from `from` towards now() by calling advance(t) with t at
   // most kSlice apart, for at most `budget` of wall time, and returns where
   // it got. The work one catch-up does is bounded whatever the models cost
   // per simulated second, so the card thread always gets back to its socket,
-  // its jobs and its stop flag. When that is not enough while time runs,
-  // simulated time falls behind: the clock is set back to where the model
-  // got (never past it), and the slip is counted. While paused nothing is
-  // behind: the rest of a step is caught up on the next call.
+  // its jobs and its stop flag. When that is not enough while time runs on
+  // the wall clock, simulated time falls behind: the clock is set back to
+  // where the model got (never past it), and the slip is counted. While
+  // paused, or driven by a host's cycles, nothing is behind: the rest is
+  // caught up on the next call.
   static constexpr lbp::SimTime kSlice = std::chrono::milliseconds(1);
   static constexpr std::chrono::microseconds kBudget{2000};
+  // Driven by a host's cycles, each datagram is answered at the cycle's
+  // time, whatever the wall clock did meanwhile: a period of simulation
+  // costs microseconds, so this bound is never what stops a catch-up.
+  static constexpr std::chrono::microseconds kHostBudget{1'000'000};
+  // Cycles whose spacing a learned period is taken from.
+  static constexpr std::size_t kLearnCycles = 32;
   template <typename Advance>
   lbp::SimTime catchUp(lbp::SimTime from, Advance&& advance, std::chrono::microseconds budget = kBudget) {
     return catchUpTo(from, now(), std::forward<Advance>(advance), budget);
@@ -53,7 +114,7 @@ class SimClock {
       advance(t);
       if (Wall::now() - start > budget) break;
     }
-    if (t < target && !paused_) fallBackTo(t);
+    if (t < target && !paused_ && source_ == Source::Wall) fallBackTo(t);
     return t;
   }
   // How far simulated time has fallen behind the wall clock in all, and how
@@ -63,14 +124,29 @@ class SimClock {
 
  private:
   void fallBackTo(lbp::SimTime t);
+  [[nodiscard]] lbp::SimTime at(Wall::time_point wall) const;  // simulated time at a wall-clock moment
+  void learn(Wall::time_point wall);
+  [[nodiscard]] bool silent(Wall::time_point wall) const { return wall - wallBase_ > silence_; }
 
-  using Wall = std::chrono::steady_clock;
+  WallNow wallNow_;
+  Source source_ = Source::Wall;
+  // Wall clock: simulated time is simBase_ + (wall - wallBase_) x speed.
+  // Host clock: simBase_ is the time of the host's last cycle and wallBase_
+  // when it came; silent beyond the bound (or learning), time runs on from
+  // there with the wall clock.
   Wall::time_point wallBase_;
   lbp::SimTime simBase_{0};
   double speed_;
   bool paused_;
   lbp::SimTime behind_{0};
   std::uint64_t slips_ = 0;
+  lbp::SimTime period_{0};
+  std::chrono::milliseconds silence_{20};
+  std::uint64_t hostCycles_ = 0;
+  std::uint64_t silences_ = 0;
+  Wall::time_point lastCycleWall_{};
+  std::array<std::int64_t, kLearnCycles> spacings_{};  // ns, while the period is learned
+  std::size_t learned_ = 0;
 };
 
 }  // namespace net

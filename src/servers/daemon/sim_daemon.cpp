@@ -19,7 +19,10 @@
 namespace net {
 
 SimDaemon::SimDaemon(SimOptions options)
-    : options_(std::move(options)), card_(options_.card), clock_(options_.speed, options_.paused) {
+    : options_(std::move(options)),
+      card_(options_.card),
+      clock_(options_.hostClock ? SimClock(*options_.hostClock, options_.paused)
+                                : SimClock(options_.speed, options_.paused)) {
   // First: a script that cannot run stops the sim before it binds anything.
   if (!options_.faultScript.empty())
     script_ = std::make_unique<FaultScript>(std::move(options_.faultScript), options_.card, options_.machine);
@@ -162,7 +165,10 @@ SimState SimDaemon::state() {
   const auto now = catchUp(clock_.paused() ? std::chrono::microseconds(200'000) : SimClock::kBudget);
   SimState s;
   s.time = now;
-  s.clock = {clock_.speed(), clock_.paused(), clock_.behind(), clock_.slips()};
+  s.clock = {clock_.speed(),       clock_.paused(),       clock_.behind(),
+             clock_.slips(),       clock_.source() == SimClock::Source::Host,
+             clock_.period(),      clock_.drivenByHost(), clock_.hostCycles(),
+             clock_.silences()};
   const auto& id = lbp16_->identity();
   s.card = {id.name, options_.bindAddress, udp_->port(), id.mac, lbp16_->eeprom()};
   s.lbp16 = lbp16_->counters();
@@ -257,8 +263,17 @@ std::string SimDaemon::banner() const {
   if (apiPort_ >= 0)  // issue 14: the board and the machine, live
     s += fmt::format("  web view: http://{}:{}/{}\n", options_.apiAddress, apiPort_,
                      options_.apiToken.empty() ? "" : "#token=TOKEN");
-  s += fmt::format("  time: {}{}\n", options_.paused ? "paused" : "follows the wall clock",
-                   options_.speed != 1.0 ? fmt::format(" x{}", options_.speed) : "");
+  if (clock_.source() == SimClock::Source::Host)
+    s += fmt::format("  time: {}one servo period ({}) per host cycle (each DOIT taken); the wall clock while the "
+                     "host is silent over {} ms\n",
+                     options_.paused ? "paused; then " : "",
+                     clock_.period().count() > 0
+                         ? fmt::format("{:g} ms", std::chrono::duration<double, std::milli>(clock_.period()).count())
+                         : fmt::format("learned from the host's first {} cycles", SimClock::kLearnCycles),
+                     clock_.silence().count());
+  else
+    s += fmt::format("  time: {}{}\n", options_.paused ? "paused" : "follows the wall clock",
+                     options_.speed != 1.0 ? fmt::format(" x{}", options_.speed) : "");
   return s;
 }
 
@@ -408,10 +423,18 @@ void SimDaemon::run(const std::atomic<bool>& stop) {
     // a long API job) and datagrams queued, each is still taken at its own
     // time, so a host that kept its period is not seen falling silent by the
     // 7I77's 50 ms watchdog, which a stall here must not bite.
+    //
+    // On the host clock, a datagram that carried a DOIT ends the host's
+    // servo cycle (hostmot2 and lbpkit's host library write one a cycle,
+    // after the cycle's outputs): time moves one period on, so the host's
+    // next cycle finds the DOIT done and the plant moved under its outputs.
     const bool served = udp_->serveOnce(std::chrono::milliseconds(1),
                                         [&](std::span<const std::uint8_t> req, std::span<std::uint8_t> reply) {
+                                          const std::uint64_t doits = card_.smartSerial().counters().doits;
                                           const std::size_t n = lbp16.handle(
-                                              req, reply, catchUpTo(clock_.ago(udp_->sinceReceived())));
+                                              req, reply, catchUpTo(clock_.ago(udp_->sinceReceived()), budget()));
+                                          if (card_.smartSerial().counters().doits != doits)
+                                            clock_.hostCycle(udp_->sinceReceived());
                                           if (packetTrace_) traceDatagram(req, reply.first(n));
                                           return n;
                                         });
@@ -426,7 +449,7 @@ void SimDaemon::run(const std::atomic<bool>& stop) {
     // A datagram that queued for long says more may be waiting: they come
     // first, each at its own time, before the card runs on to the clock.
     constexpr std::chrono::milliseconds kBacklog{1};
-    if (!served || udp_->lastQueueing() < kBacklog) catchUp();
+    if (!served || udp_->lastQueueing() < kBacklog) catchUp(budget());
     if (machine_) record();
     if (script_) script_->runDue(card_.now(), *target_, scriptLog_);
     if (options_.demo) {

@@ -1,8 +1,9 @@
 // `lbpkit sim`: a virtual 7I92 with 7I77s on the network.
 //
 // One thread owns the card: it waits on the LBP16 socket, answers each
-// datagram, and lets simulated time follow the wall clock (sim_clock.hpp) so
-// the 7I77 and HostMot2 watchdogs bite when the host stops. The HTTP control
+// datagram, and lets simulated time follow the wall clock or the host's
+// servo cycles (sim_clock.hpp), so the 7I77 and HostMot2 watchdogs bite when
+// the host stops. The HTTP control
 // API (api_routes.hpp) runs on its own threads and hands its work to the card
 // thread as jobs, taken between datagrams without ever blocking it; what it
 // answers is the models' state (state_json.hpp).
@@ -46,6 +47,9 @@ struct SimOptions {
   std::string apiToken;  // when set, API requests carry "Authorization: Bearer TOKEN"
   double speed = 1.0;   // simulated seconds per wall-clock second
   bool paused = false;
+  // Simulated time driven by the host's servo cycles instead of the wall
+  // clock (`--clock host[=PERIOD]`, sim_clock.hpp); speed is then 1.
+  std::optional<HostClock> hostClock;
   LogLevel logLevel = LogLevel::Info;
   // Run the card thread at a real-time priority (SCHED_FIFO) when allowed,
   // so a host's read is answered within its period even on a busy machine.
@@ -113,6 +117,11 @@ class SimDaemon {
   lbp::SimTime catchUp(std::chrono::microseconds budget = SimClock::kBudget);
   // The same towards `target` (a simulated time not after the clock's).
   lbp::SimTime catchUpTo(lbp::SimTime target, std::chrono::microseconds budget = SimClock::kBudget);
+  // The budget of a catch-up towards the clock: bounded on the wall clock;
+  // driven by a host's cycles, the whole cycle (SimClock::kHostBudget).
+  [[nodiscard]] std::chrono::microseconds budget() const {
+    return clock_.drivenByHost() ? SimClock::kHostBudget : SimClock::kBudget;
+  }
   // A trace row when the host has run a servo cycle since the last look.
   void record();
   // --trace: the datagram just served and the reply to it (card thread).

@@ -284,7 +284,14 @@ json toJson(const SimState& s) {
   j["clock"] = {{"speed", s.clock.speed},
                 {"paused", s.clock.paused},
                 {"behind_ms", std::chrono::duration<double, std::milli>(s.clock.behind).count()},
-                {"slips", s.clock.slips}};
+                {"slips", s.clock.slips},
+                {"source", s.clock.host ? "host" : "wall"}};
+  if (s.clock.host) {
+    j["clock"]["period_ms"] = std::chrono::duration<double, std::milli>(s.clock.period).count();
+    j["clock"]["driven_by_host"] = s.clock.driven;
+    j["clock"]["host_cycles"] = s.clock.hostCycles;
+    j["clock"]["host_silences"] = s.clock.silences;
+  }
   const auto& e = s.card.eeprom;
   j["card"] = {{"name", s.card.name},
                {"address", s.card.address},

@@ -38,6 +38,14 @@ struct SimState {
     // how many times, because the card could not keep up.
     lbp::SimTime behind{0};
     std::uint64_t slips = 0;
+    // `--clock host`: time moves a period per host cycle (sim_clock.hpp);
+    // driven: it does right now (not paused, the period known, the host not
+    // silent beyond the bound); silences: returns after such a silence.
+    bool host = false;
+    lbp::SimTime period{0};
+    bool driven = false;
+    std::uint64_t hostCycles = 0;
+    std::uint64_t silences = 0;
   } clock;
   // Who the card says it is on the network, and where it listens.
   struct Card {

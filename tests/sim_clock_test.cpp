@@ -1,0 +1,166 @@
+// SimClock, the one place `lbpkit sim` ties simulated time to a clock
+// (docs/clocks.md), in a wall-clock time the test sets: the host clock's
+// rules (one period per host cycle, the period learned from the first
+// cycles, the wall clock again after a silence) hold exactly, on every run.
+#include "daemon/sim_clock.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+
+namespace {
+
+using namespace std::chrono_literals;
+using net::SimClock;
+using lbp::SimTime;
+
+// The wall clock these tests read: set by hand.
+SimClock::Wall::time_point wall{};
+SimClock::Wall::time_point testWall() { return wall; }
+
+class HostClockTest : public ::testing::Test {
+ protected:
+  void SetUp() override { wall = SimClock::Wall::time_point{} + 1h; }
+  static void pass(std::chrono::nanoseconds d) { wall += d; }
+};
+
+TEST_F(HostClockTest, EachHostCycleMovesTimeOnePeriodWhateverTheWallClockDid) {
+  SimClock c(net::HostClock{1ms, 20ms}, false, &testWall);
+  EXPECT_EQ(c.source(), SimClock::Source::Host);
+  EXPECT_EQ(c.period(), SimTime{1ms});
+  c.hostCycle();
+  const SimTime first = c.now();
+  EXPECT_TRUE(c.drivenByHost());
+  // Cycles 1 ms, 3.9 ms (a late period) and 0.1 ms (the catch-up) apart
+  // each move time by the period, and time stands between them.
+  for (const std::chrono::microseconds gap : {1000us, 3900us, 100us}) {
+    const SimTime before = c.now();
+    pass(gap / 2);
+    EXPECT_EQ(c.now(), before) << "between cycles";
+    pass(gap - gap / 2);
+    c.hostCycle();
+    EXPECT_EQ(c.now(), before + 1ms);
+  }
+  EXPECT_EQ(c.now(), first + 3ms);
+  EXPECT_EQ(c.hostCycles(), 4U);
+  EXPECT_EQ(c.silences(), 0U);
+  // Every datagram of a cycle belongs to it: no wall-clock moment before.
+  EXPECT_EQ(c.ago(500us), c.now());
+}
+
+TEST_F(HostClockTest, ASilentHostHandsTimeBackToTheWallClockFromItsLastCycle) {
+  SimClock c(net::HostClock{1ms, 20ms}, false, &testWall);
+  c.hostCycle();
+  const SimTime atCycle = c.now();  // one period after the cycle
+  pass(20ms);
+  EXPECT_EQ(c.now(), atCycle) << "at the bound, still the host's";
+  EXPECT_TRUE(c.drivenByHost());
+  pass(1ms);
+  // 21 ms of wall clock since the last cycle: the 7I77's 50 ms watchdog
+  // counts them, as it would on the wall clock.
+  EXPECT_FALSE(c.drivenByHost());
+  EXPECT_EQ(c.now(), atCycle + 21ms);
+  pass(29ms);
+  EXPECT_EQ(c.now(), atCycle + 50ms);
+  // The host comes back: a period on from where the wall clock took time.
+  c.hostCycle();
+  EXPECT_EQ(c.now(), atCycle + 51ms);
+  EXPECT_TRUE(c.drivenByHost());
+  EXPECT_EQ(c.silences(), 1U);
+}
+
+TEST_F(HostClockTest, ADoItTakenLateIsTakenAtWhenItCame) {
+  // The card thread got to a DoIt 24 ms after it came, 1 ms after the last
+  // cycle (the kernel held the sim back): the host was on time, and the
+  // cycle is the host's, one period on.
+  SimClock c(net::HostClock{1ms, 20ms}, false, &testWall);
+  c.hostCycle();
+  const SimTime t = c.now();
+  pass(25ms);
+  EXPECT_EQ(c.ago(24ms), t) << "the datagram that came 1 ms after the cycle";
+  c.hostCycle(24ms);
+  EXPECT_EQ(c.ago(24ms), t + 1ms);
+  EXPECT_EQ(c.silences(), 0U);
+  EXPECT_EQ(c.hostCycles(), 2U);
+}
+
+TEST_F(HostClockTest, BeforeTheFirstCycleTimeFollowsTheWallClock) {
+  // hm2_eth's and setsserial's set-up come before any cycle: their
+  // smart-serial commands need time to pass.
+  SimClock c(net::HostClock{1ms, 20ms}, false, &testWall);
+  EXPECT_EQ(c.now(), SimTime{0});
+  pass(5ms);
+  EXPECT_EQ(c.now(), SimTime{0}) << "within the bound of the start";
+  pass(20ms);
+  EXPECT_EQ(c.now(), SimTime{25ms});
+  EXPECT_FALSE(c.drivenByHost());
+}
+
+TEST_F(HostClockTest, ThePeriodIsLearnedFromTheFirstCyclesSpacing) {
+  SimClock c(net::HostClock{SimTime{0}, 20ms}, false, &testWall);
+  c.hostCycle();  // the first: its spacing from set-up says nothing
+  // 32 spacings near 1 ms, seven of them late or catching up (under a
+  // fourth off by more than a fifth): the median, rounded to 10 us.
+  for (std::size_t i = 0; i < SimClock::kLearnCycles; ++i) {
+    EXPECT_EQ(c.period(), SimTime{0}) << "cycle " << i;
+    pass(i % 8 == 7 ? 3900us : i % 8 == 0 && i > 0 ? 150us : 1003us);
+    c.hostCycle();
+  }
+  EXPECT_EQ(c.period(), SimTime{1ms});
+  const SimTime t = c.now();
+  pass(4ms);
+  c.hostCycle();
+  EXPECT_EQ(c.now(), t + 1ms);
+}
+
+TEST_F(HostClockTest, SpacingsThatAreNoServoPeriodTeachNothing) {
+  // Half the cycles 1 ms apart, half 5 ms: no period; nor 50 us, nor 20 ms.
+  SimClock c(net::HostClock{SimTime{0}, 100ms}, false, &testWall);
+  c.hostCycle();
+  for (std::size_t i = 0; i < SimClock::kLearnCycles; ++i) {
+    pass(i % 2 ? 1ms : 5ms);
+    c.hostCycle();
+  }
+  EXPECT_EQ(c.period(), SimTime{0});
+  for (const std::chrono::microseconds spacing : {50us, 20000us}) {
+    for (std::size_t i = 0; i < SimClock::kLearnCycles; ++i) {
+      pass(spacing);
+      c.hostCycle();
+    }
+    EXPECT_EQ(c.period(), SimTime{0}) << spacing.count() << " us";
+  }
+  // Then 32 at 2 ms: learned.
+  for (std::size_t i = 0; i < SimClock::kLearnCycles; ++i) {
+    pass(2ms);
+    c.hostCycle();
+  }
+  EXPECT_EQ(c.period(), SimTime{2ms});
+}
+
+TEST_F(HostClockTest, PausedTimeStandsAndStepsByHand) {
+  SimClock c(net::HostClock{1ms, 20ms}, true, &testWall);
+  c.hostCycle();
+  EXPECT_EQ(c.now(), SimTime{0}) << "a cycle while paused moves nothing";
+  EXPECT_EQ(c.hostCycles(), 0U);
+  c.advanceBy(7ms);
+  pass(1s);
+  EXPECT_EQ(c.now(), SimTime{7ms});
+  c.set(1.0, false);
+  c.hostCycle();
+  EXPECT_EQ(c.now(), SimTime{8ms});
+}
+
+TEST(WallClock, FollowsTheWallClockAtItsSpeedAndIgnoresHostCycles) {
+  wall = SimClock::Wall::time_point{} + 1h;
+  SimClock c(2.0, false, &testWall);
+  EXPECT_EQ(c.source(), SimClock::Source::Wall);
+  wall += 10ms;
+  EXPECT_EQ(c.now(), SimTime{20ms});
+  c.hostCycle();
+  EXPECT_EQ(c.now(), SimTime{20ms});
+  EXPECT_EQ(c.hostCycles(), 0U);
+  EXPECT_FALSE(c.drivenByHost());
+  EXPECT_EQ(c.ago(4ms), SimTime{12ms});
+}
+
+}  // namespace
