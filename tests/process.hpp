@@ -27,7 +27,7 @@ inline pid_t spawn(const std::vector<std::string>& args, int& outFd, int& errFd)
   const pid_t pid = ::fork();
   if (pid == 0) {
     // A test that aborts (a sanitizer's report) must not leave its sim
-    // behind to hold the address the next attempt binds.
+    // behind to hold the address the next test binds.
     ::prctl(PR_SET_PDEATHSIG, SIGTERM);
     ::dup2(out[1], 1);
     ::dup2(err[1], 2);

@@ -99,9 +99,9 @@ TEST_F(SslbpExternal, RelaxedTimeoutAndLateAndDamagedReplies) {
   serve.answering = false;
   EXPECT_EQ(commandServed(h, cmd::kSetupStart | (1U << kExpansion), std::ref(serve), took, SimTime{100'000}),
             1U << kExpansion);
-  const SimTime attempt = SimTime{1'200'000} * SmartSerial::kExternalTimeoutFactor;
-  EXPECT_GT(took, attempt * 21);
-  EXPECT_LT(took, attempt * 22);
+  const SimTime oneWait = SimTime{1'200'000} * SmartSerial::kExternalTimeoutFactor;
+  EXPECT_GT(took, oneWait * 21);
+  EXPECT_LT(took, oneWait * 22);
   EXPECT_NE(h.read(CardHost::cs(kExpansion)) & cs::kTooManyErrors, 0U);
 
   // Answering in time after a STOP: started.

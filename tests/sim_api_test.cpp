@@ -603,6 +603,69 @@ TEST(SimApi, CliRefusesSpeedsWithNoPhysicalMeaning) {
   }
 }
 
+// `--clock`: what it takes, and what it refuses, naming the option.
+TEST(SimApi, CliRefusesClocksItDoesNotKnow) {
+  for (const auto& extra :
+       {std::vector<std::string>{"--clock", "sun"}, {"--clock", "host=50us"}, {"--clock", "host=11ms"},
+        {"--clock", "host=1s"}, {"--clock", "host=ms"}, {"--clock", "host=1ms", "--speed", "2"}}) {
+    const auto state = tempPath("clock");
+    std::vector<std::string> args = {"sim", "--bind", loopback(11) + ":0", "--api", "0", "--no-realtime", "--state",
+                                     state};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto r = testing_process::run(args, std::chrono::seconds(5));
+    EXPECT_NE(r.exit, 0) << extra[1];
+    EXPECT_NE(r.err.find("--clock"), std::string::npos) << extra[1] << ": " << r.err;
+    std::filesystem::remove(state);
+    std::filesystem::remove(state + ".analog");
+  }
+}
+
+// On the host clock, lbpkit's own host library drives time: each of its
+// cycles (a DoIt) moves the card one period, however the cycles are spaced
+// on the wall clock; the API shows the clock and refuses a speed.
+TEST(SimApi, OnTheHostClockEachHostCycleIsOnePeriod) {
+  Sim sim(loopback(18), {"--clock", "host=1ms"});
+  ASSERT_TRUE(sim.up());
+  EXPECT_NE(sim.daemon().readUntil("per host cycle").find("one servo period (1 ms) per host cycle"), std::string::npos);
+  lbpkit::Lbp16Transport t(sim.address(), static_cast<std::uint16_t>(sim.udpPort()));
+  t.setCycleTimeout(500ms);
+  const auto info = lbpkit::readCardInfo(t);
+  lbpkit::SmartSerial::Options o;
+  o.channelMask = 0x03;
+  lbpkit::SmartSerial ss(t, info, o);
+  ss.discover(0x03);
+  ss.startNormal();
+  ASSERT_TRUE(ss.cycle().ok);
+  const json before = sim.get().body;
+  ASSERT_EQ(before["clock"]["source"], "host") << before["clock"];
+  EXPECT_EQ(before["clock"]["period_ms"], 1.0);
+  constexpr int kCycles = 300;
+  for (int i = 0; i < kCycles; ++i) {
+    const auto c0 = std::chrono::steady_clock::now();
+    ASSERT_TRUE(ss.cycle().ok) << i;
+    const auto took = std::chrono::steady_clock::now() - c0;
+    if (took > 5ms) std::printf("DEBUG cycle %d took %.1f ms\n", i, std::chrono::duration<double, std::milli>(took).count());
+    if (i % 50 == 0) t.sleep(4ms);  // a late period: still one period
+  }
+  const json after = sim.get().body;
+  std::printf("DEBUG before %s\nDEBUG after %s\n", before["clock"].dump().c_str(), after["clock"].dump().c_str());
+  EXPECT_EQ(after["clock"]["host_cycles"].get<std::uint64_t>() - before["clock"]["host_cycles"].get<std::uint64_t>(),
+            static_cast<std::uint64_t>(kCycles));
+  EXPECT_EQ(after["clock"]["host_silences"], before["clock"]["host_silences"]) << "no cycle came 40 ms after the last";
+  EXPECT_NEAR(after["time_s"].get<double>() - before["time_s"].get<double>(), kCycles * 1e-3, 1e-9);
+  const auto speed = sim.post("/api/time", {{"speed", 2}});
+  EXPECT_EQ(speed.status, 400);
+  EXPECT_NE(speed.body.value("error", "").find("host"), std::string::npos) << speed.body;
+  // A silent host: time follows the wall clock again, and the 7I77's
+  // watchdog bites (its outputs off) as on the wall clock.
+  std::this_thread::sleep_for(120ms);
+  const json silent = sim.get().body;
+  EXPECT_EQ(silent["clock"]["driven_by_host"], false);
+  EXPECT_GT(silent["time_s"].get<double>() - after["time_s"].get<double>(), 0.1);
+  const auto& faults = silent["daughtercards"][0]["field_io"]["faults"];
+  EXPECT_NE(std::find(faults.begin(), faults.end(), "WatchdogFault"), faults.end()) << silent["daughtercards"][0];
+}
+
 // --- Item 15: what /api/state shows ---------------------------------------------
 
 // mesaflash writes the card's EEPROM IP (with the write enable) to move a

@@ -26,7 +26,7 @@ std::string hexBytes(std::span<const std::uint8_t> b) {
   return s;
 }
 
-std::uint32_t little(std::span<const std::uint8_t> b) {
+std::uint32_t little32(std::span<const std::uint8_t> b) {
   std::uint32_t v = 0;
   for (std::size_t i = std::min<std::size_t>(b.size(), 4); i-- > 0;) v = v << 8 | b[i];
   return v;
@@ -186,7 +186,7 @@ void LbpStreamDecoder::tell(const Command& c, std::span<const std::uint8_t> r, b
     text += fmt::format(" (RXSize {}, TXSize {}, PTOCP 0x{:04X}, GTOCP 0x{:04X})", data[0], data[1],
                         data[2] | data[3] << 8, data[4] | data[5] << 8);
   } else if (h == lbp::special_rpc::kUnitNumber && data.size() == 4) {
-    text += fmt::format(" (unit 0x{:08X})", little(data));
+    text += fmt::format(" (unit 0x{:08X})", little32(data));
   } else if (h == lbp::local_read::kStatus && data.size() == 1 && data[0] != 0) {
     // LBP status bits (manual: LOCAL LBP READ COMMANDS, 0xC1).
     std::string bits;
@@ -201,7 +201,7 @@ void LbpStreamDecoder::tell(const Command& c, std::span<const std::uint8_t> r, b
              data[0] >= 0x20 && data[0] < 0x7F) {
     text += fmt::format(" '{}'", static_cast<char>(data[0]));
   } else if (data.size() > 1 && data.size() <= 4 && lbp::commandType(h) == lbp::CommandType::Data) {
-    text += fmt::format(" (0x{:0{}X})", little(data), 2 * data.size());
+    text += fmt::format(" (0x{:0{}X})", little32(data), 2 * data.size());
   }
   text += "  " + crcNote(data, r.back());
   bad = bad || lbp::crc8(data) != r.back();

@@ -19,7 +19,7 @@ namespace {
 using namespace wire::sslbp::command;
 namespace local = wire::sslbp::local;
 
-std::string lower(std::string s) {
+std::string lowerCase(std::string s) {
   for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return s;
 }
@@ -284,12 +284,12 @@ void SmartSerial::startNormal() {
 }
 
 ElementRef SmartSerial::find(unsigned channel, const std::string& name) const {
-  const std::string want = lower(name);
+  const std::string want = lowerCase(name);
   for (std::size_t s = 0; s < slots_.size(); ++s) {
     if (slots_[s].identity.channel != channel) continue;
     const auto& pd = slots_[s].description.processData;
     for (std::size_t i = 0; i < pd.size(); ++i)
-      if (lower(pd[i].name) == want) return ElementRef{static_cast<std::uint8_t>(s), static_cast<std::uint8_t>(i)};
+      if (lowerCase(pd[i].name) == want) return ElementRef{static_cast<std::uint8_t>(s), static_cast<std::uint8_t>(i)};
   }
   return {};
 }

@@ -18,13 +18,13 @@ namespace {
 namespace capture = lbpkit::wire::capture;
 constexpr std::size_t kIpHeader = 20, kUdpHeader = 8;
 
-void put16(std::uint8_t* p, unsigned v) {  // network byte order
+void putBig16(std::uint8_t* p, unsigned v) {  // network byte order
   p[0] = static_cast<std::uint8_t>(v >> 8);
   p[1] = static_cast<std::uint8_t>(v);
 }
-void put32(std::uint8_t* p, std::uint32_t v) {
-  put16(p, v >> 16);
-  put16(p + 2, v & 0xFFFF);
+void putBig32(std::uint8_t* p, std::uint32_t v) {
+  putBig16(p, v >> 16);
+  putBig16(p + 2, v & 0xFFFF);
 }
 }  // namespace
 
@@ -64,20 +64,20 @@ void PcapRecorder::udp(std::int64_t ns, Endpoint from, Endpoint to, std::span<co
   std::uint8_t* ip = s->bytes;
   std::memset(ip, 0, kIpHeader + kUdpHeader);
   ip[0] = 0x45;  // version 4, 5 words
-  put16(ip + 2, static_cast<unsigned>(std::min<std::size_t>(total, 0xFFFF)));
+  putBig16(ip + 2, static_cast<unsigned>(std::min<std::size_t>(total, 0xFFFF)));
   ip[6] = 0x40;  // don't fragment
   ip[8] = 64;    // TTL
   ip[9] = 17;    // UDP
-  put32(ip + 12, from.ip);
-  put32(ip + 16, to.ip);
+  putBig32(ip + 12, from.ip);
+  putBig32(ip + 16, to.ip);
   std::uint32_t sum = 0;
   for (std::size_t i = 0; i < kIpHeader; i += 2) sum += static_cast<std::uint32_t>(ip[i] << 8 | ip[i + 1]);
   while (sum >> 16) sum = (sum & 0xFFFF) + (sum >> 16);
-  put16(ip + 10, ~sum & 0xFFFF);
+  putBig16(ip + 10, ~sum & 0xFFFF);
   std::uint8_t* udp = ip + kIpHeader;
-  put16(udp, from.port);
-  put16(udp + 2, to.port);
-  put16(udp + 4, static_cast<unsigned>(std::min<std::size_t>(kUdpHeader + payload.size(), 0xFFFF)));
+  putBig16(udp, from.port);
+  putBig16(udp + 2, to.port);
+  putBig16(udp + 4, static_cast<unsigned>(std::min<std::size_t>(kUdpHeader + payload.size(), 0xFFFF)));
   const std::size_t room = PacketRing::kSlotBytes - kIpHeader - kUdpHeader;
   const std::size_t n = std::min(payload.size(), room);
   std::memcpy(udp + kUdpHeader, payload.data(), n);

@@ -20,10 +20,10 @@ std::string why(const std::filesystem::path& file, const std::string& what) {
   return file.string() + ": " + what + (errno != 0 ? std::string(" (") + std::strerror(errno) + ")" : std::string());
 }
 
-void put32(std::uint8_t* p, std::uint32_t v) {
+void putLittle32(std::uint8_t* p, std::uint32_t v) {
   for (int i = 0; i < 4; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
 }
-std::uint32_t get32(const std::uint8_t* p) {
+std::uint32_t getLittle32(const std::uint8_t* p) {
   return std::uint32_t{p[0]} | std::uint32_t{p[1]} << 8 | std::uint32_t{p[2]} << 16 | std::uint32_t{p[3]} << 24;
 }
 
@@ -67,8 +67,8 @@ FlashFileLoad loadFlashFile(const std::filesystem::path& file, std::span<std::ui
     return {FlashFileLoad::Status::Refused,
             file.string() + ": not an lbpkit flash image (it does not start with LBFLASH1): not used, not written over"};
   }
-  const std::uint32_t size = get32(&h[8]);
-  const std::uint32_t crc = get32(&h[12]);
+  const std::uint32_t size = getLittle32(&h[8]);
+  const std::uint32_t crc = getLittle32(&h[12]);
   std::vector<std::uint8_t> data;
   if (size == image.size() && static_cast<std::uint64_t>(st.st_size) == kHeader + size) {
     data.resize(size);
@@ -90,8 +90,8 @@ std::string saveFlashFile(const std::filesystem::path& file, std::span<const std
   const auto tmp = file.string() + ".tmp";
   std::array<std::uint8_t, kHeader> h{};
   std::memcpy(h.data(), kMagic.data(), kMagic.size());
-  put32(&h[8], static_cast<std::uint32_t>(image.size()));
-  put32(&h[12], remote::crc32(image));
+  putLittle32(&h[8], static_cast<std::uint32_t>(image.size()));
+  putLittle32(&h[12], remote::crc32(image));
   errno = 0;
   struct stat st{};
   if (::lstat(file.c_str(), &st) == 0 && !S_ISREG(st.st_mode))

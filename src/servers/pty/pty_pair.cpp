@@ -10,9 +10,9 @@
 
 namespace net {
 
-namespace {
+std::runtime_error systemError(const std::string& what) { return std::runtime_error(what + ": " + std::strerror(errno)); }
 
-std::runtime_error sysError(const std::string& what) { return std::runtime_error(what + ": " + std::strerror(errno)); }
+namespace {
 
 speed_t speedFor(std::uint32_t baud) {
   switch (baud) {
@@ -39,18 +39,18 @@ speed_t speedFor(std::uint32_t baud) {
 
 PtyPair::PtyPair(std::uint32_t baud) {
   master_ = ::posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
-  if (master_ < 0) throw sysError("cannot open a pseudo-terminal");
+  if (master_ < 0) throw systemError("cannot open a pseudo-terminal");
   try {
-    if (::grantpt(master_) != 0 || ::unlockpt(master_) != 0) throw sysError("cannot unlock the pseudo-terminal");
+    if (::grantpt(master_) != 0 || ::unlockpt(master_) != 0) throw systemError("cannot unlock the pseudo-terminal");
     const char* name = ::ptsname(master_);
-    if (name == nullptr) throw sysError("cannot name the pseudo-terminal");
+    if (name == nullptr) throw systemError("cannot name the pseudo-terminal");
     path_ = name;
     // Non-blocking: a client that never reads must not stop the server (or
     // its SIGTERM handling) in write().
     if (::fcntl(master_, F_SETFL, ::fcntl(master_, F_GETFL) | O_NONBLOCK) != 0)
-      throw sysError("cannot make the pseudo-terminal non-blocking");
+      throw systemError("cannot make the pseudo-terminal non-blocking");
     slave_ = ::open(path_.c_str(), O_RDWR | O_NOCTTY | O_CLOEXEC);
-    if (slave_ < 0) throw sysError("cannot open " + path_);
+    if (slave_ < 0) throw systemError("cannot open " + path_);
   } catch (...) {
     if (master_ >= 0) ::close(master_);
     throw;

@@ -7,7 +7,12 @@
 #include <cstdint>
 #include <string>
 
+#include <stdexcept>
+
 namespace net {
+
+// A system call's failure: `what`, and errno's text.
+std::runtime_error systemError(const std::string& what);
 
 class PtyPair {
  public:

@@ -11,14 +11,10 @@
 #include <stdexcept>
 
 #include "daemon/pcap_recorder.hpp"
+#include "pty/pty_pair.hpp"
 
 namespace net {
 
-namespace {
-std::runtime_error sysError(const std::string& what) {
-  return std::runtime_error(what + ": " + std::strerror(errno));
-}
-}  // namespace
 
 // The line is raw 8N1 at 115200, the setup-mode rate Mesa's tools use.
 PtyRemote::PtyRemote(remote::RemoteDevice& device) : device_(device) {}
@@ -66,7 +62,7 @@ void PtyRemote::run(const std::atomic<bool>& stop) {
   while (!stop.load()) {
     pollfd pfd{pty_.master(), POLLIN, 0};
     const int ready = ::poll(&pfd, 1, 5);
-    if (ready < 0 && errno != EINTR) throw sysError("poll on " + pty_.path());
+    if (ready < 0 && errno != EINTR) throw systemError("poll on " + pty_.path());
     const auto t = now();
     device_.advance(t);
     // Answers waiting with no reader taking any for kAbandonedAfter belong
