@@ -492,10 +492,16 @@ class LinuxCnc : public ::testing::Test {
     reapOrphans();
   }
   // rtapi_app (LinuxCNC's servo thread, hm2_eth's sender) is started by the
-  // first halcmd and inherits its niceness: HAL commands run at the test's
-  // own priority, so LinuxCNC is not held back behind other work.
+  // first halcmd and inherits its scheduling: HAL commands run at SCHED_FIFO
+  // priority 1 (below the sim's card thread, 40), as a real-time kernel
+  // would run LinuxCNC. hm2_eth's set-up gives each queued read 1.6 ms
+  // before its HAL parameters exist (LinuxCNC: hm2_eth.c), and a rtapi_app
+  // held back by other work past that deadline fails to load ("rtapi_app_main:
+  // Resource temporarily unavailable") though the card answered at once.
+  // The polls pass `nice` instead: they yield to the sim and to LinuxCNC.
   Shell hal(const std::string& command, const char* nice = "") {
-    return sh(std::string(nice) + "ip netns exec " + ns_ + " env RTAPI_UID=" + std::to_string(65534) +
+    const std::string priority = *nice != '\0' ? std::string(nice) : std::string("chrt -f 1 ");
+    return sh(priority + "ip netns exec " + ns_ + " env RTAPI_UID=" + std::to_string(65534) +
               " RTAPI_FIFO_PATH=" + fifo_ + " timeout 60 " + command);
   }
   // The polls (halcmd through ip netns exec, every 25 ms) at nice 10: they

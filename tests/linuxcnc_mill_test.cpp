@@ -160,10 +160,14 @@ unsigned long namespaceOf(const std::string& proc, const char* kind) {
 // LinuxCNC's uspace servo thread runs SCHED_OTHER on a kernel without
 // PREEMPT_RT, and rtapi_app cannot raise its own priority here (no
 // RLIMIT_RTPRIO). With the machine's other work it is then late by tens of
-// milliseconds often enough for hm2's watchdog to bite. We give its threads
-// (rtapi_app:T#n) SCHED_FIFO from outside, as the real-time kernel would,
-// below the card thread's priority (40): the card answers first. Only the
-// rtapi_app in our network namespace: another LinuxCNC on this PC is not ours.
+// milliseconds often enough for hm2's watchdog to bite, and hm2_eth's
+// set-up, which gives each queued read 1.6 ms in rtapi_app's main thread
+// before its HAL parameters exist (LinuxCNC: hm2_eth.c), can miss that
+// deadline though the card answered at once. We give rtapi_app's threads
+// (rtapi_app, rtapi_app:T#n) SCHED_FIFO from outside, as the real-time
+// kernel would, below the card thread's priority (40): the card answers
+// first. Only the rtapi_app in our network namespace: another LinuxCNC on
+// this PC is not ours.
 class ServoThreadPriority {
  public:
   explicit ServoThreadPriority(unsigned long netNs) : netNs_(netNs), thread_([this] { run(); }) {}
@@ -191,13 +195,13 @@ class ServoThreadPriority {
           std::string task;
           std::getline(tc, task);
           const long tid = std::atol(t.path().filename().c_str());
-          if (task.rfind("rtapi_app:T", 0) != 0 || done.count(tid)) continue;
+          if ((task != "rtapi_app" && task.rfind("rtapi_app:T", 0) != 0) || done.count(tid)) continue;
           sched_param sp{};
           sp.sched_priority = 30;
           if (::sched_setscheduler(static_cast<pid_t>(tid), SCHED_FIFO, &sp) == 0) done.insert(tid);
         }
       }
-      std::this_thread::sleep_for(20ms);
+      std::this_thread::sleep_for(5ms);
     }
   }
   unsigned long netNs_;
