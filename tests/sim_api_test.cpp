@@ -607,6 +607,30 @@ TEST(SimApi, CliRefusesSpeedsWithNoPhysicalMeaning) {
   }
 }
 
+// lbpkit's host library on a sim's card over UDP, both 7I77 channels
+// discovered and in normal mode. What the tests look at is the card, not
+// the reply time: on loopback a reply is never lost, only late (this runs
+// beside other tests, and under ASan), so each cycle waits up to 500 ms.
+struct HostOnSim {
+  explicit HostOnSim(Sim& sim)
+      : t(sim.address(), static_cast<std::uint16_t>(sim.udpPort())), info(slowCardInfo(t)), ss(t, info, channels()) {
+    ss.discover(0x03);
+    ss.startNormal();
+  }
+  static lbpkit::CardInfo slowCardInfo(lbpkit::Lbp16Transport& transport) {
+    transport.setCycleTimeout(500ms);
+    return lbpkit::readCardInfo(transport);
+  }
+  static lbpkit::SmartSerial::Options channels() {
+    lbpkit::SmartSerial::Options o;
+    o.channelMask = 0x03;
+    return o;
+  }
+  lbpkit::Lbp16Transport t;
+  lbpkit::CardInfo info;
+  lbpkit::SmartSerial ss;
+};
+
 // `--clock`: what it takes, and what it refuses, naming the option.
 TEST(SimApi, CliRefusesClocksItDoesNotKnow) {
   for (const auto& extra :
@@ -631,14 +655,9 @@ TEST(SimApi, OnTheHostClockEachHostCycleIsOnePeriod) {
   Sim sim(loopback(18), {"--clock", "host=1ms"});
   ASSERT_TRUE(sim.up());
   EXPECT_NE(sim.daemon().readUntil("per host cycle").find("one servo period (1 ms) per host cycle"), std::string::npos);
-  lbpkit::Lbp16Transport t(sim.address(), static_cast<std::uint16_t>(sim.udpPort()));
-  t.setCycleTimeout(500ms);
-  const auto info = lbpkit::readCardInfo(t);
-  lbpkit::SmartSerial::Options o;
-  o.channelMask = 0x03;
-  lbpkit::SmartSerial ss(t, info, o);
-  ss.discover(0x03);
-  ss.startNormal();
+  HostOnSim host(sim);
+  auto& t = host.t;
+  auto& ss = host.ss;
   ASSERT_TRUE(ss.cycle().ok);
   const json before = sim.get().body;
   ASSERT_EQ(before["clock"]["source"], "host") << before["clock"];
@@ -910,16 +929,9 @@ TEST(SimMachine, RecordsEveryServoCycle) {
     Sim sim(loopback(17), {"--machine", "mill", "--record", csv});
     ASSERT_TRUE(sim.up());
     EXPECT_NE(sim.daemon().readUntil("recording:").find("recording: every servo cycle to " + csv), std::string::npos);
-    lbpkit::Lbp16Transport t(sim.address(), static_cast<std::uint16_t>(sim.udpPort()));
-    // What is tested is the trace, not the reply time: on loopback a reply
-    // is never lost, only late (this runs beside other tests, and under ASan).
-    t.setCycleTimeout(500ms);
-    const auto info = lbpkit::readCardInfo(t);
-    lbpkit::SmartSerial::Options o;
-    o.channelMask = 0x03;
-    lbpkit::SmartSerial ss(t, info, o);
-    ss.discover(0x03);
-    ss.startNormal();
+    HostOnSim host(sim);
+    auto& t = host.t;
+    auto& ss = host.ss;
     const auto a0 = ss.find(1, "analogout0");
     const auto ena = ss.find(1, "analogena");
     ss.setRaw(ena, 1);
