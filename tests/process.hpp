@@ -82,8 +82,10 @@ inline Result run(const std::vector<std::string>& args, std::chrono::seconds lim
 class Daemon {
  public:
   explicit Daemon(const std::vector<std::string>& args) { pid_ = spawn(args, out_, err_); }
+  // Stopped as a user stops it (SIGTERM), so that it closes its state files
+  // and removes their owner notes; killed if it has not gone within 10 s.
   ~Daemon() {
-    if (pid_ > 0) {
+    if (pid_ > 0 && stopWithin(std::chrono::seconds(10)) == -2) {
       ::kill(pid_, SIGKILL);
       ::waitpid(pid_, nullptr, 0);
     }

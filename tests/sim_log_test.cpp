@@ -63,7 +63,9 @@ TEST(SimLog, DebugLevelNamesWritesThatNothingDecodes) {
   ::waitpid(pid, nullptr, 0);
   ::close(out);
   ::close(err);
-  std::remove((::testing::TempDir() + "sim-log-" + std::to_string(::getpid()) + ".eeprom").c_str());
+  // Both remotes' EEPROM images (the field I/O's and the analog's).
+  const std::string state = ::testing::TempDir() + "sim-log-" + std::to_string(::getpid()) + ".eeprom";
+  for (const auto* suffix : {"", ".analog"}) std::remove((state + suffix).c_str());
 }
 
 }  // namespace

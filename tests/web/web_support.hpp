@@ -275,13 +275,23 @@ inline std::string base64Decode(const std::string& in) {
   return out;
 }
 
+// A folder of this process's own under the temporary directory.
+inline std::string ownTemporaryDirectory() {
+  std::string name = (std::filesystem::temp_directory_path() / "lbpkit-browser-XXXXXX").string();
+  if (::mkdtemp(name.data()) == nullptr) throw std::runtime_error("mkdtemp " + name + " failed");
+  return name;
+}
+
 // chromedriver and one headless Chromium session, both gone when this goes.
 class Browser {
  public:
-  Browser() : port_(freeTcpPort()) {
+  Browser() : port_(freeTcpPort()), tmp_(ownTemporaryDirectory()) {
     pid_ = ::fork();
     if (pid_ == 0) {
       ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+      // chromedriver's profile and Chromium's singleton folders go here,
+      // removed with it, whatever state the browser was left in.
+      ::setenv("TMPDIR", tmp_.c_str(), 1);
       const std::string portArg = "--port=" + std::to_string(port_);
       ::execl(kChromedriver, kChromedriver, portArg.c_str(), "--log-level=OFF", static_cast<char*>(nullptr));
       ::_exit(127);
@@ -315,6 +325,8 @@ class Browser {
       ::kill(pid_, SIGTERM);
       ::waitpid(pid_, nullptr, 0);
     }
+    std::error_code ignored;
+    std::filesystem::remove_all(tmp_, ignored);
   }
   Browser(const Browser&) = delete;
   Browser& operator=(const Browser&) = delete;
@@ -361,6 +373,7 @@ class Browser {
   }
 
   int port_;
+  std::string tmp_;
   pid_t pid_ = -1;
   std::unique_ptr<httplib::Client> client_;
   std::string session_;
