@@ -1,0 +1,659 @@
+// Reads a LinuxCNC configuration as halcmd would (hostmot2(9), halcmd(1):
+// INI substitution, loadrt, net, setp, sets, link*, addf) and checks every
+// hostmot2 name against what the driver creates (hm2_pins.hpp).
+#include "linuxcnc/config_check.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cctype>
+#include <fstream>
+#include <optional>
+#include <regex>
+#include <set>
+#include "lbpkit/wire/names.hpp"
+
+namespace lbpkit::linuxcnc {
+
+namespace {
+
+struct IniEntry {
+  std::string value;
+  unsigned line = 0;
+};
+using Ini = std::map<std::string, std::multimap<std::string, IniEntry>>;
+
+std::string trim(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t\r\n");
+  if (b == std::string::npos) return {};
+  return s.substr(b, s.find_last_not_of(" \t\r\n") - b + 1);
+}
+
+Ini readIni(const std::filesystem::path& path) {
+  Ini ini;
+  std::ifstream in(path);
+  std::string line, section;
+  unsigned n = 0;
+  while (std::getline(in, line)) {
+    ++n;
+    const auto t = trim(line);
+    if (t.empty() || t[0] == '#' || t[0] == ';') continue;
+    if (t[0] == '[') {
+      section = t.substr(1, t.find(']') - 1);
+      continue;
+    }
+    const auto eq = t.find('=');
+    if (eq == std::string::npos) continue;
+    ini[section].emplace(trim(t.substr(0, eq)), IniEntry{trim(t.substr(eq + 1)), n});
+  }
+  return ini;
+}
+
+const IniEntry* iniValue(const Ini& ini, const std::string& section, const std::string& key) {
+  const auto s = ini.find(section);
+  if (s == ini.end()) return nullptr;
+  const auto k = s->second.find(key);
+  return k == s->second.end() ? nullptr : &k->second;
+}
+
+struct Where {
+  std::string file;
+  unsigned line = 0;
+};
+
+enum class Use { Net, Setp, Link, Addf };
+
+struct Reference {
+  Where at;
+  std::string name;
+  Use use = Use::Net;
+  std::string signal;  // for Net/Link
+};
+
+struct DriverLine {
+  std::string module;
+  std::string config;
+  Where at;
+};
+
+struct Reader {
+  const Ini* ini = nullptr;
+  std::vector<Finding>* findings = nullptr;
+  std::vector<Reference> refs;
+  std::vector<DriverLine> drivers;
+  std::map<std::string, std::vector<Where>> sets;          // signal -> sets lines
+  std::map<std::string, std::vector<std::string>> signals;  // signal -> pins, in order
+  std::map<std::string, Where> signalFirst;
+
+  void error(const Where& w, std::string name, std::string reason, std::string suggestion = {},
+             const char* severity = "error") {
+    findings->push_back({w.file, w.line, severity, std::move(name), std::move(reason), std::move(suggestion)});
+  }
+
+  // [SECTION]KEY and [SECTION](KEY), as halcmd -i substitutes them.
+  std::string substitute(const std::string& text, const Where& w) {
+    static const std::regex ref(R"(\[([A-Za-z0-9_]+)\](\(([A-Za-z0-9_]+)\)|([A-Za-z0-9_]+)))");
+    std::string out;
+    auto begin = std::sregex_iterator(text.begin(), text.end(), ref);
+    std::size_t last = 0;
+    for (auto it = begin; it != std::sregex_iterator(); ++it) {
+      const auto& m = *it;
+      out += text.substr(last, static_cast<std::size_t>(m.position()) - last);
+      last = static_cast<std::size_t>(m.position() + m.length());
+      const std::string section = m[1];
+      const std::string key = m[3].matched ? std::string(m[3]) : std::string(m[4]);
+      if (!ini) {
+        error(w, m.str(), fmt::format("{} needs an INI file (halcmd -i): check the .ini instead", m.str()), {},
+              "warning");
+        out += m.str();
+        continue;
+      }
+      if (const auto* v = iniValue(*ini, section, key)) {
+        out += v->value;
+      } else {
+        error(w, m.str(), fmt::format("the INI file has no [{}]{}: halcmd stops here", section, key));
+        out += m.str();
+      }
+    }
+    return out + text.substr(last);
+  }
+
+  static std::vector<std::string> tokens(const std::string& line) {
+    std::vector<std::string> out;
+    std::string cur;
+    bool quoted = false, any = false;
+    for (char c : line) {
+      if (c == '"') {
+        quoted = !quoted;
+        any = true;
+        continue;
+      }
+      if (!quoted && (c == ' ' || c == '\t')) {
+        if (any) out.push_back(cur);
+        cur.clear();
+        any = false;
+        continue;
+      }
+      cur += c;
+      any = true;
+    }
+    if (any) out.push_back(cur);
+    return out;
+  }
+
+  void readHal(const std::filesystem::path& path, const std::string& shown) {
+    std::ifstream in(path);
+    std::string raw, line;
+    unsigned n = 0, start = 0;
+    while (std::getline(in, raw)) {
+      ++n;
+      if (line.empty()) start = n;
+      if (!raw.empty() && raw.back() == '\r') raw.pop_back();
+      if (!raw.empty() && raw.back() == '\\') {
+        line += raw.substr(0, raw.size() - 1) + " ";
+        continue;
+      }
+      line += raw;
+      // A comment starts at a # that begins a word (halcmd(1)).
+      bool quoted = false;
+      for (std::size_t i = 0; i < line.size(); ++i) {
+        if (line[i] == '"') quoted = !quoted;
+        if (!quoted && line[i] == '#' && (i == 0 || line[i - 1] == ' ' || line[i - 1] == '\t')) {
+          line.resize(i);
+          break;
+        }
+      }
+      const Where w{shown, start};
+      statement(tokens(substitute(line, w)), w);
+      line.clear();
+    }
+  }
+
+  void statement(const std::vector<std::string>& t, const Where& w) {
+    if (t.empty()) return;
+    const auto& cmd = t[0];
+    if (cmd == "loadrt" && t.size() >= 2 && t[1].rfind("hm2_", 0) == 0) {
+      DriverLine d{t[1], {}, w};
+      for (std::size_t i = 2; i < t.size(); ++i)
+        if (t[i].rfind("config=", 0) == 0) d.config = t[i].substr(7);
+      // One config per board, comma-separated (a module array parameter):
+      // the first board's.
+      if (const auto comma = d.config.find(','); comma != std::string::npos) d.config.resize(comma);
+      drivers.push_back(d);
+    } else if (cmd == "net" && t.size() >= 2) {
+      const auto& sig = t[1];
+      signalFirst.emplace(sig, w);
+      for (std::size_t i = 2; i < t.size(); ++i) {
+        if (t[i] == "=>" || t[i] == "<=" || t[i] == "<=>") continue;
+        link(t[i], sig, w, Use::Net);
+      }
+    } else if (cmd == "setp" && t.size() >= 3) {
+      refs.push_back({w, t[1], Use::Setp, {}});
+    } else if (cmd == "sets" && t.size() >= 3) {
+      sets[t[1]].push_back(w);
+    } else if (cmd == "linkps" && t.size() >= 3) {
+      signalFirst.emplace(t[2], w);
+      link(t[1], t[2], w, Use::Link);
+    } else if (cmd == "linksp" && t.size() >= 3) {
+      signalFirst.emplace(t[1], w);
+      link(t[2], t[1], w, Use::Link);
+    } else if (cmd == "linkpp" && t.size() >= 3) {
+      signalFirst.emplace(t[1], w);
+      link(t[1], t[1], w, Use::Link);
+      link(t[2], t[1], w, Use::Link);
+    } else if (cmd == "addf" && t.size() >= 3) {
+      refs.push_back({w, t[1], Use::Addf, {}});
+    }
+  }
+
+  void link(const std::string& pin, const std::string& sig, const Where& w, Use use) {
+    refs.push_back({w, pin, use, sig});
+    auto& pins = signals[sig];
+    if (std::find(pins.begin(), pins.end(), pin) == pins.end()) pins.push_back(pin);
+  }
+};
+
+const Item* find(const std::vector<Item>& items, const std::string& name) {
+  const auto it = std::lower_bound(items.begin(), items.end(), name,
+                                   [](const Item& i, const std::string& n) { return i.name < n; });
+  if (it != items.end() && it->name == name) return &*it;
+  for (const auto& i : items)
+    if (i.alsoNamed == name) return &i;
+  return nullptr;
+}
+
+std::string nearest(const Board& b, const std::string& name, std::optional<Kind> kind) {
+  std::size_t best = std::string::npos;
+  std::string out;
+  for (const auto& i : b.items) {
+    if (kind && i.kind != *kind) continue;
+    const auto d = wire::editDistance(name, i.name);
+    if (d < best) {
+      best = d;
+      out = i.name;
+    }
+  }
+  return out;
+}
+
+std::string boardOf(const std::string& name) {
+  // hm2_<board>.<index>
+  const auto dot = name.find('.');
+  if (dot == std::string::npos) return {};
+  const auto dot2 = name.find('.', dot + 1);
+  return name.substr(0, dot2);
+}
+
+std::string upper(std::string s) {
+  for (auto& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return s;
+}
+
+bool isEthernet(const std::string& prefix) {
+  for (const char* b : {"hm2_7i92.", "hm2_7i76e.", "hm2_7i96.", "hm2_7i80", "hm2_7i93.", "hm2_7i94.", "hm2_7i95.",
+                        "hm2_7i96s.", "hm2_7i97."})
+    if (prefix.rfind(b, 0) == 0) return true;
+  return false;
+}
+
+std::string sserialSummary(const Hm2Config& c) {
+  std::string s;
+  for (const auto& [port, modes] : c.sserialPorts) s += fmt::format(" sserial_port_{}={}", port, modes);
+  return s.empty() ? "no sserial_port_N (every channel in mode 0)" : trim(s);
+}
+
+// Why a module's name (stepgen.05.enable, dpll.01.timer-us,
+// stepgen.timer-number) is not there: no such module in the firmware, not
+// that many instances, left out by the config= string, or no HM2DPLL.
+std::string moduleReason(const Board& b, const std::string& module, const std::string& number, const std::string& rest,
+                         const Hm2Config& config) {
+  static const std::map<std::string, std::string> names = {{"stepgen", "StepGen"}, {"pwmgen", "PWMGen"},
+                                                           {"inm", "InM"},         {"ssr", "SSR"},
+                                                           {"outm", "OutM"},       {"encoder", "encoder"},
+                                                           {"dpll", "HM2DPLL"}};
+  const auto& name = names.at(module);
+  const auto key = module == "dpll" ? std::string("num_dplls") : "num_" + module + "s";
+  const auto at = b.modules.find(module);
+  const unsigned available = at == b.modules.end() ? 0 : at->second;
+  const bool dpll = b.modules.count("dpll") != 0;
+  const auto given = config.count(key) >= 0 ? fmt::format("{}={}", key, config.count(key)) : std::string("no " + key);
+  if (available == 0) {
+    if (module == "dpll")
+      return fmt::format("the {} has no HM2DPLL, so no dpll pins (Mesa's \"d\" firmwares have one)", b.model);
+    return fmt::format("the {} has no {}: no {} names", b.model, name, module);
+  }
+  // The instances hostmot2 makes names for (NN in <board>.<module>.NN.*).
+  std::set<std::string> enabled;
+  const auto head = b.prefix + "." + module + ".";
+  for (const auto& i : b.items)
+    if (i.name.rfind(head, 0) == 0 && i.name.size() > head.size() + 3 && std::isdigit(static_cast<unsigned char>(i.name[head.size()])) &&
+        i.name[head.size() + 2] == '.')
+      enabled.insert(i.name.substr(head.size(), 2));
+  if (rest == "timer-number" && number.empty() && !dpll)
+    return fmt::format("{}.timer-number exists only on a firmware with an HM2DPLL: the {} has none", module, b.model);
+  if (module == "dpll") {
+    if (config.count(key) == 0) return fmt::format("{} leaves the HM2DPLL out: no dpll pins", given);
+    return fmt::format("the HM2DPLL has no {}", rest);
+  }
+  if (number.empty()) {
+    if (enabled.empty()) return fmt::format("no {} is enabled ({}): no {} names", name, given, module);
+    return fmt::format("{} creates no {}.{}", b.prefix, module, rest);
+  }
+  const auto n = std::stoul(number);
+  if (n >= available)
+    return fmt::format("no {} {:02d}: the {} has {} {}{} ({:02d}..{:02d})", name, n, b.model, available, name,
+                       available == 1 ? "" : "s", 0, available - 1);
+  if (!enabled.count(number))
+    return fmt::format("{} {:02d} is left out: {} enables {} of the firmware's {}", name, n, given, enabled.size(),
+                       available);
+  return fmt::format("{} {:02d} has no {}", name, n, rest);
+}
+
+// Every reference checked against the boards chosen (boardIndex: prefix ->
+// index in `boards`); the findings go to r.findings.
+void evaluate(Reader& r, const std::vector<const Board*>& boards, const std::map<std::string, std::size_t>& boardIndex,
+              unsigned& references) {
+  for (const auto* b : boards)
+    for (const auto& problem : b->loadProblems) r.error(Where{b->file, b->line}, "config", problem);
+  // Every reference.
+  std::map<std::string, std::string> pinSignal;  // pin -> the signal it joined
+  for (const auto& ref : r.refs) {
+    const bool hm2 = ref.name.rfind("hm2_", 0) == 0;
+    if (ref.use == Use::Net || ref.use == Use::Link) {
+      const auto [it, fresh] = pinSignal.emplace(ref.name, ref.signal);
+      if (!fresh && it->second != ref.signal)
+        r.error(ref.at, ref.name,
+                fmt::format("{} is already on signal {}: a pin joins one signal (halcmd refuses)", ref.name, it->second));
+    }
+    if (!hm2) continue;
+    const auto prefix = boardOf(ref.name);
+    const auto bi = boardIndex.find(prefix);
+    if (bi == boardIndex.end()) continue;  // reported above
+    ++references;
+    const auto& b = *boards[bi->second];
+    const auto config = parseHm2Config(b.config);
+    if (ref.use == Use::Addf) {
+      if (find(b.items, ref.name + ".time")) continue;
+      std::string functions;
+      for (const auto& i : b.items)
+        if (i.origin.rfind("function ", 0) == 0 && i.kind == Kind::Pin) functions += " " + i.origin.substr(9);
+      r.error(ref.at, ref.name,
+              fmt::format("no function {}: {} exports{}", ref.name, prefix, functions),
+              [&] {
+                std::string best;
+                std::size_t d = std::string::npos;
+                for (const auto& i : b.items)
+                  if (i.origin.rfind("function ", 0) == 0 && i.kind == Kind::Pin &&
+                      wire::editDistance(ref.name, i.origin.substr(9)) < d) {
+                    d = wire::editDistance(ref.name, i.origin.substr(9));
+                    best = i.origin.substr(9);
+                  }
+                return best;
+              }());
+      continue;
+    }
+    const Item* item = find(b.items, ref.name);
+    const std::optional<Kind> wantKind =
+        ref.use == Use::Setp ? std::nullopt : std::optional<Kind>(Kind::Pin);
+    if (!item) {
+      std::string reason;
+      static const std::regex remote(R"(^hm2_[^.]+\.\d+\.([0-9a-z]+)\.(\d+)\.(\d+)\.(.+)$)");
+      static const std::regex encoder(R"(^hm2_[^.]+\.\d+\.encoder\.(\d+)\..+$)");
+      static const std::regex gpio(R"(^hm2_[^.]+\.\d+\.gpio\.(\d+)\..+$)");
+      static const std::regex instance(R"(^hm2_[^.]+\.\d+\.(stepgen|pwmgen|inm|ssr|outm)\.(\d+)\.(.+)$)");
+      static const std::regex global(R"(^hm2_[^.]+\.\d+\.(stepgen|pwmgen|encoder|dpll)()\.(.+)$)");
+      std::smatch m;
+      if (std::regex_match(ref.name, m, remote) && m[1] != "sserial" && m[1] != "encoder" && m[1] != "gpio") {
+        const unsigned port = static_cast<unsigned>(std::stoul(m[2]));
+        const unsigned channel = static_cast<unsigned>(std::stoul(m[3]));
+        // Which remote answers on that channel (from the items' origins).
+        std::string onChannel;
+        for (const auto& i : b.items) {
+          const auto tail = fmt::format("on smart-serial port {} channel {} ", port, channel);
+          if (i.origin.find(tail) != std::string::npos) {
+            onChannel = i.origin;
+            break;
+          }
+        }
+        std::string wrongMode;
+        for (const auto& [digit, items] : b.itemsInMode)
+          if (digit != config.mode(port, channel) && find(items, ref.name)) wrongMode += digit;
+        if (port > 3 || channel > 7) {
+          reason = fmt::format("no smart-serial port {} channel {}", port, channel);
+        } else if (config.mode(port, channel) == 'x') {
+          reason = fmt::format("smart-serial port {} channel {} is left out: 'x' in {}", port, channel,
+                               sserialSummary(config));
+        } else if (onChannel.empty()) {
+          std::string where;
+          std::set<std::string> seen;
+          for (const auto& i : b.items) {
+            const auto at = i.origin.find(" on smart-serial port ");
+            if (at != std::string::npos && seen.insert(i.origin).second) where += (where.empty() ? "" : "; ") + i.origin;
+          }
+          reason = fmt::format("no remote answers on smart-serial port {} channel {} ({})", port, channel,
+                               where.empty() ? "no remote found at all" : "found: " + where);
+        } else if (onChannel.rfind(upper(m[1]) + " ", 0) != 0) {
+          reason = fmt::format("the remote on smart-serial port {} channel {} is {}: no {}", port, channel,
+                               onChannel.substr(0, onChannel.find(' ')), std::string(m[1]));
+        } else if (!wrongMode.empty()) {
+          std::string modes;
+          for (char c : wrongMode) modes += (modes.empty() ? "" : ", ") + std::string(1, c);
+          reason = fmt::format("wrong mode: {} exists only in mode {} of the {} on port {} channel {}, and {} runs it "
+                               "in mode {}",
+                               m[4].str(), modes, onChannel.substr(0, onChannel.find(' ')), port, channel,
+                               sserialSummary(config), config.mode(port, channel));
+        } else {
+          reason = fmt::format("the {} on port {} channel {} has no {} in mode {}",
+                               onChannel.substr(0, onChannel.find(' ')), port, channel, m[4].str(),
+                               config.mode(port, channel));
+        }
+      } else if (std::regex_match(ref.name, m, encoder)) {
+        const auto n = std::stoul(m[1]);
+        unsigned enabled = 0;
+        for (const auto& i : b.items)
+          if (i.name.size() > prefix.size() + 9 && i.name.compare(prefix.size(), 9, ".encoder.") == 0 &&
+              i.name.ends_with(".count"))
+            ++enabled;
+        reason = n >= enabled ? fmt::format("no such channel: encoder {:02d}, and {} enables {} encoder{} ({})", n,
+                                            b.driver, enabled, enabled == 1 ? "" : "s",
+                                            config.count("num_encoders") >= 0
+                                                ? fmt::format("num_encoders={}", config.count("num_encoders"))
+                                                : "all the firmware has")
+                              : fmt::format("encoder {:02d} has no {}", n, ref.name.substr(ref.name.rfind('.') + 1));
+      } else if (std::regex_match(ref.name, m, instance) || std::regex_match(ref.name, m, global)) {
+        reason = moduleReason(b, m[1], m[2], m[3], config);
+      } else if (std::regex_match(ref.name, m, gpio)) {
+        const auto in = fmt::format("{}.gpio.{:03d}.in", prefix, std::stoul(m[1]));
+        const auto* p = find(b.items, in);
+        reason = p ? fmt::format("IO pin {} is not a plain GPIO ({}): only its .in and .in_not exist", m[1].str(),
+                                 p->origin.substr(p->origin.find(": ") + 2))
+                   : fmt::format("no IO pin {} on {}", m[1].str(), prefix);
+      } else {
+        reason = fmt::format("{} creates no {} of that name", prefix,
+                             ref.use == Use::Setp ? "pin or parameter" : "pin");
+      }
+      r.error(ref.at, ref.name, reason, nearest(b, ref.name, wantKind));
+      continue;
+    }
+    if (ref.use == Use::Setp) {
+      if (item->kind == Kind::Param && item->dir == Dir::RO)
+        r.error(ref.at, ref.name, fmt::format("{} is a read-only parameter: setp cannot change it", ref.name));
+      else if (item->kind == Kind::Pin && item->dir == Dir::Out)
+        r.error(ref.at, ref.name, fmt::format("{} is an output pin ({} writes it): setp cannot set it", ref.name, prefix));
+      else if (item->kind == Kind::Pin && pinSignal.count(ref.name))
+        r.error(ref.at, ref.name,
+                fmt::format("{} is on signal {}: setp cannot set a connected pin (use sets on the signal)", ref.name,
+                            pinSignal[ref.name]));
+    } else if (item->kind == Kind::Param) {
+      r.error(ref.at, ref.name, fmt::format("{} is a parameter: net and link* connect pins (give it a value with setp)",
+                                            ref.name),
+              nearest(b, ref.name, Kind::Pin));
+    }
+  }
+
+  // Signals: what LinuxCNC refuses (two outputs, an output with a
+  // bidirectional pin, mixed types) and inputs nothing writes.
+  for (const auto& [sig, pins] : r.signals) {
+    std::vector<std::pair<std::string, const Item*>> known;
+    bool allKnown = true;
+    for (const auto& pin : pins) {
+      const auto bi = boardIndex.find(boardOf(pin));
+      const Item* item = bi == boardIndex.end() || pin.rfind("hm2_", 0) != 0 ? nullptr
+                                                                            : find(boards[bi->second]->items, pin);
+      if (item && item->kind == Kind::Pin) known.emplace_back(pin, item);
+      else allKnown = false;
+    }
+    const Where at = r.signalFirst.count(sig) ? r.signalFirst[sig] : Where{};
+    const std::string& signal = sig;  // clang 14 cannot capture a structured binding (C++20 allows it)
+    auto lineOf = [&](const std::string& pin) {
+      for (const auto& ref : r.refs)
+        if (ref.name == pin && ref.signal == signal) return ref.at;
+      return at;
+    };
+    std::vector<std::string> outs, ios;
+    for (const auto& [pin, item] : known) {
+      if (item->dir == Dir::Out) outs.push_back(pin);
+      if (item->dir == Dir::IO) ios.push_back(pin);
+    }
+    if (outs.size() >= 2)
+      r.error(lineOf(outs[1]), sig,
+              fmt::format("two outputs on signal {}: {} and {} (halcmd refuses the second)", sig, outs[0], outs[1]));
+    else if (!outs.empty() && !ios.empty())
+      r.error(lineOf(ios[0]), sig,
+              fmt::format("signal {} has an output ({}) and a bidirectional pin ({}): halcmd refuses", sig, outs[0], ios[0]));
+    for (std::size_t i = 1; i < known.size(); ++i)
+      if (known[i].second->type != known[0].second->type) {
+        r.error(lineOf(known[i].first), sig,
+                fmt::format("signal {} joins {} {} and {} {}: HAL signals have one type", sig,
+                            typeName(known[0].second->type), known[0].first, typeName(known[i].second->type),
+                            known[i].first));
+        break;
+      }
+    if (allKnown && !known.empty() && outs.empty() && ios.empty() && !r.sets.count(sig))
+      r.error(at, sig,
+              fmt::format("signal {} has no writer: {} is an input and nothing on the signal drives it (no output "
+                          "pin, no sets)",
+                          sig, known[0].first));
+  }
+}
+
+}  // namespace
+
+bool CheckResult::ok() const {
+  return std::none_of(findings.begin(), findings.end(), [](const Finding& f) { return f.severity == "error"; });
+}
+
+CheckResult checkConfig(const std::filesystem::path& file, const BoardModel& model) {
+  CheckResult result;
+  Reader r;
+  r.findings = &result.findings;
+  Ini ini;
+  if (!std::filesystem::exists(file)) {
+    result.findings.push_back({file.string(), 0, "error", {}, "no such file", {}});
+    return result;
+  }
+  const auto dir = file.parent_path();
+  if (file.extension() == ".ini") {
+    ini = readIni(file);
+    r.ini = &ini;
+    // [HAL]HALFILE in order, then POSTGUI_HALFILE and SHUTDOWN (LinuxCNC
+    // runs them after the GUI is up and at exit).
+    std::vector<std::pair<std::string, IniEntry>> halFiles;
+    if (const auto s = ini.find("HAL"); s != ini.end()) {
+      for (const char* key : {"HALFILE", "POSTGUI_HALFILE", "SHUTDOWN"}) {
+        const auto range = s->second.equal_range(key);
+        std::vector<IniEntry> entries;
+        for (auto it = range.first; it != range.second; ++it) entries.push_back(it->second);
+        std::sort(entries.begin(), entries.end(), [](const IniEntry& a, const IniEntry& b) { return a.line < b.line; });
+        for (const auto& e : entries) halFiles.emplace_back(key, e);
+      }
+    }
+    if (halFiles.empty())
+      result.findings.push_back({file.filename().string(), 0, "warning", {}, "[HAL] names no HALFILE", {}});
+    for (const auto& [key, e] : halFiles) {
+      const auto words = Reader::tokens(e.value);
+      if (words.empty()) continue;
+      std::filesystem::path p = words[0];
+      if (p.extension() == ".tcl") {
+        result.findings.push_back({file.filename().string(), e.line, "warning", words[0],
+                                   fmt::format("{} {}: Tcl HAL files are not checked", key, words[0]), {}});
+        continue;
+      }
+      const auto full = p.is_absolute() ? p : dir / p;
+      if (!std::filesystem::exists(full)) {
+        // LinuxCNC also looks in its own HAL library (HALLIB_DIR).
+        const auto lib = std::filesystem::path("/usr/share/linuxcnc/hallib") / p;
+        if (!p.is_absolute() && std::filesystem::exists(lib)) {
+          r.readHal(lib, lib.string());
+          result.files.push_back(lib.string());
+          continue;
+        }
+        result.findings.push_back({file.filename().string(), e.line, "error", words[0],
+                                   fmt::format("{} {}: no such file next to the INI (or in LinuxCNC's hallib)", key,
+                                               words[0]),
+                                   {}});
+        continue;
+      }
+      r.readHal(full, p.is_absolute() ? p.string() : p.string());
+      result.files.push_back(full.string());
+    }
+  } else {
+    r.readHal(file, file.filename().string());
+    result.files.push_back(file.string());
+  }
+
+  // The boards: each hostmot2 prefix the configuration names, made by the
+  // driver that loads that kind of card.
+  std::set<std::string> prefixes;
+  for (const auto& ref : r.refs)
+    if (ref.name.rfind("hm2_", 0) == 0 && !boardOf(ref.name).empty()) prefixes.insert(boardOf(ref.name));
+  std::map<std::string, std::size_t> boardIndex;
+  std::vector<std::vector<Board>> candidates;  // per board, what it may be
+  std::set<std::string> unknownBoards;
+  for (const auto& prefix : prefixes) {
+    const std::string want = isEthernet(prefix) ? "hm2_eth" : "hm2_pci";
+    const DriverLine* d = nullptr;
+    for (const auto& dr : r.drivers)
+      if (dr.module == want) d = &dr;
+    const Reference* first = nullptr;
+    for (const auto& ref : r.refs)
+      if (boardOf(ref.name) == prefix) {
+        first = &ref;
+        break;
+      }
+    if (!d) {
+      std::string loaded;
+      for (const auto& dr : r.drivers) loaded += " " + dr.module;
+      r.error(first->at, prefix,
+              fmt::format("no board {}: it is made by {}, which the configuration does not load{}", prefix, want,
+                          loaded.empty() ? std::string() : " (it loads" + loaded + ")"));
+      unknownBoards.insert(prefix);
+      continue;
+    }
+    std::vector<std::string> problems;
+    const auto config = parseHm2Config(d->config, &problems);
+    for (const auto& p : problems) r.error(d->at, "config", p);
+    unsigned sevenI77s = 1;
+    for (const auto& ref : r.refs)
+      if (ref.name.rfind(prefix + ".7i77.0.3.", 0) == 0 || ref.name.rfind(prefix + ".7i77.0.4.", 0) == 0) sevenI77s = 2;
+    Board b;
+    b.prefix = prefix;
+    b.driver = d->module;
+    b.config = d->config;
+    b.file = d->at.file;
+    b.line = d->at.line;
+    std::string why;
+    auto options = model(b, config, sevenI77s, why);
+    if (options.empty()) {
+      r.error(first->at, prefix, fmt::format("lbpkit does not know the board {}: {}", prefix, why));
+      unknownBoards.insert(prefix);
+      continue;
+    }
+    boardIndex[prefix] = candidates.size();
+    candidates.push_back(std::move(options));
+  }
+
+  // Each board with more than one candidate (cards of one LinuxCNC name,
+  // their firmwares): the one under which the configuration has the fewest
+  // errors, the first of them on a tie; boards one after the other.
+  std::vector<std::size_t> choice(candidates.size(), 0);
+  auto chosen = [&] {
+    std::vector<const Board*> boards;
+    for (std::size_t k = 0; k < candidates.size(); ++k) boards.push_back(&candidates[k][choice[k]]);
+    return boards;
+  };
+  auto run = [&](std::vector<Finding>& findings, unsigned& references) {
+    r.findings = &findings;
+    evaluate(r, chosen(), boardIndex, references);
+    r.findings = &result.findings;
+  };
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    if (candidates[k].size() < 2) continue;
+    std::size_t best = 0, fewest = std::string::npos;
+    for (std::size_t c = 0; c < candidates[k].size(); ++c) {
+      choice[k] = c;
+      std::vector<Finding> findings;
+      unsigned references = 0;
+      run(findings, references);
+      const auto errors = static_cast<std::size_t>(
+          std::count_if(findings.begin(), findings.end(), [](const Finding& f) { return f.severity == "error"; }));
+      if (errors < fewest) {
+        fewest = errors;
+        best = c;
+      }
+    }
+    choice[k] = best;
+  }
+  run(result.findings, result.references);
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    result.boards.push_back(candidates[k][choice[k]]);
+    result.boards.back().candidates = candidates[k].size();
+  }
+
+  std::stable_sort(result.findings.begin(), result.findings.end(), [](const Finding& a, const Finding& b) {
+    return a.file == b.file ? a.line < b.line : false;
+  });
+  return result;
+}
+
+}  // namespace lbpkit::linuxcnc

@@ -1,0 +1,156 @@
+// lbpkit as an external program: run to completion, or kept running (a
+// daemon) and stopped as a user stops it when the test is done.
+#pragma once
+
+#include <poll.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <sys/prctl.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace test_support {
+
+struct Result {
+  int exit = -1;
+  std::string out;
+  std::string err;
+};
+
+inline pid_t spawn(const std::vector<std::string>& args, int& outFd, int& errFd) {
+  int out[2], err[2];
+  if (::pipe(out) != 0 || ::pipe(err) != 0) throw std::runtime_error("pipe");
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    // A test that aborts (a sanitizer's report) must not leave its sim
+    // behind to hold the address the next test binds.
+    ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+    ::dup2(out[1], 1);
+    ::dup2(err[1], 2);
+    ::close(out[0]);
+    ::close(err[0]);
+    std::vector<std::string> copy = args;
+    std::vector<char*> argv;
+    // LBPKIT_BINARY in the environment: another build's lbpkit (scripts/test
+    // runs these tests against the ThreadSanitizer build's daemon).
+    static std::string bin = std::getenv("LBPKIT_BINARY") != nullptr ? std::getenv("LBPKIT_BINARY") : LBPKIT_BINARY;
+    argv.push_back(bin.data());
+    for (auto& a : copy) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    ::execv(bin.c_str(), argv.data());
+    ::_exit(127);
+  }
+  ::close(out[1]);
+  ::close(err[1]);
+  outFd = out[0];
+  errFd = err[0];
+  return pid;
+}
+
+// Appends what `fd` gives to `text` until `text` holds `marker` and the end
+// of its line (or `fd` closes, or `limit` passes); returns `text`.
+inline std::string& readUntil(int fd, std::string& text, const std::string& marker, std::chrono::milliseconds limit) {
+  const auto deadline = std::chrono::steady_clock::now() + limit;
+  while (std::chrono::steady_clock::now() < deadline) {
+    const auto at = text.find(marker);
+    if (at != std::string::npos && text.find('\n', at) != std::string::npos) break;
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, 100) <= 0) continue;
+    char buf[4096];
+    const ssize_t n = ::read(fd, buf, sizeof buf);
+    if (n <= 0) break;
+    text.append(buf, static_cast<std::size_t>(n));
+  }
+  return text;
+}
+
+// Runs lbpkit to completion (killed after `limit`).
+inline Result run(const std::vector<std::string>& args, std::chrono::seconds limit = std::chrono::seconds(60)) {
+  int outFd = -1, errFd = -1;
+  const pid_t pid = spawn(args, outFd, errFd);
+  Result r;
+  const auto deadline = std::chrono::steady_clock::now() + limit;
+  bool outOpen = true, errOpen = true;
+  while ((outOpen || errOpen) && std::chrono::steady_clock::now() < deadline) {
+    pollfd p[2] = {{outOpen ? outFd : -1, POLLIN, 0}, {errOpen ? errFd : -1, POLLIN, 0}};
+    if (::poll(p, 2, 100) <= 0) continue;
+    char buf[4096];
+    for (int i = 0; i < 2; ++i) {
+      if (!(p[i].revents & (POLLIN | POLLHUP))) continue;
+      const ssize_t n = ::read(i == 0 ? outFd : errFd, buf, sizeof buf);
+      if (n <= 0) (i == 0 ? outOpen : errOpen) = false;
+      else (i == 0 ? r.out : r.err).append(buf, static_cast<std::size_t>(n));
+    }
+  }
+  if (outOpen || errOpen) ::kill(pid, SIGKILL);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ::close(outFd);
+  ::close(errFd);
+  r.exit = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+// A long-running lbpkit (a daemon) that is stopped when the test ends.
+class Daemon {
+ public:
+  explicit Daemon(const std::vector<std::string>& args) { pid_ = spawn(args, out_, err_); }
+  // Stopped as a user stops it (SIGTERM), so that it closes its state files
+  // and removes their owner notes; killed if it has not gone within 10 s.
+  ~Daemon() {
+    if (pid_ > 0 && stopWithin(std::chrono::seconds(10)) == -2) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+    ::close(out_);
+    ::close(err_);
+  }
+  Daemon(const Daemon&) = delete;
+  Daemon& operator=(const Daemon&) = delete;
+
+  // Output up to a line containing `marker` (10 s at most).
+  std::string readUntil(const std::string& marker) {
+    return test_support::readUntil(out_, text_, marker, std::chrono::seconds(10));
+  }
+  // The rest of a line after `marker`.
+  std::string value(const std::string& marker) {
+    const std::string t = readUntil(marker);
+    const auto at = t.find(marker);
+    if (at == std::string::npos) return {};
+    return t.substr(at + marker.size(), t.find('\n', at) - at - marker.size());
+  }
+  // Like stop(), but gives up after `limit`: returns -2 (and SIGKILLs it)
+  // when the daemon ignored the signal, so a wedged daemon fails the test
+  // instead of hanging it.
+  int stopWithin(std::chrono::milliseconds limit, int sig = SIGTERM) {
+    ::kill(pid_, sig);
+    const auto deadline = std::chrono::steady_clock::now() + limit;
+    int status = 0;
+    while (::waitpid(pid_, &status, WNOHANG) == 0) {
+      if (std::chrono::steady_clock::now() > deadline) return -2;  // the destructor kills it
+      ::usleep(10000);
+    }
+    pid_ = -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+  [[nodiscard]] pid_t pid() const { return pid_; }
+  int stop(int sig = SIGTERM) {
+    ::kill(pid_, sig);
+    int status = 0;
+    ::waitpid(pid_, &status, 0);
+    pid_ = -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+
+ private:
+  pid_t pid_ = -1;
+  int out_ = -1, err_ = -1;
+  std::string text_;
+};
+
+}  // namespace test_support
