@@ -1,8 +1,8 @@
-// Figures the README quotes: the cost of one full host cycle for one 7I77
+// Figures docs/library.md quotes: the cost of one full host cycle for one 7I77
 // through the in-process card, and how many DOITs a full discovery takes.
 #include <benchmark/benchmark.h>
 
-#include "running_card.hpp"
+#include "support/running_card.hpp"
 #include "sim_card/sim_transport.hpp"
 #include "lbpkit/sserial.hpp"
 

@@ -1,4 +1,4 @@
-// Issue 15, item 2: the in-process mill as a whole (inprocess_mill.hpp) and
+// The in-process mill as a whole (inprocess_mill.hpp) and
 // each of its hot paths, so a regression in one shows. The goal is 2000 x
 // real time on one core (0.5 us of CPU per simulated millisecond); the
 // counter x_real_time is simulated seconds per CPU second.

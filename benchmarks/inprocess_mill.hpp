@@ -1,5 +1,5 @@
-// Issue 15, item 2, as one object both the benchmark and the profiling tool
-// run: the 7I92 (Mesa's 7i92_7i77x2 firmware, as `lbpkit sim` runs it) with
+// The in-process mill, as one object both the benchmark and the profiling
+// tool run: the 7I92 (Mesa's 7i92_7i77x2 firmware, as `lbpkit sim` runs it) with
 // one 7I77 and the mill behind it, driven by the host library at 1 kHz as a
 // LinuxCNC servo thread would (SSLBP outputs and inputs, the muxed
 // encoders, a P position loop closed on every axis), with all six of the
@@ -18,7 +18,7 @@
 #include "lbpkit/encoders.hpp"
 #include "lbpkit/sserial.hpp"
 #include "machine/machine.hpp"
-#include "running_card.hpp"
+#include "support/running_card.hpp"
 
 namespace lbpkit_bench {
 

@@ -1,4 +1,4 @@
-// Runs the issue-15 in-process scenario (inprocess_mill.hpp) for a fixed
+// Runs the in-process scenario (inprocess_mill.hpp) for a fixed
 // number of 1 kHz cycles, for a profiler: instruction counts under
 // callgrind are the same every run, wall time on a shared machine is not.
 //

@@ -1,4 +1,4 @@
-// The virtual mill (issue 10): how many simulated seconds the in-process
+// The virtual mill: how many simulated seconds the in-process
 // card plus the machine behind it run per second of CPU, with the host
 // cycle at 1 kHz closing a P position loop on every axis (as a LinuxCNC
 // servo thread would), the spindle running. The counter sim_s_per_s is the

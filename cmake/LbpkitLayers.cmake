@@ -1,4 +1,4 @@
-# The dependency rules (README: Layout), checked when the project is
+# The dependency rules (docs/architecture.md: Layout), checked when the project is
 # configured and built. scripts/check-layers (ctest LayerRules) checks every
 # #include by name; these checks make the compiler and CMake enforce them.
 
@@ -13,7 +13,7 @@
 #   lbpkit_servers       lbpkit_models, lbpkit_web (+ wire through it; never lbpkit_host, config or the adapters)
 #   lbpkit_web           nothing of ours (the web view's files and event stream, src/servers/web)
 #   lbpkit_sim_adapter   lbpkit_host, lbpkit_models
-#   lbpkit_hal           lbpkit_host (+ wire)        (LinuxCNC's HAL names for a card: never models)
+#   lbpkit_linuxcnc      lbpkit_host (+ wire)        (what LinuxCNC's hostmot2 makes of a card: never models)
 # This function fails the configure step when a target links another
 # lbpkit_* library outside that list, or names an include folder under src/
 # outside its own. Inside lbpkit_models (lbp <- remote <- hostmot2, one
@@ -26,10 +26,10 @@ function(lbpkit_check_layer_links)
   set(allowed_lbpkit_servers lbpkit_models lbpkit_wire lbpkit_web)
   set(allowed_lbpkit_web "")
   set(allowed_lbpkit_sim_adapter lbpkit_host lbpkit_models lbpkit_wire)
-  set(allowed_lbpkit_hal lbpkit_host lbpkit_wire)
+  set(allowed_lbpkit_linuxcnc lbpkit_host lbpkit_wire)
   set(src_root ${PROJECT_SOURCE_DIR}/src)
   set(apps_root ${PROJECT_SOURCE_DIR}/apps)
-  foreach(target lbpkit_wire lbpkit_host lbpkit_models lbpkit_config lbpkit_servers lbpkit_web lbpkit_sim_adapter lbpkit_hal)
+  foreach(target lbpkit_wire lbpkit_host lbpkit_models lbpkit_config lbpkit_servers lbpkit_web lbpkit_sim_adapter lbpkit_linuxcnc)
     if(NOT TARGET ${target})
       message(FATAL_ERROR "layer rules: target ${target} is gone; update cmake/LbpkitLayers.cmake")
     endif()
@@ -53,7 +53,7 @@ function(lbpkit_check_layer_links)
             set(may "nothing of ours")
           endif()
           message(FATAL_ERROR "layer rules: ${target} may not link ${lib} (${property}); "
-                              "it may link: ${may} (README: Layout)")
+                              "it may link: ${may} (docs/architecture.md: Layout)")
         endif()
       endforeach()
     endforeach()
@@ -69,7 +69,7 @@ function(lbpkit_check_layer_links)
         cmake_path(IS_PREFIX own_dir "${dir}" NORMALIZE in_own)
         if((in_src OR in_apps) AND NOT in_own)
           message(FATAL_ERROR "layer rules: ${target} may not add the include folder ${dir} (${property}); "
-                              "it gets other layers' headers only by linking them (README: Layout)")
+                              "it gets other layers' headers only by linking them (docs/architecture.md: Layout)")
         endif()
       endforeach()
     endforeach()

@@ -12,6 +12,7 @@
 #include "lbpkit/parameters.hpp"
 #include "lbpkit/wire/hostmot2.hpp"
 #include "lbpkit/wire/process_data.hpp"
+#include "lbpkit/wire/names.hpp"
 
 namespace pylbpkit {
 
@@ -21,11 +22,6 @@ using lbpkit::DataType;
 using lbpkit::Error;
 using lbpkit::Nanoseconds;
 using lbpkit::ProcessDataElement;
-
-std::string lower(std::string s) {
-  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
 
 Nanoseconds fromSeconds(double s, const char* what) {
   if (!std::isfinite(s) || s < 0 || s > 1e6)
@@ -252,7 +248,7 @@ void Card::start() {
     const auto channel = ss_->slotIdentity(s).channel;
     for (const auto& e : ss_->description(s).processData) {
       const auto ref = ss_->find(channel, e.name);
-      if (ref.valid()) byName_[lower(e.name)].push_back(ref);
+      if (ref.valid()) byName_[lbpkit::wire::asciiLower(e.name)].push_back(ref);
     }
   }
   if (!enc_ && info_.module(lbpkit::wire::hm2::tag::kMuxedQCount) != nullptr) {
@@ -274,7 +270,7 @@ void Card::requireSim(const char* what) const {
 
 lbpkit::ElementRef Card::element(const std::string& name, std::optional<unsigned> channel) const {
   requireRunning("process data");
-  const auto it = byName_.find(lower(name));
+  const auto it = byName_.find(lbpkit::wire::asciiLower(name));
   if (it == byName_.end())
     throw Error(fmt::format("no process data element \"{}\" (there are: {})", name, listNames(*ss_, false)));
   const auto& refs = it->second;

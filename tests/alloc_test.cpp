@@ -14,10 +14,10 @@
 #include "lbp16/lbp16_card.hpp"
 #include "lbpkit/lbp16_transport.hpp"
 #include "daemon/trace_ring.hpp"
-#include "lossy_udp_card.hpp"
+#include "support/lossy_udp_card.hpp"
 #include "machine/machine.hpp"
-#include "running_card.hpp"
-#include "allocation_counter.hpp"
+#include "support/running_card.hpp"
+#include "support/allocation_counter.hpp"
 
 using testing_alloc::gAllocations;
 using testing_alloc::tAllocations;

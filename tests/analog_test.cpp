@@ -1,6 +1,6 @@
 #include <gtest/gtest.h>
 
-#include "lbp_host.hpp"
+#include "support/lbp_host.hpp"
 #include "remote/analog.hpp"
 
 namespace {

@@ -1,18 +1,18 @@
-// `lbpkit bench` (issue 15) as a user runs it: the in-process part's JSON
-// has the figures the README quotes, and bad options are refused by name.
+// `lbpkit bench` as a user runs it: the in-process part's JSON
+// has the figures docs/performance.md quotes, and bad options are refused by name.
 // No timing is asserted here (benchmarks/ and the command itself measure).
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
 
-#include "process.hpp"
+#include "support/process.hpp"
 
 namespace {
 
 using nlohmann::json;
 
 TEST(BenchCli, InProcessJsonHasEveryFigure) {
-  const auto r = testing_process::run({"bench", "--only", "inprocess", "--seconds", "1", "--json"});
+  const auto r = test_support::run({"bench", "--only", "inprocess", "--seconds", "1", "--json"});
   ASSERT_EQ(r.exit, 0) << r.err;
   const auto j = json::parse(r.out, nullptr, false);
   ASSERT_FALSE(j.is_discarded()) << r.out;
@@ -36,7 +36,7 @@ TEST(BenchCli, InProcessJsonHasEveryFigure) {
 }
 
 TEST(BenchCli, TextOutputNamesTheComparison) {
-  const auto r = testing_process::run({"bench", "--only", "inprocess", "--seconds", "0.2"});
+  const auto r = test_support::run({"bench", "--only", "inprocess", "--seconds", "0.2"});
   ASSERT_EQ(r.exit, 0) << r.err;
   EXPECT_NE(r.out.find("board alone"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("board + mill"), std::string::npos) << r.out;
@@ -44,13 +44,13 @@ TEST(BenchCli, TextOutputNamesTheComparison) {
 }
 
 TEST(BenchCli, RefusesUnknownPartsAndBadDurations) {
-  auto r = testing_process::run({"bench", "--only", "inprocess,warp"});
+  auto r = test_support::run({"bench", "--only", "inprocess,warp"});
   EXPECT_NE(r.exit, 0);
   EXPECT_NE(r.err.find("\"warp\" is not a part"), std::string::npos) << r.err;
-  r = testing_process::run({"bench", "--only", "inprocess", "--seconds", "0"});
+  r = test_support::run({"bench", "--only", "inprocess", "--seconds", "0"});
   EXPECT_NE(r.exit, 0);
   EXPECT_NE(r.err.find("--seconds"), std::string::npos) << r.err;
-  r = testing_process::run({"bench", "--only", "boards", "--boards", "1,x"});
+  r = test_support::run({"bench", "--only", "boards", "--boards", "1,x"});
   EXPECT_NE(r.exit, 0);
   EXPECT_NE(r.err.find("--boards: \"x\""), std::string::npos) << r.err;
 }

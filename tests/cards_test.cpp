@@ -1,4 +1,4 @@
-// Issue 17 item 1: the card catalogue. Each card's IDROM as LinuxCNC's
+// The card catalogue. Each card's IDROM as LinuxCNC's
 // hostmot2 and mesaflash read it (header, module records, pins), the 7I77
 // where its firmware puts it, the 7I92 default unchanged, and the TOML's
 // card and pinout keys.
@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "card_host.hpp"
+#include "support/card_host.hpp"
 #include "config/card_toml.hpp"
 #include "config/toml_reader.hpp"
 #include "hostmot2/cards/catalogue.hpp"
@@ -274,8 +274,8 @@ TEST(Cards, The7I80HDHasThe7I77OnIo0To16OfThreeTwentyFourPinPorts) {
   EXPECT_EQ(h.read(hm2::IoPort::kDdr), 1U << 23);
 }
 
-// The StepGens, PWMGen and DPLL of a firmware are the card's (issue 17 item
-// 2's models), the StepGens timed by its DPLL; a firmware without them has none.
+// The StepGens, PWMGen and DPLL of a firmware are the card's (the
+// models in src/models/hostmot2), the StepGens timed by its DPLL; a firmware without them has none.
 TEST(Cards, TheFirmwaresStepGensPwmGenAndDpllAreTheCards) {
   hm2::HostMot2Card plain;
   EXPECT_EQ(plain.stepGens(), nullptr);

@@ -1,5 +1,5 @@
-// Issue 16: `lbpkit pins` and `lbpkit check-config`. The naming rules on a
-// hand-made card (lbpkit_hal alone), then the checker on the corpus in
+// `lbpkit pins` and `lbpkit check-config`. The naming rules on a
+// hand-made card (lbpkit_linuxcnc alone), then the checker on the corpus in
 // tests/check_config/: every good configuration passes, every broken one is
 // caught at the line its "# expect:" comment marks, with that reason and the
 // nearest existing name. (tests/interop_test.cpp proves the names against
@@ -14,9 +14,10 @@
 #include <set>
 #include <sstream>
 
-#include "hal/config_check.hpp"
-#include "hal/hm2_pins.hpp"
-#include "process.hpp"
+#include "linuxcnc/config_check.hpp"
+#include "linuxcnc/hm2_pins.hpp"
+#include "lbpkit/wire/names.hpp"
+#include "support/process.hpp"
 
 namespace {
 
@@ -24,7 +25,7 @@ using namespace lbpkit;
 using nlohmann::json;
 namespace fs = std::filesystem;
 
-const hal::Item* item(const std::vector<hal::Item>& items, const std::string& name) {
+const linuxcnc::Item* item(const std::vector<linuxcnc::Item>& items, const std::string& name) {
   for (const auto& i : items)
     if (i.name == name || i.alsoNamed == name) return &i;
   return nullptr;
@@ -32,7 +33,7 @@ const hal::Item* item(const std::vector<hal::Item>& items, const std::string& na
 
 TEST(Hm2Config, ParsesCountsAndSmartSerialModes) {
   std::vector<std::string> problems;
-  const auto c = hal::parseHm2Config("num_encoders=6  num_pwmgens=0 sserial_port_0=30xx", &problems);
+  const auto c = linuxcnc::parseHm2Config("num_encoders=6  num_pwmgens=0 sserial_port_0=30xx", &problems);
   EXPECT_TRUE(problems.empty());
   EXPECT_EQ(c.count("num_encoders"), 6);
   EXPECT_EQ(c.count("num_pwmgens"), 0);
@@ -41,7 +42,7 @@ TEST(Hm2Config, ParsesCountsAndSmartSerialModes) {
   EXPECT_EQ(c.mode(0, 2), 'x');
   EXPECT_EQ(c.mode(0, 5), '0') << "channels past the string run in mode 0";
   EXPECT_EQ(c.channelMask(0), 0xF3);
-  hal::parseHm2Config("num_encoder=6 sserial_port_7=0 num_leds=two", &problems);
+  linuxcnc::parseHm2Config("num_encoder=6 sserial_port_7=0 num_leds=two", &problems);
   ASSERT_EQ(problems.size(), 3U);
   EXPECT_NE(problems[0].find("\"num_encoder\" is not a hostmot2 config= key"), std::string::npos) << problems[0];
   EXPECT_NE(problems[1].find("N 0..3"), std::string::npos) << problems[1];
@@ -80,8 +81,8 @@ CardInfo smallCard() {
   return c;
 }
 
-hal::Remote smallRemote() {
-  hal::Remote r;
+linuxcnc::Remote smallRemote() {
+  linuxcnc::Remote r;
   r.name = "7I77";
   auto element = [&](const char* name, DataType t, Direction d, unsigned bits) {
     ProcessDataElement e;
@@ -107,18 +108,18 @@ hal::Remote smallRemote() {
 
 TEST(HalPins, FollowHostmot2sNamingRules) {
   const auto card = smallCard();
-  const auto items = hal::hostmot2Items(card, hal::parseHm2Config("sserial_port_0=0"), {smallRemote()}, hal::Driver::Eth);
+  const auto items = linuxcnc::hostmot2Items(card, linuxcnc::parseHm2Config("sserial_port_0=0"), {smallRemote()}, linuxcnc::Driver::Eth);
   ASSERT_TRUE(std::is_sorted(items.begin(), items.end(), [](auto& a, auto& b) { return a.name < b.name; }));
-  auto check = [&](const std::string& name, hal::Kind k, hal::Type t, hal::Dir d) {
+  auto check = [&](const std::string& name, linuxcnc::Kind k, linuxcnc::Type t, linuxcnc::Dir d) {
     const auto* i = item(items, "hm2_7i92.0." + name);
     ASSERT_NE(i, nullptr) << name;
     EXPECT_EQ(i->kind, k) << name;
     EXPECT_EQ(i->type, t) << name;
     EXPECT_EQ(i->dir, d) << name;
   };
-  using K = hal::Kind;
-  using T = hal::Type;
-  using D = hal::Dir;
+  using K = linuxcnc::Kind;
+  using T = linuxcnc::Type;
+  using D = linuxcnc::Dir;
   // Remote: bits in (with -not), bits out (with -invert), numeric out (three
   // parameters), numeric in (scalemax only), boolean, encoder, GTOC params.
   check("7i77.0.0.input-03", K::Pin, T::Bit, D::Out);
@@ -156,8 +157,8 @@ TEST(HalPins, FollowHostmot2sNamingRules) {
   check("sserial.port-0.fault-lim", K::Param, T::U32, D::RW);
 
   // Channel 0 left out: no remote pins, and its pins are plain GPIO again.
-  const auto without = hal::hostmot2Items(card, hal::parseHm2Config("num_encoders=0 sserial_port_0=x"), {smallRemote()},
-                                          hal::Driver::Pci);
+  const auto without = linuxcnc::hostmot2Items(card, linuxcnc::parseHm2Config("num_encoders=0 sserial_port_0=x"), {smallRemote()},
+                                          linuxcnc::Driver::Pci);
   EXPECT_EQ(item(without, "hm2_7i92.0.7i77.0.0.input-00"), nullptr);
   EXPECT_NE(item(without, "hm2_7i92.0.gpio.001.out"), nullptr);
   EXPECT_NE(item(without, "hm2_7i92.0.gpio.000.out"), nullptr) << "no encoder takes the select pin";
@@ -168,9 +169,9 @@ TEST(HalPins, FollowHostmot2sNamingRules) {
 }
 
 TEST(HalPins, EditDistance) {
-  EXPECT_EQ(hal::editDistance("output-01", "ouput-01"), 1U);
-  EXPECT_EQ(hal::editDistance("", "abc"), 3U);
-  EXPECT_EQ(hal::editDistance("7i77.0.4", "7i77.0.1"), 1U);
+  EXPECT_EQ(lbpkit::wire::editDistance("output-01", "ouput-01"), 1U);
+  EXPECT_EQ(lbpkit::wire::editDistance("", "abc"), 3U);
+  EXPECT_EQ(lbpkit::wire::editDistance("7i77.0.4", "7i77.0.1"), 1U);
 }
 
 fs::path corpus() { return fs::path(LBPKIT_SOURCE_DIR) / "tests/check_config"; }
@@ -189,11 +190,11 @@ std::vector<std::string> argsOf(const fs::path& file) {
   return out;
 }
 
-testing_process::Result check(const fs::path& file, bool asJson = false, const std::vector<std::string>& extra = {}) {
+test_support::Result check(const fs::path& file, bool asJson = false, const std::vector<std::string>& extra = {}) {
   std::vector<std::string> args{"check-config", file.string()};
   if (asJson) args.emplace_back("--json");
   args.insert(args.end(), extra.begin(), extra.end());
-  return testing_process::run(args);
+  return test_support::run(args);
 }
 
 TEST(CheckConfig, TheExampleMillPasses) {
@@ -291,7 +292,7 @@ TEST(CheckConfig, TextOutputSaysFileLineReasonAndNearestName) {
 
 TEST(Pins, ListsEachModesPinsForTheVirtualCard) {
   auto pins = [](const std::string& config, const std::string& cards = "1") {
-    const auto r = testing_process::run({"pins", "--config", config, "--7i77s", cards, "--json"});
+    const auto r = test_support::run({"pins", "--config", config, "--7i77s", cards, "--json"});
     EXPECT_EQ(r.exit, 0) << r.err;
     std::set<std::string> names;
     const auto j = json::parse(r.out, nullptr, false);
@@ -314,7 +315,7 @@ TEST(Pins, ListsEachModesPinsForTheVirtualCard) {
   EXPECT_FALSE(mode0.count("hm2_7i92.0.7i77.0.4.analogout0 float IN"));
 }
 
-// Issue 17 follow-up: a board name stands for every card of the catalogue
+// A board name stands for every card of the catalogue
 // hm2_eth gives it (hm2_7i92: the 7I92 and the 7I92T) with each of their
 // firmwares; check-config takes the one under which the configuration has
 // the fewest errors (the first on a tie) and says which; --card and
@@ -347,7 +348,7 @@ TEST(CheckConfig, PicksTheCardAndFirmwareWithTheFewestErrors) {
   const auto other = check(stepper, false, {"--card", "7I96S"});
   EXPECT_EQ(other.exit, 1);
   EXPECT_NE(other.out.find("no card 7I96S of the catalogue is hm2_7i92.0"), std::string::npos) << other.out;
-  const auto none = testing_process::run({"check-config", stepper.string(), "--card", "7I99"});
+  const auto none = test_support::run({"check-config", stepper.string(), "--card", "7I99"});
   EXPECT_NE(none.exit, 0);
   EXPECT_NE((none.out + none.err).find("7I92, 7I92T, 7I96S, 7I80HD-25"), std::string::npos) << none.out << none.err;
 }
@@ -368,7 +369,7 @@ TEST(Pins, ListsEachCardsModules) {
   auto pins = [](const std::vector<std::string>& extra, const std::string& config) {
     std::vector<std::string> args{"pins", "--config", config, "--json"};
     args.insert(args.end(), extra.begin(), extra.end());
-    const auto r = testing_process::run(args);
+    const auto r = test_support::run(args);
     EXPECT_EQ(r.exit, 0) << r.err;
     return json::parse(r.out, nullptr, false);
   };
@@ -406,7 +407,7 @@ TEST(Pins, ListsEachCardsModules) {
   EXPECT_TRUE(has(i76, "hm2_7i92.0.7i76.0.3.spinout", "float", "IN"));
   EXPECT_FALSE(has(i76, "hm2_7i92.0.stepgen.timer-number", "s32", "IN")) << "no HM2DPLL on a 7I92";
   EXPECT_EQ(pins({"--card", "7I80HD-25"}, "sserial_port_0=00x")["board"], "hm2_7i80.0");
-  const auto bad = testing_process::run({"pins", "--card", "7I92T", "--pinout", "7I77x9"});
+  const auto bad = test_support::run({"pins", "--card", "7I92T", "--pinout", "7I77x9"});
   EXPECT_NE(bad.exit, 0);
   EXPECT_NE((bad.out + bad.err).find("\"7I77+7I76\", \"7I77x2\""), std::string::npos) << bad.out << bad.err;
 }

@@ -13,14 +13,14 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "process.hpp"
+#include "support/process.hpp"
 #include "remote/nv_store.hpp"
 #include "remote/remote_device.hpp"
 
 namespace {
 
-using testing_process::Daemon;
-using testing_process::run;
+using test_support::Daemon;
+using test_support::run;
 
 std::string tempPath(const std::string& name) {
   auto p = std::filesystem::temp_directory_path() / ("lbpkit-cli-" + name + "-" + std::to_string(::getpid()));
@@ -164,7 +164,7 @@ TEST(Cli, SimRefusesBadConfigurationsClearly) {
   std::filesystem::remove(bad);
 }
 
-// Issue 12 item 5: the TOML chooses the firmware's pinout; a second 7I77
+// The TOML chooses the firmware's pinout; a second 7I77
 // needs Mesa's two-7I77 one.
 TEST(Cli, SimConfigChoosesThePinout) {
   const auto bad = tempPath("pinout.toml");
@@ -194,7 +194,7 @@ TEST(Cli, InfoAndMonitor) {
   EXPECT_NE(r.out.find("AnalogOut0"), std::string::npos);
 }
 
-// --- Issue 9: data loss and security ----------------------------------------------
+// --- Data loss and security ----------------------------------------------
 
 std::string fileText(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
@@ -217,7 +217,7 @@ std::unique_ptr<Daemon> daemonWithFileLimit(const std::vector<std::string>& args
   return d;
 }
 
-// Item 1: --state never writes over what is not an lbpkit EEPROM image.
+// --state never writes over what is not an lbpkit EEPROM image.
 TEST(Cli, SimRefusesAStateFileThatIsNotAnEepromImage) {
   const auto toml = tempPath("state.toml");
   const std::string text = "[[daughtercard]]\ntype = \"7I77\"\n";
@@ -255,7 +255,7 @@ TEST(Cli, SimRefusesAStateFileThatIsNotAnEepromImage) {
   }
 }
 
-// Item 2: a write the EEPROM did not keep is an error, not "written to the EEPROM".
+// A write the EEPROM did not keep is an error, not "written to the EEPROM".
 TEST(Cli, WpdFailsWhenTheEepromCannotSaveTheValue) {
   auto w = run({"wpd", "NVWATCHDOGTIME", "100", "--state", "/dev/full"});
   EXPECT_EQ(w.exit, 1) << w.out;
@@ -293,7 +293,7 @@ TEST(Cli, WpdOverSerialFailsWhenTheRemoteCannotSaveTheValue) {
   std::filesystem::remove(state);
 }
 
-// Item 3: two sims on one EEPROM file would lose each other's writes.
+// Two sims on one EEPROM file would lose each other's writes.
 TEST(Cli, ASecondSimOnTheSameStateFileIsRefused) {
   const auto state = tempPath("shared");
   Daemon first({"sim", "--bind", "127.0.0.1:0", "--api", "0", "--state", state});
@@ -325,7 +325,7 @@ TEST(Cli, SimsSideBySideEachHaveTheirOwnDefaultStateFile) {
   std::filesystem::remove_all(home);
 }
 
-// Item 5: --serial talks only to a terminal, never into a file.
+// --serial talks only to a terminal, never into a file.
 TEST(Cli, SerialRefusesWhatIsNotATerminal) {
   const auto file = tempPath("notatty");
   { std::ofstream{file}; }
@@ -365,7 +365,7 @@ TEST(Cli, MonitorRefusesRatesItCannotRun) {
 // must not wait for it to end.
 TEST(Cli, MonitorStopsPromptlyOnSigterm) {
   int outFd = -1, errFd = -1;
-  const pid_t pid = testing_process::spawn({"monitor", "--sim", "--plain", "--rate", "20000", "--display", "0.5"},
+  const pid_t pid = test_support::spawn({"monitor", "--sim", "--plain", "--rate", "20000", "--display", "0.5"},
                                            outFd, errFd);
   // Whatever happens below, no monitor is left behind.
   struct Reaper {
@@ -381,15 +381,7 @@ TEST(Cli, MonitorStopsPromptlyOnSigterm) {
     }
   } reaper{pid, outFd, errFd};
   std::string out;
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-  while (out.find("encoders:") == std::string::npos && std::chrono::steady_clock::now() < deadline) {
-    pollfd p{outFd, POLLIN, 0};
-    if (::poll(&p, 1, 100) <= 0) continue;
-    char buf[4096];
-    const ssize_t n = ::read(outFd, buf, sizeof buf);
-    if (n <= 0) break;
-    out.append(buf, static_cast<std::size_t>(n));
-  }
+  test_support::readUntil(outFd, out, "encoders:", std::chrono::seconds(30));
   ASSERT_NE(out.find("encoders:"), std::string::npos) << "no first frame: " << out;
   EXPECT_NE(out.find("0 lost replies"), std::string::npos) << out;
   EXPECT_NE(out.find("link: 0 cycles lost a reply"), std::string::npos) << out;

@@ -15,8 +15,8 @@
 #include "lbpkit/lbp16_transport.hpp"
 #include "lbpkit/sserial.hpp"
 #include "lbpkit/wire/hostmot2.hpp"
-#include "lossy_udp_card.hpp"
-#include "running_card.hpp"
+#include "support/lossy_udp_card.hpp"
+#include "support/running_card.hpp"
 
 namespace {
 

@@ -4,7 +4,7 @@
 #include <filesystem>
 #include <vector>
 
-#include "lbp_host.hpp"
+#include "support/lbp_host.hpp"
 #include "remote/field_io.hpp"
 
 namespace {
@@ -392,7 +392,7 @@ TEST(FieldIo, AnEepromFileThatCannotBeWrittenDoesNotKillTheProcessor) {
   EXPECT_EQ(h.read(nvwd, 2), 50U);
 }
 
-// Issue 9, item 2: an NV write the EEPROM did not save is refused to the host
+// An NV write the EEPROM did not save is refused to the host
 // (Invalid write) and told to whoever runs the model, every time.
 TEST(FieldIo, AnNvWriteTheEepromDidNotSaveIsRefusedAndReported) {
   std::vector<remote::NvEvent> events;

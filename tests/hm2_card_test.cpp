@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "card_host.hpp"
+#include "support/card_host.hpp"
 #include "lbp/protocol.hpp"
 
 namespace {
@@ -464,7 +464,7 @@ TEST(Card, CountsUnmappedAndReadOnlyAccessesAndKeepsTheLastFew) {
   EXPECT_EQ(c.readOnlyWrites, 3U);
   EXPECT_EQ(c.ignoredCommands, 0U);
   EXPECT_EQ(c.lostCommands, 0U);
-  EXPECT_EQ(card.unmappedWrites(), 9U);  // the sum, as before the kinds were told apart
+  EXPECT_EQ(card.unmappedWrites(), 9U);  // the sum of every kind
 
   // The observer saw all eleven, in order, as they happened.
   ASSERT_EQ(seen.size(), 11U);

@@ -7,7 +7,7 @@
 #include <cstdint>
 
 #include "hostmot2/dpll.hpp"
-#include "hm2_module_expect.hpp"
+#include "support/hm2_module_expect.hpp"
 
 namespace {
 

@@ -1,11 +1,11 @@
 // HostMot2 QCount (plain encoder): the muxed counters' logic at its own
-// registers, sampling every filter-rate tick (docs/hostmot2-modules.md#encoder).
+// registers, sampling every filter-rate tick (docs/hostmot2-modules.md#qcount-plain-encoder).
 #include <gtest/gtest.h>
 
 #include <cstdint>
 
 #include "hostmot2/encoder.hpp"
-#include "hm2_module_expect.hpp"
+#include "support/hm2_module_expect.hpp"
 
 namespace {
 

@@ -5,7 +5,7 @@
 #include <cstdint>
 
 #include "hostmot2/pwmgen.hpp"
-#include "hm2_module_expect.hpp"
+#include "support/hm2_module_expect.hpp"
 
 namespace {
 

@@ -8,7 +8,7 @@
 
 #include "hostmot2/dpll.hpp"
 #include "hostmot2/stepgen.hpp"
-#include "hm2_module_expect.hpp"
+#include "support/hm2_module_expect.hpp"
 
 namespace {
 

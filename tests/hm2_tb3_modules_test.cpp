@@ -6,7 +6,7 @@
 
 #include <cstdint>
 
-#include "hm2_module_expect.hpp"
+#include "support/hm2_module_expect.hpp"
 #include "hostmot2/card.hpp"
 #include "hostmot2/inm.hpp"
 #include "hostmot2/ioport.hpp"
@@ -217,7 +217,7 @@ TEST(Tb3, The7I96SCarriesInmSsrAndOutmOnTb3) {
   EXPECT_EQ(fn(14), 0x00C384U);  // SSR out 3
   EXPECT_EQ(fn(15), 0x002D85U);  // OutM out 4
   EXPECT_EQ(fn(16), 0x002D86U);  // OutM out 5
-  EXPECT_EQ(fn(17), 0x000581U);  // TB1 as before: StepGen 0 Step
+  EXPECT_EQ(fn(17), 0x000581U);  // TB1 as on the other firmwares: StepGen 0 Step
   // The other firmwares have none of them.
   EXPECT_EQ(hm2::HostMot2Card().inm(), nullptr);
   // An input energized at the terminals reaches the filtered data register.

@@ -1,4 +1,4 @@
-// The host library's smart-serial error handling (issue 13): a per-channel
+// The host library's smart-serial error handling: a per-channel
 // fault count with LinuxCNC's increment, decrement and limit, SSLBP's
 // TooManyErrors reported per channel, and recovery (STOP of the channel and
 // a normal START) by the caller or, with Options::autoRecover, by the cycle
@@ -10,7 +10,7 @@
 #include <cstdio>
 
 #include "lbpkit/wire/sslbp.hpp"
-#include "running_card.hpp"
+#include "support/running_card.hpp"
 
 namespace {
 

@@ -1,4 +1,4 @@
-// A host that stalls (issue 13): for every stall length around the 7I77's
+// A host that stalls: for every stall length around the 7I77's
 // 50 ms watchdogs and the HostMot2 watchdog, in simulated time, the outputs
 // go off within the timeout and come back only as the manual allows.
 //
@@ -19,7 +19,7 @@
 
 #include "hostmot2/watchdog.hpp"
 #include "lbpkit/wire/seven_i77.hpp"
-#include "running_card.hpp"
+#include "support/running_card.hpp"
 
 namespace {
 

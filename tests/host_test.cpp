@@ -12,7 +12,7 @@
 #include "lbpkit/parameters.hpp"
 #include "sim_card/sim_transport.hpp"
 #include "lbpkit/sserial.hpp"
-#include "running_card.hpp"
+#include "support/running_card.hpp"
 
 namespace {
 

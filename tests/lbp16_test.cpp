@@ -229,7 +229,7 @@ TEST_F(Lbp16Test, RepliesNeverExceedOneFrame) {
   EXPECT_EQ(lbp16.counters().memoryErrors, 1U);  // the send buffer's limit (LBPPARSE.ASM)
 }
 
-// Item 6 of issue 12: the LBP16 details Mesa's Ethernet firmware has
+// The LBP16 details Mesa's Ethernet firmware has
 // (hostmot2-firmware src/etherhm2.zip: ETHERHM2.INC, LBPPARSE.ASM,
 // ETHERINI.ASM), as LinuxCNC's lbp16.h and mesaflash name them.
 
@@ -422,7 +422,7 @@ TEST_F(Lbp16Test, TimerSpaceWaitsAndScratchWords) {
   EXPECT_EQ(lbp16.counters().memoryErrors, 0U);
 }
 
-// Item 11 of issue 12: the configuration flash is kept in a file.
+// The configuration flash is kept in a file.
 struct FlashFileTest : ::testing::Test {
   std::filesystem::path file = std::filesystem::temp_directory_path() / ("lbpkit-flash-" + std::to_string(::getpid()));
   void SetUp() override {

@@ -1,4 +1,4 @@
-// A noisy RS-422 cable on purpose (issue 13, item 2): the link's faults at a
+// A noisy RS-422 cable on purpose: the link's faults at a
 // rate, what each end of the link makes of them (the SSLBP channel's CS bits
 // and judged errors, the remote's own CRC error count: manual, CS REGISTER
 // AFTER START and LBP LOCAL READ 0xC3), and the ways to ask for them: the
@@ -21,8 +21,9 @@
 #include "lbpkit/lbp16_transport.hpp"
 #include "lbpkit/sserial.hpp"
 #include "lbpkit/wire/sslbp.hpp"
-#include "process.hpp"
-#include "running_card.hpp"
+#include "support/process.hpp"
+#include "support/sim_child.hpp"
+#include "support/running_card.hpp"
 
 namespace {
 
@@ -173,17 +174,13 @@ TEST(LinkFaults, BreaksExtrasAndACutEachShowTheirOwnBit) {
 class SimLink : public ::testing::Test {
  protected:
   void SetUp() override {
-    sim_ = std::make_unique<testing_process::Daemon>(
-        std::vector<std::string>{"sim", "--bind", address_ + ":0", "--api", "0", "--no-realtime", "--state", state_});
-    api_ = std::atoi(sim_->value("control API: http://127.0.0.1:").c_str());
-    port_ = std::atoi(sim_->value("on UDP " + address_ + ":").c_str());
+    sim_ = std::make_unique<test_support::SimChild>(address_, std::vector<std::string>{}, false);
+    api_ = sim_->apiPort();
+    port_ = sim_->udpPort();
     ASSERT_GT(api_, 0);
     ASSERT_GT(port_, 0);
   }
-  void TearDown() override {
-    sim_.reset();
-    for (const auto* suffix : {"", ".analog", ".flash"}) std::filesystem::remove(state_ + suffix);
-  }
+  void TearDown() override { sim_.reset(); }
   std::pair<int, json> post(const json& body) {
     httplib::Client http("127.0.0.1", api_);
     auto r = http.Post("/api/link", body.dump(), "application/json");
@@ -195,9 +192,7 @@ class SimLink : public ::testing::Test {
     return r ? json::parse(r->body, nullptr, false) : json();
   }
   const std::string address_ = "127.95." + std::to_string(::getpid() % 250) + ".1";
-  const std::string state_ =
-      (std::filesystem::temp_directory_path() / ("lbpkit-link-" + std::to_string(::getpid()))).string();
-  std::unique_ptr<testing_process::Daemon> sim_;
+  std::unique_ptr<test_support::SimChild> sim_;
   int api_ = 0, port_ = 0;
 };
 
@@ -252,14 +247,14 @@ TEST_F(SimLink, TheApiSetsALinkAndShowsWhatBothEndsCounted) {
 
 TEST_F(SimLink, TheCliSetsAndShowsALink) {
   const std::string api = "127.0.0.1:" + std::to_string(api_);
-  auto r = testing_process::run({"fault", "link", "channel=1", "bit_error_rate=1e-4", "break=true", "--api", api},
+  auto r = test_support::run({"fault", "link", "channel=1", "bit_error_rate=1e-4", "break=true", "--api", api},
                                 std::chrono::seconds(10));
   EXPECT_EQ(r.exit, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("\"bit_error_rate\": 0.0001"), std::string::npos) << r.out;
-  r = testing_process::run({"fault", "link", "--api", api}, std::chrono::seconds(10));
+  r = test_support::run({"fault", "link", "--api", api}, std::chrono::seconds(10));
   EXPECT_EQ(r.exit, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("\"channels\""), std::string::npos) << r.out;
-  r = testing_process::run({"fault", "link", "channel=1", "bit_error_rate=2", "--api", api}, std::chrono::seconds(10));
+  r = test_support::run({"fault", "link", "channel=1", "bit_error_rate=2", "--api", api}, std::chrono::seconds(10));
   EXPECT_NE(r.exit, 0);
   EXPECT_NE((r.out + r.err).find("bit_error_rate"), std::string::npos) << r.out << r.err;
 }

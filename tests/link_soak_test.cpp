@@ -1,4 +1,4 @@
-// A noisy RS-422 cable under a running host (issue 13): both 7I77 channels
+// A noisy RS-422 cable under a running host: both 7I77 channels
 // at 1 kHz in simulated time, every character on both links in both
 // directions with each data bit flipped at a bit error rate of 1e-4 (and,
 // in the second test, characters dropped and added and replies ending in a
@@ -24,7 +24,7 @@
 //      limit is restarted by SmartSerial::recover() and DOITs again; at the
 //      end, the rates cleared, both channels DOIT cleanly.
 //
-// ctest runs a modest count; the long run (README: Rehearse failures):
+// ctest runs a modest count; the long run (docs/faults.md):
 //   LBPKIT_LINK_SOAK_DOITS=1000000 LBPKIT_LINK_SOAK_SEED=1
 //   build/default/tests/lbpkit_tests --gtest_filter='LinkSoak.*'
 // (all on one line).
@@ -42,7 +42,7 @@
 #include "lbpkit/faults.hpp"
 #include "lbpkit/wire/process_data.hpp"
 #include "lbpkit/wire/sslbp.hpp"
-#include "running_card.hpp"
+#include "support/running_card.hpp"
 
 namespace {
 

@@ -1,11 +1,11 @@
-// Issue 10's end-to-end test: the complete LinuxCNC configuration in
+// The end-to-end test: the complete LinuxCNC configuration in
 // examples/linuxcnc/mill/ (unmodified but for its DISPLAY line) against
 // `lbpkit sim --machine mill`. Our headless display, tests/e2e/mill_display.py,
 // operates LinuxCNC through its Python module and reports each step as a JSON
 // line; this test asserts on them and, once the display has a move going,
 // kills LinuxCNC outright and watches the machine through the control API.
 //
-// The network is the interop tests' (interop_test.cpp): Debian's hm2_eth
+// The network is the interop tests' (support/interop.hpp): Debian's hm2_eth
 // cannot use loopback, so LinuxCNC runs in a network namespace joined to the
 // card by a veth pair, the card at the 7I92's usual 10.10.10.10 as the INI
 // names it. hm2_eth's iptables rules refuse any other traffic to the card's
@@ -42,7 +42,7 @@
 #include <thread>
 #include <vector>
 
-#include "process.hpp"
+#include "support/process.hpp"
 
 namespace {
 
@@ -132,7 +132,7 @@ class MillSim {
     std::vector<std::string> args{"sim", "--bind", "10.10.10.10", "--api", apiAddress + ":0", "--state",
                                   (dir / "state").string()};
     args.insert(args.end(), machine.begin(), machine.end());
-    daemon_ = std::make_unique<testing_process::Daemon>(args);
+    daemon_ = std::make_unique<test_support::Daemon>(args);
     port_ = std::atoi(daemon_->value("control API: http://" + apiAddress + ":").c_str());
   }
   [[nodiscard]] bool up() const { return port_ > 0; }
@@ -148,7 +148,7 @@ class MillSim {
  private:
   std::string address_;
   int port_ = 0;
-  std::unique_ptr<testing_process::Daemon> daemon_;
+  std::unique_ptr<test_support::Daemon> daemon_;
 };
 
 // The namespace a process is in (an inode number), or 0.
@@ -700,7 +700,7 @@ TEST(LinuxCncMill, RunsGcodeAndRehearsesFaultsAgainstTheVirtualMill) {
               std::chrono::duration<double>(Clock::now() - started).count());
 }
 
-// Issue 17's done-when: examples/linuxcnc/mill-7i76, a 7I92T + 7I77 + 7I76
+// The stepper mill end to end: examples/linuxcnc/mill-7i76, a 7I92T + 7I77 + 7I76
 // configuration with servo X and Y on the 7I77 and a stepper Z on StepGen 0,
 // timed by the HM2DPLL (stepgen.timer-number 1), Z's switches, its brake and
 // the spindle on the 7I76, against examples/machines/mill-7i76.toml: it

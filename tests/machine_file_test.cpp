@@ -1,4 +1,4 @@
-// Machine files (issue 10, item 2): examples/machines/*.toml load to exactly
+// Machine files: examples/machines/*.toml load to exactly
 // the built-ins, a file with a few keys takes the documented defaults, and
 // every mistake is an error naming file, line, column and key.
 #include <gtest/gtest.h>
@@ -13,7 +13,7 @@
 #include "config/machine_toml.hpp"
 #include "config/toml_reader.hpp"
 #include "machine/machine_file.hpp"
-#include "machine_file_fixture.hpp"
+#include "support/machine_file_fixture.hpp"
 
 namespace {
 

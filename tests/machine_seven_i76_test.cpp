@@ -1,4 +1,4 @@
-// A machine wired to the 7I76 beside the 7I77 (issue 17): on the 7I92T's
+// A machine wired to the 7I76 beside the 7I77: on the 7I92T's
 // default firmware (7I77+7I76) a host runs the 7I76's field I/O processor
 // on SSerial channel 3 through the host library, as LinuxCNC's hostmot2
 // does, while the machine's switches, outputs, brake and spindle sit on the
@@ -12,13 +12,13 @@
 #include <stdexcept>
 #include <string>
 
-#include "allocation_counter.hpp"
+#include "support/allocation_counter.hpp"
 #include "config/machine_toml.hpp"
 #include "config/toml_reader.hpp"
 #include "hostmot2/card.hpp"
 #include "lbpkit/sserial.hpp"
 #include "machine/machine.hpp"
-#include "machine_file_fixture.hpp"
+#include "support/machine_file_fixture.hpp"
 #include "sim_card/sim_transport.hpp"
 
 namespace {

@@ -1,4 +1,4 @@
-// A stepper axis on a HostMot2 StepGen (issue 17, item 3): the mill with Z
+// A stepper axis on a HostMot2 StepGen: the mill with Z
 // a stepper on StepGen 0 of the 7I92's 7I77+7I76 firmware, in process. The
 // host writes the StepGen's rate register as LinuxCNC's hostmot2 does; the
 // axis goes where the steps put it, and loses the steps that come faster
@@ -20,7 +20,7 @@
 #include "config/toml_reader.hpp"
 #include "hostmot2/card.hpp"
 #include "machine/machine.hpp"
-#include "machine_file_fixture.hpp"
+#include "support/machine_file_fixture.hpp"
 
 namespace {
 

@@ -1,4 +1,4 @@
-// The plant behind the 7I77 (issue 10): a machine on the in-process card,
+// The plant behind the 7I77: a machine on the in-process card,
 // driven through the host library at 1 kHz as LinuxCNC would drive it.
 #include <gtest/gtest.h>
 
@@ -13,7 +13,7 @@
 
 #include "lbpkit/encoders.hpp"
 #include "machine/machine.hpp"
-#include "running_card.hpp"
+#include "support/running_card.hpp"
 
 namespace {
 

@@ -1,5 +1,5 @@
-// `lbpkit monitor` shows the machine behind an `lbpkit sim --machine` (issue
-// 10, item 5): the section formatted from GET /api/machine, and the monitor
+// `lbpkit monitor` shows the machine behind an `lbpkit sim --machine`:
+// the section formatted from GET /api/machine, and the monitor
 // asking a control API for it: shown on 200, nothing extra (and no error) on
 // 404, without an API, or from an API that never answers.
 #include <gtest/gtest.h>
@@ -18,12 +18,12 @@
 #include <thread>
 
 #include "machine_view.hpp"
-#include "process.hpp"
+#include "support/process.hpp"
 
 namespace {
 
 using nlohmann::json;
-using testing_process::run;
+using test_support::run;
 
 // What `lbpkit sim --machine mill` answers (notes: the API's contract), with
 // X at its max limit, the E-stop pressed and the spindle running.
@@ -127,7 +127,7 @@ TEST(MonitorView, AnAnswerItDoesNotUnderstandShowsQuestionMarksNotACrash) {
   EXPECT_NO_THROW((void)app::machineSection(json(42)));
 }
 
-// Issue 17: a stepper axis (no drives) shows its StepGen's steps, the steps
+// A stepper axis (no drives) shows its StepGen's steps, the steps
 // its motor lost and a stall; parts wired to the 7I76 say so.
 TEST(MonitorView, AStepperAxisShowsItsStepsLostStepsAndStall) {
   auto m = cannedMill();
@@ -198,7 +198,7 @@ TEST(MonitorView, TheMonitorShowsTheMachineItsApiReports) {
                       "--plain", "--display", "20"},
                      std::chrono::seconds(30));
   ASSERT_EQ(r.exit, 0) << r.err;
-  EXPECT_TRUE(has(r.out, "channel 0: 7I77 field I/O")) << r.out;  // the board as before
+  EXPECT_TRUE(has(r.out, "channel 0: 7I77 field I/O")) << r.out;  // the board, then the machine
   EXPECT_TRUE(has(r.out, "machine: mill at 12.346 s")) << r.out;
   EXPECT_TRUE(has(r.out, "switches: x-home TRIPPED  x-min -  x-max TRIPPED")) << r.out;
   EXPECT_TRUE(has(r.out, "spindle: command 12000 rpm")) << r.out;
@@ -236,7 +236,7 @@ TEST(MonitorView, NoMachineNoApiOrNoAnswerShowNothingExtra) {
 TEST(MonitorView, TheMonitorShowsTheMillOfARunningSim) {
   const auto state = (std::filesystem::temp_directory_path() / ("lbpkit-monitor-" + std::to_string(::getpid()))).string();
   {
-    testing_process::Daemon sim({"sim", "--machine", "mill", "--bind", "127.0.0.1:0", "--api", "127.0.0.1:0",
+    test_support::Daemon sim({"sim", "--machine", "mill", "--bind", "127.0.0.1:0", "--api", "127.0.0.1:0",
                                  "--state", state, "--no-realtime"});
     const auto udp = sim.value("on UDP 127.0.0.1:");
     const auto api = sim.value("control API: http://127.0.0.1:");
@@ -267,7 +267,7 @@ TEST(MonitorView, TheMonitorShowsTheStepperAxisOfARunningSim) {
   // tests/machines/router_stepper.toml, beside examples/.
   const std::string file = LBPKIT_EXAMPLES_DIR "/../tests/machines/router_stepper.toml";
   {
-    testing_process::Daemon sim({"sim", "--card", "7I92T", "--machine", file, "--bind", "127.0.0.1:0", "--api",
+    test_support::Daemon sim({"sim", "--card", "7I92T", "--machine", file, "--bind", "127.0.0.1:0", "--api",
                                  "127.0.0.1:0", "--state", state, "--no-realtime"});
     const auto udp = sim.value("on UDP 127.0.0.1:");
     const auto api = sim.value("control API: http://127.0.0.1:");

@@ -1,4 +1,4 @@
-// A bad network on purpose (issue 13): the fault injector's decisions, the
+// A bad network on purpose: the fault injector's decisions, the
 // UDP server carrying them out on a real socket, and `lbpkit sim`'s
 // /api/network.
 #include <arpa/inet.h>
@@ -27,7 +27,7 @@
 #include "lbp16/network_faults.hpp"
 #include "lbp16/udp_server.hpp"
 #include "lbpkit/wire/lbp16.hpp"
-#include "process.hpp"
+#include "support/sim_child.hpp"
 
 namespace {
 
@@ -253,10 +253,8 @@ TEST(UdpServerFaults, ACorruptedReplyDiffersInOneByte) {
 // GET /api/network says what it did.
 TEST(SimNetwork, TheApiSetsTheNetworkAndCountsWhatItDid) {
   const std::string address = "127.94." + std::to_string(::getpid() % 250) + ".1";
-  const auto state =
-      (std::filesystem::temp_directory_path() / ("lbpkit-network-" + std::to_string(::getpid()))).string();
-  testing_process::Daemon sim({"sim", "--bind", address, "--api", "0", "--state", state});
-  const int api = std::atoi(sim.value("control API: http://127.0.0.1:").c_str());
+  test_support::SimChild sim(test_support::SimOptions{address, -1, false, false, {}, {}});
+  const int api = sim.apiPort();
   const int port = lbpkit::wire::lbp16::kPort;
   ASSERT_GT(api, 0);
   httplib::Client http("127.0.0.1", api);
@@ -298,8 +296,6 @@ TEST(SimNetwork, TheApiSetsTheNetworkAndCountsWhatItDid) {
   EXPECT_EQ(j["did"]["reply"]["passed"], 5);
   EXPECT_EQ(j["did"]["request"]["passed"], 10);
   EXPECT_EQ(post({{"clear", true}}).second["set"]["reply"]["drop_every"], 0);
-  std::filesystem::remove(state);
-  std::filesystem::remove(state + ".analog");
 }
 
 // --- Fault scripts: [[fault]] entries in the sim's TOML.

@@ -92,7 +92,7 @@ TEST(NvStore, CorruptFileIsReportedNotTrusted) {
   std::filesystem::remove(file);
 }
 
-// --- What the store refuses to write over (issue 9, item 1) --------------------
+// --- What the store refuses to write over --------------------
 
 std::string contents(const std::filesystem::path& p) {
   std::ifstream f(p, std::ios::binary);
@@ -199,7 +199,7 @@ TEST(NvStore, RefusesAFifoWithoutHanging) {
 }
 
 // Two processes on one file would lose each other's acknowledged writes: the
-// second is refused while the first holds it (issue 9, item 3).
+// second is refused while the first holds it.
 TEST(NvStore, ASecondProcessIsRefusedWhileTheFirstHoldsTheFile) {
   const auto file = tempFile("nvlock");
   remote::NvStore first(8, file);
@@ -219,7 +219,7 @@ TEST(NvStore, ASecondProcessIsRefusedWhileTheFirstHoldsTheFile) {
   std::filesystem::remove(file);
 }
 
-// --- Sequence numbers wrap (issue 9, item 4) --------------------------------------
+// --- Sequence numbers wrap --------------------------------------
 
 // A slot record as nv_store.cpp lays it out: magic, sequence, length, image, CRC-32.
 Image slotRecord(std::uint32_t sequence, const Image& image) {

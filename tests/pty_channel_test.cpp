@@ -1,4 +1,4 @@
-// Issue 12 item 10: an SSLBP channel brought out to a remote of the user's
+// An SSLBP channel brought out to a remote of the user's
 // own. First SSLBP's external path with the remote's bytes fed by hand, then
 // the same through a pseudo-terminal (PtyChannel), the test answering as
 // the remote with an in-process 7I77 field I/O processor.
@@ -14,9 +14,9 @@
 #include <thread>
 #include <vector>
 
-#include "card_host.hpp"
+#include "support/card_host.hpp"
 #include "lbp/protocol.hpp"
-#include "process.hpp"
+#include "support/process.hpp"
 #include "pty/pty_channel.hpp"
 #include "remote/field_io.hpp"
 
@@ -246,7 +246,7 @@ TEST(PtyChannel, RefusesAChannelWithA7I77ProcessorOrNone) {
 
 // `lbpkit sim --remote`: a 7I77's channel, or a bad value, is refused before anything starts.
 TEST(PtyChannel, SimRefusesAChannelWithA7I77Processor) {
-  using testing_process::run;
+  using test_support::run;
   const auto state = std::filesystem::temp_directory_path() / ("lbpkit-ptych0-" + std::to_string(::getpid()));
   auto r = run({"sim", "--bind", "127.0.0.1:0", "--api", "0", "--state", state.string(), "--remote", "0=pty"},
                std::chrono::seconds(10));
@@ -262,7 +262,7 @@ TEST(PtyChannel, SimRefusesAChannelWithA7I77Processor) {
 // pty printed in the banner, and `lbpkit discover` over LBP16 finding it.
 TEST(PtyChannel, SimChannelOnAPtyIsDiscovered) {
   const auto state = std::filesystem::temp_directory_path() / ("lbpkit-ptych-" + std::to_string(::getpid()));
-  testing_process::Daemon sim({"sim", "--bind", "127.0.0.1:0", "--api", "0", "--no-realtime", "--state",
+  test_support::Daemon sim({"sim", "--bind", "127.0.0.1:0", "--api", "0", "--no-realtime", "--state",
                                state.string(), "--remote", "2=pty"});
   const std::string port = sim.value("on UDP 127.0.0.1:");
   const std::string line = sim.value("channel 2: external remote on ");
@@ -288,7 +288,7 @@ TEST(PtyChannel, SimChannelOnAPtyIsDiscovered) {
       }
     }
   });
-  const auto r = testing_process::run({"discover", "--addr", "127.0.0.1:" + port, "--modes", "xx0"},
+  const auto r = test_support::run({"discover", "--addr", "127.0.0.1:" + port, "--modes", "xx0"},
                                       std::chrono::seconds(30));
   stop = true;
   remoteSide.join();

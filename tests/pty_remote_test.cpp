@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "lbp/protocol.hpp"
-#include "process.hpp"
+#include "support/process.hpp"
 
 namespace {
 
@@ -39,7 +39,7 @@ Bytes exchange(int fd, Bytes command, std::size_t expect) {
 TEST(PtyRemote, AnExternalProgramTalksLbpThroughThePty) {
   const auto state = std::filesystem::temp_directory_path() / ("lbpkit-pty-" + std::to_string(::getpid()));
   std::filesystem::remove(state);
-  testing_process::Daemon d({"remote", "--pty", "--setup", "--state", state.string()});
+  test_support::Daemon d({"remote", "--pty", "--setup", "--state", state.string()});
   const std::string out = d.readUntil("serial device:");
   const auto at = out.find("serial device: ");
   ASSERT_NE(at, std::string::npos) << out;
@@ -80,7 +80,7 @@ TEST(PtyRemote, AnExternalProgramTalksLbpThroughThePty) {
 TEST(PtyRemote, AClientThatNeverReadsCannotWedgeIt) {
   const auto state = std::filesystem::temp_directory_path() / ("lbpkit-pty-wedge-" + std::to_string(::getpid()));
   std::filesystem::remove(state);
-  testing_process::Daemon d({"remote", "--pty", "--setup", "--state", state.string()});
+  test_support::Daemon d({"remote", "--pty", "--setup", "--state", state.string()});
   const std::string path = d.value("serial device: ");
   ASSERT_FALSE(path.empty());
   {

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "lbp/protocol.hpp"
-#include "lbp_host.hpp"
+#include "support/lbp_host.hpp"
 #include "lbpkit/discovery.hpp"
 #include "remote/analog.hpp"
 #include "remote/field_io.hpp"

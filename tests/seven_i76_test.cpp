@@ -1,4 +1,4 @@
-// Issue 17 item 3: the 7I76's field I/O processor on SSerial channel 3 of
+// The 7I76's field I/O processor on SSerial channel 3 of
 // the 7I77+7I76 firmwares (PIN_7I77_7I76_34.vhd), found and run by the host
 // library as `lbpkit discover` and a LinuxCNC cycle do.
 #include <gtest/gtest.h>

@@ -1,8 +1,9 @@
-// Issue 17 in the control API: `lbpkit sim --card 7I92T --machine FILE`
+// A stepper axis and the 7I76 in the control API:
+// `lbpkit sim --card 7I92T --machine FILE`
 // with a stepper axis. GET /api/machine (and "machine" in GET /api/state)
 // gives a stepper axis a "stepper" object (its StepGen's steps, the steps
 // the motor lost, a stall) and no drives, a servo axis "stepper": null and
-// its drives as before; GET /api/state lists the 7I76 after the 7I77 among
+// its drives; GET /api/state lists the 7I76 after the 7I77 among
 // the daughtercards, with its inputs, outputs, field voltage and spindle
 // interface, and /api/input, /api/field and /api/output reach it by its
 // connector. A host writes StepGen 0's registers and cycles the 7I76 over
@@ -24,8 +25,9 @@
 #include "lbpkit/hostmot2.hpp"
 #include "lbpkit/lbp16_transport.hpp"
 #include "lbpkit/sserial.hpp"
-#include "process.hpp"
-#include "stepgen_registers.hpp"
+#include "support/sim_child.hpp"
+#include "support/wait.hpp"
+#include "support/stepgen_registers.hpp"
 
 namespace {
 
@@ -38,26 +40,15 @@ constexpr double kPullOut = 40000.0;  // steps/s, the file's max_step_rate
 // X a servo axis, Z a stepper on StepGen 0 at -1000 mm.
 const std::string kMachine = LBPKIT_TESTS_DIR "/machines/router_stepper.toml";
 
-bool waitFor(const std::function<bool()>& done, std::chrono::milliseconds limit = 10000ms) {
-  const auto end = std::chrono::steady_clock::now() + limit;
-  while (std::chrono::steady_clock::now() < end) {
-    if (done()) return true;
-    std::this_thread::sleep_for(10ms);
-  }
-  return done();
-}
+using test_support::waitFor;
 
 class StepperAnd7I76Api : public testing::Test {
  protected:
   void SetUp() override {
-    const auto tmp = std::filesystem::temp_directory_path();
-    const auto tag = std::to_string(::getpid());
-    state_ = tmp / ("lbpkit-api-stepper-" + tag + ".state");
-    sim_ = std::make_unique<testing_process::Daemon>(
-        std::vector<std::string>{"sim", "--card", "7I92T", "--machine", kMachine, "--bind", "127.0.0.1:0",
-                                 "--api", "127.0.0.1:0", "--no-realtime", "--state", state_.string()});
-    udp_ = std::atoi(sim_->value("on UDP 127.0.0.1:").c_str());
-    api_ = std::atoi(sim_->value("control API: http://127.0.0.1:").c_str());
+    sim_ = std::make_unique<test_support::SimChild>(
+        test_support::SimOptions{"127.0.0.1", 0, true, true, {}, {"--card", "7I92T", "--machine", kMachine}});
+    udp_ = sim_->udpPort();
+    api_ = sim_->apiPort();
     ASSERT_GT(udp_, 0);
     ASSERT_GT(api_, 0);
   }
@@ -66,28 +57,16 @@ class StepperAnd7I76Api : public testing::Test {
       EXPECT_EQ(sim_->stopWithin(10s), 0);
     }
     sim_.reset();
-    std::filesystem::remove(state_);
-    std::filesystem::remove(state_.string() + ".analog");
   }
-  json get(const std::string& path) {
-    httplib::Client c("127.0.0.1", api_);
-    c.set_read_timeout(5, 0);
-    const auto r = c.Get(path);
-    if (!r || r->status != 200) return json();
-    return json::parse(r->body, nullptr, false);
-  }
+  json get(const std::string& path) { return sim_->get(path); }
   // The status and the answer.
   std::pair<int, json> post(const std::string& path, const json& body) {
-    httplib::Client c("127.0.0.1", api_);
-    c.set_read_timeout(5, 0);
-    const auto r = c.Post(path, body.dump(), "application/json");
-    if (!r) return {0, json()};
-    return {r->status, json::parse(r->body, nullptr, false)};
+    const auto r = sim_->post(path, body);
+    return {r.status, r.body};
   }
   json z() { return get("/api/machine")["axes"][1]; }
 
-  std::filesystem::path state_;
-  std::unique_ptr<testing_process::Daemon> sim_;
+  std::unique_ptr<test_support::SimChild> sim_;
   int udp_ = 0, api_ = 0;
 };
 
@@ -111,7 +90,7 @@ TEST_F(StepperAnd7I76Api, AStepperAxisHasAStepperObjectAndNoDrives) {
   ASSERT_TRUE(m.is_object());
   const auto& x = m["axes"][0];
   const auto& z = m["axes"][1];
-  // The servo axis as before, "stepper": null.
+  // The servo axis as without a stepper, "stepper": null.
   EXPECT_EQ(x["name"], "x");
   EXPECT_TRUE(x["stepper"].is_null()) << x.dump();
   ASSERT_EQ(x["drives"].size(), 1U);
@@ -243,25 +222,20 @@ TEST_F(StepperAnd7I76Api, The7I76IsListedAfterThe7I77AndTheApiReachesIt) {
   EXPECT_EQ(i76["field_io"]["mode"], 0);
 }
 
-// Without a 7I76 (the 7I92's default firmware) the list is the 7I77s' as before.
+// Without a 7I76 (the 7I92's default firmware) the list is the 7I77s'.
 TEST(StepperAnd7I76ApiWithout, AFirmwareWithoutA7I76ListsOnlyThe7I77s) {
-  const auto state = (std::filesystem::temp_directory_path() / ("lbpkit-api-no76-" + std::to_string(::getpid()))).string();
-  {
-    testing_process::Daemon sim({"sim", "--bind", "127.0.0.1:0", "--api", "127.0.0.1:0", "--no-realtime", "--state", state});
-    const int api = std::atoi(sim.value("control API: http://127.0.0.1:").c_str());
-    ASSERT_GT(api, 0);
-    httplib::Client c("127.0.0.1", api);
-    const auto r = c.Get("/api/state");
-    ASSERT_TRUE(r);
-    const auto s = json::parse(r->body);
-    for (const auto& d : s["daughtercards"]) EXPECT_NE(d["type"], "7I76");
-    const auto p = c.Post("/api/input", R"({"connector": 1, "input": 2, "on": true})", "application/json");
-    ASSERT_TRUE(p);
-    EXPECT_EQ(p->status, 400);
-    EXPECT_NE(p->body.find("no 7I77 on connector 1"), std::string::npos) << p->body;
-    EXPECT_EQ(sim.stopWithin(10s), 0);
-  }
-  for (const char* suffix : {"", ".analog"}) std::filesystem::remove(state + suffix);
+  test_support::SimChild sim("127.0.0.1");
+  ASSERT_GT(sim.apiPort(), 0);
+  httplib::Client c("127.0.0.1", sim.apiPort());
+  const auto r = c.Get("/api/state");
+  ASSERT_TRUE(r);
+  const auto s = json::parse(r->body);
+  for (const auto& d : s["daughtercards"]) EXPECT_NE(d["type"], "7I76");
+  const auto p = c.Post("/api/input", R"({"connector": 1, "input": 2, "on": true})", "application/json");
+  ASSERT_TRUE(p);
+  EXPECT_EQ(p->status, 400);
+  EXPECT_NE(p->body.find("no 7I77 on connector 1"), std::string::npos) << p->body;
+  EXPECT_EQ(sim.stopWithin(10s), 0);
 }
 
 }  // namespace

@@ -1,4 +1,4 @@
-// `lbpkit sim` under attack and misuse (issue 9): its HTTP control API, its
+// `lbpkit sim` under attack and misuse: its HTTP control API, its
 // shutdown, its card thread under load, and what it reports. Each test
 // starts its own sim on a loopback address of its own, talks to it over
 // plain sockets (so it can misbehave as a hostile client would), and stops
@@ -33,7 +33,9 @@
 #include "lbpkit/lbp16_transport.hpp"
 #include "lbpkit/sserial.hpp"
 #include "lbpkit/wire/lbp16.hpp"
-#include "process.hpp"
+#include "support/process.hpp"
+#include "support/sim_child.hpp"
+#include "support/temp_dir.hpp"
 
 namespace {
 
@@ -58,17 +60,20 @@ TEST(SimClock, AgoIsTheSimulatedTimeOfAWallClockMomentPast) {
 
 using namespace std::chrono_literals;
 using nlohmann::json;
-using testing_process::Daemon;
+using test_support::Daemon;
 using Clock = std::chrono::steady_clock;
 
 // A loopback address of this test's own: 127.93.P.n, P from the process id
 // (ctest runs tests side by side), n per test.
 std::string loopback(int n) { return "127.93." + std::to_string(::getpid() % 250) + "." + std::to_string(n); }
 
+// Files of this test process's own (state files, recordings), in a folder
+// that goes with the process.
 std::string tempPath(const std::string& name) {
-  auto p = std::filesystem::temp_directory_path() / ("lbpkit-simapi-" + name + "-" + std::to_string(::getpid()));
+  static const test_support::TempDir folder("lbpkit-simapi");
+  auto p = folder / name;
   std::filesystem::remove(p);
-  return p.string();
+  return p;
 }
 
 // A TCP connection to the API, closed when it goes.
@@ -163,51 +168,88 @@ Reply http(const std::string& address, int port, const Request& q, std::chrono::
   return r;
 }
 
-// `lbpkit sim` on ADDRESS (LBP16 and API on free ports), its own state file.
-class Sim {
+// `lbpkit sim` on ADDRESS (LBP16 and API on free ports), its own state,
+// asked over a raw HTTP connection: what is tested is the API's own answer,
+// byte for byte.
+class Sim : public test_support::SimChild {
  public:
-  explicit Sim(const std::string& address, std::vector<std::string> extra = {}, bool apiOnOwnAddress = true)
-      : address_(address), state_(tempPath(address)) {
-    std::vector<std::string> args = {"sim", "--bind", address + ":0", "--no-realtime", "--state", state_};
-    if (apiOnOwnAddress) args.insert(args.end(), {"--api", address + ":0"});
-    args.insert(args.end(), extra.begin(), extra.end());
-    daemon_ = std::make_unique<Daemon>(args);
-    udpPort_ = std::atoi(daemon_->value("on UDP " + address + ":").c_str());
-    apiPort_ = std::atoi(daemon_->value("control API: http://" + address + ":").c_str());
-  }
-  ~Sim() {
-    daemon_.reset();
-    std::filesystem::remove(state_);
-    std::filesystem::remove(state_ + ".analog");
-  }
-  [[nodiscard]] bool up() const { return udpPort_ > 0 && apiPort_ > 0; }
-  [[nodiscard]] const std::string& address() const { return address_; }
-  [[nodiscard]] int apiPort() const { return apiPort_; }
-  [[nodiscard]] int udpPort() const { return udpPort_; }
+  using SimChild::SimChild;
   Reply get(const std::string& path = "/api/state", std::chrono::milliseconds limit = 3000ms) {
     Request q;
     q.path = path;
-    return http(address_, apiPort_, q, limit);
+    return send(q, limit);
   }
   Reply post(const std::string& path, const json& body, std::chrono::milliseconds limit = 3000ms) {
     Request q;
     q.method = "POST";
     q.path = path;
     q.body = body.dump();
-    return http(address_, apiPort_, q, limit);
+    return send(q, limit);
   }
-  Reply send(const Request& q, std::chrono::milliseconds limit = 3000ms) { return http(address_, apiPort_, q, limit); }
-  // SIGTERM (or `sig`): the exit code, -2 when it did not stop within `limit`.
-  int stopWithin(std::chrono::milliseconds limit, int sig = SIGTERM) { return daemon_->stopWithin(limit, sig); }
-  Daemon& daemon() { return *daemon_; }
-
- private:
-  std::string address_;
-  std::string state_;
-  std::unique_ptr<Daemon> daemon_;
-  int udpPort_ = 0;
-  int apiPort_ = 0;
+  Reply send(const Request& q, std::chrono::milliseconds limit = 3000ms) {
+    return http(address(), apiPort(), q, limit);
+  }
 };
+
+// --- The sim on the LBP16 port, as lbpkit's own tools and the API see it --------
+
+// `lbpkit sim` on the port hm2_eth and mesaflash use (27181), on an address
+// of this test's own, its API on 127.0.0.1.
+test_support::SimOptions onLbp16Port(int n) { return {loopback(n), -1, false, true, {}, {}}; }
+
+TEST(Lbp16, GarbageFromAnotherPortDoesNotStopService) {
+  test_support::SimChild sim(onLbp16Port(19));
+  ASSERT_TRUE(sim.up());
+  const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+  sockaddr_in sa{};
+  sa.sin_family = AF_INET;
+  sa.sin_port = htons(27181);
+  ::inet_pton(AF_INET, sim.address().c_str(), &sa.sin_addr);
+  std::uint32_t x = 7;
+  std::vector<std::uint8_t> junk(3000);
+  for (int i = 0; i < 2000; ++i) {
+    for (auto& b : junk) b = static_cast<std::uint8_t>((x = x * 1103515245U + 12345U) >> 16);
+    const std::size_t len = 1 + (x % junk.size());
+    ::sendto(fd, junk.data(), len, 0, reinterpret_cast<sockaddr*>(&sa), sizeof sa);
+  }
+  ::close(fd);
+  std::this_thread::sleep_for(100ms);
+  const auto s = sim.get();
+  ASSERT_FALSE(s.is_null());
+  EXPECT_GT(s["lbp16"]["parse_errors"].get<int>(), 0);
+  // A legitimate client is still served.
+  const auto r = test_support::run({"rpd", "nvunitnumber", "H", "--addr", sim.address()});
+  EXPECT_EQ(r.exit, 0) << r.err;
+  EXPECT_EQ(r.out, "12000AEE\n");
+}
+
+TEST(ControlApi, ChangesTheWorldAndRefusesBadRequests) {
+  test_support::SimChild sim(onLbp16Port(20));
+  ASSERT_TRUE(sim.up());
+  auto s = sim.post("/api/input", {{"input", 4}, {"volts", 20.0}}).body;
+  EXPECT_EQ(s["daughtercards"][0]["field_io"]["inputs"][4]["on"], true);
+  s = sim.post("/api/output", {{"output", 2}, {"ohms", 80.0}}).body;
+  EXPECT_FALSE(s.contains("error"));
+  s = sim.post("/api/field", {{"volts", 36.0}}).body;
+  const auto faults = s["daughtercards"][0]["field_io"]["faults"];
+  EXPECT_NE(std::find(faults.begin(), faults.end(), "HighVoltageFault"), faults.end()) << faults.dump();
+  s = sim.post("/api/cable", {{"channel", 1}, {"connected", false}}).body;
+  EXPECT_EQ(s["sserial"]["channels"][1]["cable_connected"], false);
+  s = sim.post("/api/time", {{"paused", true}}).body;
+  const double t0 = s["time_s"].get<double>();
+  std::this_thread::sleep_for(50ms);
+  EXPECT_EQ(sim.get()["time_s"].get<double>(), t0);
+  s = sim.post("/api/time", {{"step_ms", 100}}).body;
+  EXPECT_NEAR(s["time_s"].get<double>() - t0, 0.1, 1e-6);
+  // Bad requests: 400 with a message, and the card keeps running.
+  EXPECT_NE(sim.post("/api/input", {{"input", 40}, {"on", true}}).body["error"].get<std::string>().find("below 32"),
+            std::string::npos);
+  EXPECT_NE(sim.post("/api/input", {{"on", true}}).body["error"].get<std::string>().find("missing \"input\""),
+            std::string::npos);
+  EXPECT_NE(sim.post("/api/time", {{"speed", 0}}).body["error"].get<std::string>().find("above 0"), std::string::npos);
+  EXPECT_NE(sim.post("/api/encoder", {{"encoder", "two"}}).body["error"].get<std::string>().size(), 0U);
+  EXPECT_FALSE(sim.get().is_null());
+}
 
 // --- LBP16 datagrams, as hm2_eth and mesaflash send them
 
@@ -249,7 +291,7 @@ Bytes exchange(const std::string& address, int port, const Bytes& d) {
 // whole datagram.
 void cookieRead(Bytes& d) { command(d, {false, true, false, 0, 4, true, 1}, 0x0100); }
 
-// --- Item 6: the control API's limits -------------------------------------------
+// --- The control API's limits -------------------------------------------
 
 // Slow-loris clients (a header byte every 2 s) and a hundred idle connections
 // used to hold every one of httplib's threads: the API answered nobody for
@@ -314,7 +356,7 @@ TEST(SimApi, ASecondSimOnTheSameApiPortIsRefused) {
   ASSERT_TRUE(first.up());
   const auto api = first.address() + ":" + std::to_string(first.apiPort());
   const auto state = tempPath("second");
-  const auto r = testing_process::run(
+  const auto r = test_support::run(
       {"sim", "--bind", loopback(4) + ":0", "--no-realtime", "--state", state, "--api", api}, std::chrono::seconds(5));
   EXPECT_NE(r.exit, 0);
   EXPECT_NE(r.err.find("control API port " + api + " is in use (another lbpkit sim?)"), std::string::npos) << r.err;
@@ -324,7 +366,7 @@ TEST(SimApi, ASecondSimOnTheSameApiPortIsRefused) {
   EXPECT_EQ(first.stopWithin(2000ms), 0);
 }
 
-// --- Item 7: stopping whatever clients do ---------------------------------------
+// --- Stopping whatever clients do ---------------------------------------
 
 // One slow client kept the sim running (not answering, holding its ports)
 // for as long as it dripped.
@@ -349,7 +391,7 @@ TEST(SimApi, SigtermAndSigintStopTheSimWhateverClientsDo) {
   }
 }
 
-// --- Item 8: the card thread never locks up -------------------------------------
+// --- The card thread never locks up -------------------------------------
 
 // An index every count (1 count per revolution) at 2 MHz with latch on
 // index: the model walked every index, one by one. Computed now, with the
@@ -444,7 +486,7 @@ TEST(SimApi, WhenTheCardCannotKeepUpSimulatedTimeFallsBehindVisibly) {
   // A load the card thread cannot carry at 10000x: the mill's plant, in
   // 50 us steps, runs about a thousand times real time on one core
   // (benchmarks/machine_benchmark.cpp, BM_MillPlantOnly). Fast encoders
-  // alone no longer are one: unread counters cost nothing (they settle when
+  // alone are not one: unread counters cost nothing (they settle when
   // looked at).
   Sim sim(loopback(7), {"--machine", "mill"});
   ASSERT_TRUE(sim.up());
@@ -459,7 +501,7 @@ TEST(SimApi, WhenTheCardCannotKeepUpSimulatedTimeFallsBehindVisibly) {
   EXPECT_EQ(sim.stopWithin(2000ms), 0);
 }
 
-// --- Item 12: who may use the API -----------------------------------------------
+// --- Who may use the API -----------------------------------------------
 
 // A web page in the user's browser could POST (text/plain, no preflight) and
 // unplug a channel; a DNS-rebinding page could read and write as if local.
@@ -539,7 +581,7 @@ TEST(SimApi, ATokenIsRequiredWhenSet) {
 // banner advised board_ip=0.0.0.0.
 TEST(SimApi, WarnsWhenServingBeyondLoopback) {
   const auto state = tempPath("anywhere");
-  const auto r = testing_process::run(
+  const auto r = test_support::run(
       {"sim", "--bind", "0.0.0.0:0", "--api", "0.0.0.0:0", "--no-realtime", "--state", state}, std::chrono::seconds(2));
   EXPECT_NE(r.err.find("warning: the control API on 0.0.0.0"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("--api-token"), std::string::npos) << r.err;
@@ -550,7 +592,7 @@ TEST(SimApi, WarnsWhenServingBeyondLoopback) {
   for (const auto* suffix : {"", ".owner", ".analog", ".analog.owner"}) std::filesystem::remove(state + suffix);
 }
 
-// --- Item 14: values with no physical meaning ----------------------------------
+// --- Values with no physical meaning ----------------------------------
 
 TEST(SimApi, RefusesValuesWithNoPhysicalMeaning) {
   Sim sim(loopback(10));
@@ -596,7 +638,7 @@ TEST(SimApi, RefusesValuesWithNoPhysicalMeaning) {
 TEST(SimApi, CliRefusesSpeedsWithNoPhysicalMeaning) {
   for (const char* speed : {"1e308", "inf", "nan", "0", "-1", "10001"}) {
     const auto state = tempPath("speed");
-    const auto r = testing_process::run(
+    const auto r = test_support::run(
         {"sim", "--bind", loopback(11) + ":0", "--api", "0", "--no-realtime", "--state", state, "--speed", speed},
         std::chrono::seconds(5));
     EXPECT_NE(r.exit, 0) << speed;
@@ -640,7 +682,7 @@ TEST(SimApi, CliRefusesClocksItDoesNotKnow) {
     std::vector<std::string> args = {"sim", "--bind", loopback(11) + ":0", "--api", "0", "--no-realtime", "--state",
                                      state};
     args.insert(args.end(), extra.begin(), extra.end());
-    const auto r = testing_process::run(args, std::chrono::seconds(5));
+    const auto r = test_support::run(args, std::chrono::seconds(5));
     EXPECT_NE(r.exit, 0) << extra[1];
     EXPECT_NE(r.err.find("--clock"), std::string::npos) << extra[1] << ": " << r.err;
     std::filesystem::remove(state);
@@ -693,7 +735,7 @@ TEST(SimApi, OnTheHostClockEachHostCycleIsOnePeriod) {
   EXPECT_NE(std::find(faults.begin(), faults.end(), "WatchdogFault"), faults.end()) << silent["daughtercards"][0];
 }
 
-// --- Item 15: what /api/state shows ---------------------------------------------
+// --- What /api/state shows ---------------------------------------------
 
 // mesaflash writes the card's EEPROM IP (with the write enable) to move a
 // card to another address: /api/state showed none of it.
@@ -736,7 +778,7 @@ TEST(SimApi, TheEepromWrittenThroughLbp16ShowsInState) {
   EXPECT_EQ(sim.stopWithin(2000ms), 0);
 }
 
-// --- Issue 10: the machine behind the 7I77 ---------------------------------------
+// --- The machine behind the 7I77 ---------------------------------------
 
 json axisNamed(const json& machine, const std::string& name) {
   for (const auto& a : machine["axes"])
@@ -898,19 +940,19 @@ TEST(SimMachine, BadMachineActionsAreRefusedNamingTheField) {
 
 TEST(SimMachine, TheCliRefusesMachineMistakes) {
   const auto state = tempPath("machine-cli");
-  auto r = testing_process::run({"sim", "--machine", "mill", "--demo", "--no-realtime", "--state", state},
+  auto r = test_support::run({"sim", "--machine", "mill", "--demo", "--no-realtime", "--state", state},
                                 std::chrono::seconds(5));
   EXPECT_NE(r.exit, 0);
   EXPECT_NE((r.out + r.err).find("--demo"), std::string::npos) << r.out << r.err;
-  r = testing_process::run({"sim", "--record", tempPath("orphan.csv"), "--no-realtime", "--state", state},
+  r = test_support::run({"sim", "--record", tempPath("orphan.csv"), "--no-realtime", "--state", state},
                            std::chrono::seconds(5));
   EXPECT_NE(r.exit, 0);
   EXPECT_NE(r.err.find("--record needs --machine"), std::string::npos) << r.err;
-  r = testing_process::run({"sim", "--machine", tempPath("no-such-machine.toml"), "--no-realtime", "--state", state},
+  r = test_support::run({"sim", "--machine", tempPath("no-such-machine.toml"), "--no-realtime", "--state", state},
                            std::chrono::seconds(5));
   EXPECT_NE(r.exit, 0);
   EXPECT_NE(r.err.find("no-such-machine.toml"), std::string::npos) << r.err;
-  r = testing_process::run({"sim", "--machine", "mill", "--record", "/nonexistent-dir/trace.csv", "--bind",
+  r = test_support::run({"sim", "--machine", "mill", "--record", "/nonexistent-dir/trace.csv", "--bind",
                             loopback(16) + ":0", "--api", loopback(16) + ":0", "--no-realtime", "--state", state},
                            std::chrono::seconds(5));
   EXPECT_NE(r.exit, 0);

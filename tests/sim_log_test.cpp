@@ -15,32 +15,18 @@
 #include <string>
 
 #include "lbpkit/wire/lbp16.hpp"
-#include "process.hpp"
+#include "support/process.hpp"
 
 namespace {
 
-// Reads `fd` until `marker` has appeared (5 s at most).
-std::string readUntil(int fd, std::string& text, const std::string& marker) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-  while (text.find(marker) == std::string::npos && std::chrono::steady_clock::now() < deadline) {
-    pollfd p{fd, POLLIN, 0};
-    if (::poll(&p, 1, 50) <= 0) continue;
-    char buf[512];
-    const ssize_t n = ::read(fd, buf, sizeof buf);
-    if (n <= 0) break;
-    text.append(buf, static_cast<std::size_t>(n));
-  }
-  return text;
-}
-
 TEST(SimLog, DebugLevelNamesWritesThatNothingDecodes) {
   int out = -1, err = -1;
-  const pid_t pid = testing_process::spawn(
+  const pid_t pid = test_support::spawn(
       {"sim", "--bind", "127.0.0.94:0", "--api", "0", "--no-realtime", "--log-level", "debug", "--state",
        ::testing::TempDir() + "sim-log-" + std::to_string(::getpid()) + ".eeprom"},
       out, err);
   std::string banner, log;
-  readUntil(out, banner, "on UDP 127.0.0.94:");
+  test_support::readUntil(out, banner, "on UDP 127.0.0.94:", std::chrono::seconds(5));
   const auto at = banner.find("on UDP 127.0.0.94:");
   ASSERT_NE(at, std::string::npos) << banner;
   const int port = std::stoi(banner.substr(at + 18));
@@ -56,7 +42,7 @@ TEST(SimLog, DebugLevelNamesWritesThatNothingDecodes) {
                                     0x04, 0x5A, 0x00, 0x00};
   ASSERT_EQ(::sendto(fd, datagram, sizeof datagram, 0, reinterpret_cast<sockaddr*>(&sa), sizeof sa), 8);
   ::close(fd);
-  readUntil(err, log, "0x00005A04");
+  test_support::readUntil(err, log, "0x00005A04", std::chrono::seconds(5));
   EXPECT_NE(log.find("unmapped_write: address 0x7F00, value 0x00005A04"), std::string::npos) << log;
 
   ::kill(pid, SIGTERM);

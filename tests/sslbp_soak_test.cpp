@@ -7,7 +7,7 @@
 // invariant is checked: a STOP ALL and a START bring both 7I77 channels back
 // (DATA 0, no communication error) and a DOIT then succeeds on both.
 //
-// The burst is short in ctest. For the long soak (README: Reliability):
+// The burst is short in ctest. For the long soak (docs/reliability.md):
 //   LBPKIT_SOAK_STEPS=2000000 LBPKIT_SOAK_SEED=7
 //   build/default/tests/lbpkit_tests --gtest_filter='SslbpSoak.*'
 // (both on one line).
@@ -19,7 +19,7 @@
 #include <sstream>
 #include <string>
 
-#include "card_host.hpp"
+#include "support/card_host.hpp"
 #include "lbp/protocol.hpp"
 
 namespace {

@@ -6,7 +6,7 @@
 #include <map>
 #include <string>
 
-#include "card_host.hpp"
+#include "support/card_host.hpp"
 #include "lbp/protocol.hpp"
 #include "remote/field_io.hpp"
 

@@ -1,4 +1,4 @@
-// `lbpkit bench` (issue 15): the performance figures, measured on the machine
+// `lbpkit bench`: the performance figures, measured on the machine
 // at hand, each beside what it is compared against in the same run. What the
 // parts share: the options, and the processes they start (sims, LinuxCNC in
 // a network namespace, CPU hogs), each stopped by its owner's destructor on

@@ -121,7 +121,7 @@ void printInProcess(const nlohmann::json& j) {
                r["cpu_us_per_sim_ms"].get<double>(), r["what"].get<std::string>());
   fmt::print("  wall: simulated / elapsed time (other work on the machine takes its share); CPU: simulated / this\n"
              "  thread's CPU time (the figure on a core of its own).\n");
-  fmt::print("  goal (issue 15 item 2): >= {} x real time, <= {} us of CPU per simulated ms (board + mill)\n\n",
+  fmt::print("  goal: >= {} x real time, <= {} us of CPU per simulated ms (board + mill)\n\n",
              j["goal"]["x_real_time"].get<int>(), j["goal"]["cpu_us_per_sim_ms"].get<double>());
 }
 

@@ -1,4 +1,4 @@
-// lbpkit bench: issue 15's performance figures on the machine at hand, each
+// lbpkit bench: the performance figures on the machine at hand, each
 // beside what it is compared against in the same run (bench.hpp).
 #include <fmt/core.h>
 
@@ -96,7 +96,7 @@ int runBench(BenchCommand& c) {
 void addBenchCommand(CLI::App& app) {
   auto c = std::make_shared<BenchCommand>();
   auto* cmd = app.add_subcommand(
-      "bench", "Measure the performance figures on this machine (issue 15), each beside its comparison: in process, "
+      "bench", "Measure the performance figures on this machine, each beside its comparison: in process, "
                "LinuxCNC on the network (root), discovery (root), many boards");
   cmd->add_option("--only", c->only, "Parts to run, comma-separated: inprocess, network, discovery, boards")
       ->capture_default_str();

@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common.hpp"
-#include "hal/config_check.hpp"
+#include "linuxcnc/config_check.hpp"
 #include "hal_card.hpp"
 
 namespace app {
@@ -25,7 +25,7 @@ struct CheckOptions {
 };
 
 // The configuration with every channel it enables in mode `digit`.
-lbpkit::hal::Hm2Config inMode(lbpkit::hal::Hm2Config c, char digit) {
+lbpkit::linuxcnc::Hm2Config inMode(lbpkit::linuxcnc::Hm2Config c, char digit) {
   for (unsigned port = 0; port < 4; ++port) {
     std::string modes;
     for (unsigned ch = 0; ch < 8; ++ch) modes += c.mode(port, ch) == 'x' ? 'x' : digit;
@@ -41,8 +41,8 @@ lbpkit::hal::Hm2Config inMode(lbpkit::hal::Hm2Config c, char digit) {
 // hm2_pci: the 5I25 and 6I25 with Mesa's 7I77x2 firmware (PIN_7I77x2_34, the
 // pinout of the 7I92's 7I77x2 firmware: the same modules on the same 34 IO
 // pins).
-std::vector<lbpkit::hal::Board> model(const CheckOptions& o, const lbpkit::hal::Board& loaded,
-                                      const lbpkit::hal::Hm2Config& config, unsigned sevenI77s, std::string& whyNot) {
+std::vector<lbpkit::linuxcnc::Board> model(const CheckOptions& o, const lbpkit::linuxcnc::Board& loaded,
+                                      const lbpkit::linuxcnc::Hm2Config& config, unsigned sevenI77s, std::string& whyNot) {
   const auto dot = loaded.prefix.find('.');
   const auto kind = loaded.prefix.substr(4, dot - 4);
   unsigned index = 0;
@@ -65,7 +65,7 @@ std::vector<lbpkit::hal::Board> model(const CheckOptions& o, const lbpkit::hal::
   } else {
     std::string known;
     for (const auto& card : hm2::cards::all()) {
-      known += fmt::format("{}{} ({})", known.empty() ? "" : ", ", lbpkit::hal::boardPrefix(std::string(card.halName), 0),
+      known += fmt::format("{}{} ({})", known.empty() ? "" : ", ", lbpkit::linuxcnc::boardPrefix(std::string(card.halName), 0),
                            card.name);
       if (card.halName != kind) continue;
       if (!o.card.empty() && hm2::cards::find(o.card) != &card) continue;
@@ -82,23 +82,23 @@ std::vector<lbpkit::hal::Board> model(const CheckOptions& o, const lbpkit::hal::
       return {};
     }
   }
-  const auto driver = pciName.empty() ? lbpkit::hal::Driver::Eth : lbpkit::hal::Driver::Pci;
-  std::vector<lbpkit::hal::Board> out;
+  const auto driver = pciName.empty() ? lbpkit::linuxcnc::Driver::Eth : lbpkit::linuxcnc::Driver::Pci;
+  std::vector<lbpkit::linuxcnc::Board> out;
   for (const auto& c : candidates) {
-    auto items = [&](const lbpkit::hal::Hm2Config& hm2Config, lbpkit::hal::Board* board) {
+    auto items = [&](const lbpkit::linuxcnc::Hm2Config& hm2Config, lbpkit::linuxcnc::Board* board) {
       auto card = app::virtualCard(*c.card, *c.firmware, sevenI77s, hm2Config);
       if (!pciName.empty()) card.info.boardName = "MESA" + pciName;
       if (board) {
         board->model = fmt::format("{} ({} firmware)", pciName.empty() ? std::string(c.card->name) : pciName,
                                    c.firmware->name);
         board->description = board->model;
-        board->modules = lbpkit::hal::moduleInstances(card.info);
+        board->modules = lbpkit::linuxcnc::moduleInstances(card.info);
         for (const auto& r : card.remotes)
           if (hm2Config.mode(r.port, r.channel) != 'x')
             board->description += fmt::format(", {} on channel {} (mode {})", r.name, r.channel, r.mode);
-        board->loadProblems = lbpkit::hal::hm2CountProblems(card.info, hm2Config);
+        board->loadProblems = lbpkit::linuxcnc::hm2CountProblems(card.info, hm2Config);
       }
-      return lbpkit::hal::hostmot2Items(card.info, hm2Config, card.remotes, driver, index,
+      return lbpkit::linuxcnc::hostmot2Items(card.info, hm2Config, card.remotes, driver, index,
                                         pciName.empty() ? card.halName : std::string());
     };
     auto b = loaded;
@@ -110,8 +110,8 @@ std::vector<lbpkit::hal::Board> model(const CheckOptions& o, const lbpkit::hal::
 }
 
 int runCheck(const CheckOptions& o) {
-  const auto result = lbpkit::hal::checkConfig(
-      o.file, [&o](const lbpkit::hal::Board& loaded, const lbpkit::hal::Hm2Config& config, unsigned sevenI77s,
+  const auto result = lbpkit::linuxcnc::checkConfig(
+      o.file, [&o](const lbpkit::linuxcnc::Board& loaded, const lbpkit::linuxcnc::Hm2Config& config, unsigned sevenI77s,
                    std::string& whyNot) { return model(o, loaded, config, sevenI77s, whyNot); });
   unsigned errors = 0, warnings = 0;
   for (const auto& f : result.findings) (f.severity == "error" ? errors : warnings)++;

@@ -1,6 +1,6 @@
 // lbpkit fault: a fault (or its end) for a running `lbpkit sim`, from the
-// command line. Each is the control API's own request (README: Control API,
-// Rehearse failures): `lbpkit fault network drop=0.01 direction=reply` is
+// command line. Each is the control API's own request (docs/control-api.md,
+// docs/faults.md): `lbpkit fault network drop=0.01 direction=reply` is
 // POST /api/network {"drop": 0.01, "direction": "reply"}, and a fault
 // script's entry in the sim's TOML uses the same words.
 #include <fmt/core.h>

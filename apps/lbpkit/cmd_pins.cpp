@@ -29,11 +29,11 @@ struct PinsOptions {
 
 int runPins(const PinsOptions& o) {
   std::vector<std::string> problems;
-  const auto config = lbpkit::hal::parseHm2Config(o.config, &problems);
+  const auto config = lbpkit::linuxcnc::parseHm2Config(o.config, &problems);
   if (!problems.empty()) throw lbpkit::Error("--config: " + problems.front());
   if (!o.card.modes.empty()) throw lbpkit::Error("--modes: give the modes in --config as sserial_port_0=... (as LinuxCNC)");
   lbpkit::CardInfo info;
-  std::vector<lbpkit::hal::Remote> remotes;
+  std::vector<lbpkit::linuxcnc::Remote> remotes;
   std::string halName;
   if (!o.card.addr.empty()) {
     if (o.sevenI77s != 1) throw lbpkit::Error("--7i77s is for the in-process card: a card on the network is what it is");
@@ -43,7 +43,7 @@ int runPins(const PinsOptions& o) {
     info = card.info;
     // hm2_eth names the board from its LBP16 board name, not the IDROM's.
     if (auto* lbp16 = dynamic_cast<lbpkit::Lbp16Transport*>(card.transport.get()))
-      halName = lbpkit::hal::hm2EthBoardName(lbp16->boardName());
+      halName = lbpkit::linuxcnc::hm2EthBoardName(lbp16->boardName());
     remotes = app::discoverRemotes(*card.transport, info, config);
   } else {
     const auto [c, firmware] = app::catalogueChoice(o.cardName, o.pinout);
@@ -56,28 +56,28 @@ int runPins(const PinsOptions& o) {
     remotes = std::move(card.remotes);
     halName = card.halName;
   }
-  const auto items = lbpkit::hal::hostmot2Items(info, config, remotes, lbpkit::hal::Driver::Eth, 0, halName);
+  const auto items = lbpkit::linuxcnc::hostmot2Items(info, config, remotes, lbpkit::linuxcnc::Driver::Eth, 0, halName);
   if (o.json) {
     nlohmann::json out;
-    out["board"] = halName.empty() ? lbpkit::hal::boardPrefix(info) : lbpkit::hal::boardPrefix(halName, 0);
+    out["board"] = halName.empty() ? lbpkit::linuxcnc::boardPrefix(info) : lbpkit::linuxcnc::boardPrefix(halName, 0);
     out["config"] = o.config;
     out["pins"] = nlohmann::json::array();
     out["params"] = nlohmann::json::array();
     for (const auto& i : items) {
-      nlohmann::json j{{"name", i.name}, {"type", lbpkit::hal::typeName(i.type)}, {"dir", lbpkit::hal::dirName(i.dir)},
+      nlohmann::json j{{"name", i.name}, {"type", lbpkit::linuxcnc::typeName(i.type)}, {"dir", lbpkit::linuxcnc::dirName(i.dir)},
                        {"origin", i.origin}};
       if (!i.alsoNamed.empty()) j["also_named"] = i.alsoNamed;
-      out[i.kind == lbpkit::hal::Kind::Pin ? "pins" : "params"].push_back(j);
+      out[i.kind == lbpkit::linuxcnc::Kind::Pin ? "pins" : "params"].push_back(j);
     }
     fmt::print("{}\n", out.dump(2));
     return 0;
   }
-  for (const auto kind : {lbpkit::hal::Kind::Pin, lbpkit::hal::Kind::Param}) {
-    if ((kind == lbpkit::hal::Kind::Pin && !o.pins) || (kind == lbpkit::hal::Kind::Param && !o.params)) continue;
-    fmt::print("{}:\n", kind == lbpkit::hal::Kind::Pin ? "Pins" : "Parameters");
+  for (const auto kind : {lbpkit::linuxcnc::Kind::Pin, lbpkit::linuxcnc::Kind::Param}) {
+    if ((kind == lbpkit::linuxcnc::Kind::Pin && !o.pins) || (kind == lbpkit::linuxcnc::Kind::Param && !o.params)) continue;
+    fmt::print("{}:\n", kind == lbpkit::linuxcnc::Kind::Pin ? "Pins" : "Parameters");
     for (const auto& i : items)
       if (i.kind == kind)
-        fmt::print("  {:<5} {:<3}  {}\n", lbpkit::hal::typeName(i.type), lbpkit::hal::dirName(i.dir), i.name);
+        fmt::print("  {:<5} {:<3}  {}\n", lbpkit::linuxcnc::typeName(i.type), lbpkit::linuxcnc::dirName(i.dir), i.name);
   }
   return 0;
 }

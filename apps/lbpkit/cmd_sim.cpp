@@ -52,8 +52,8 @@ struct SimCommandOptions {
   std::string card;  // --card NAME: which Mesa card (hostmot2/cards/catalogue.hpp)
 };
 
-// --remote CH=pty: the SSLBP channel CH brought out to a pseudo-terminal
-// (issue 12 item 10). Which channels can be is the daemon's to say.
+// --remote CH=pty: the SSLBP channel CH brought out to a pseudo-terminal.
+// Which channels can be is the daemon's to say.
 unsigned externalRemoteChannel(const std::string& text) {
   const auto eq = text.find('=');
   const std::string ch = text.substr(0, eq);

@@ -8,9 +8,9 @@
 
 namespace app {
 
-std::vector<lbpkit::hal::Remote> discoverRemotes(lbpkit::Transport& t, const lbpkit::CardInfo& card,
-                                                 const lbpkit::hal::Hm2Config& config) {
-  std::vector<lbpkit::hal::Remote> out;
+std::vector<lbpkit::linuxcnc::Remote> discoverRemotes(lbpkit::Transport& t, const lbpkit::CardInfo& card,
+                                                 const lbpkit::linuxcnc::Hm2Config& config) {
+  std::vector<lbpkit::linuxcnc::Remote> out;
   const auto* md = card.module(lbpkit::wire::hm2::tag::kSSerial);
   if (!md) return out;
   for (unsigned port = 0; port < md->instances; ++port) {
@@ -35,7 +35,7 @@ std::vector<lbpkit::hal::Remote> discoverRemotes(lbpkit::Transport& t, const lbp
 }
 
 VirtualCard virtualCard(const hm2::cards::Card& card, const hm2::cards::Firmware& firmware, unsigned sevenI77s,
-                        const lbpkit::hal::Hm2Config& config) {
+                        const lbpkit::linuxcnc::Hm2Config& config) {
   hm2::HostMot2Card::Options options;
   options.card = &card;
   options.pinout = firmware.pinout;

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "hal/hm2_pins.hpp"
+#include "linuxcnc/hm2_pins.hpp"
 #include "hostmot2/cards/catalogue.hpp"
 #include "lbpkit/transport.hpp"
 
@@ -14,8 +14,8 @@ namespace app {
 
 // Discovers the remotes on every smart-serial port the configuration uses,
 // each channel in its configured mode ('x' channels are left alone).
-std::vector<lbpkit::hal::Remote> discoverRemotes(lbpkit::Transport& t, const lbpkit::CardInfo& card,
-                                                 const lbpkit::hal::Hm2Config& config);
+std::vector<lbpkit::linuxcnc::Remote> discoverRemotes(lbpkit::Transport& t, const lbpkit::CardInfo& card,
+                                                 const lbpkit::linuxcnc::Hm2Config& config);
 
 // An in-process virtual card of the catalogue (docs/cards.md) with one of
 // its firmwares and `sevenI77s` 7I77s (2 only where the firmware has a
@@ -23,11 +23,11 @@ std::vector<lbpkit::hal::Remote> discoverRemotes(lbpkit::Transport& t, const lbp
 // model of a machine, `lbpkit pins` without --addr).
 struct VirtualCard {
   lbpkit::CardInfo info;
-  std::vector<lbpkit::hal::Remote> remotes;
+  std::vector<lbpkit::linuxcnc::Remote> remotes;
   std::string halName;  // hm2_eth's name for it: "7i92"
 };
 VirtualCard virtualCard(const hm2::cards::Card& card, const hm2::cards::Firmware& firmware, unsigned sevenI77s,
-                        const lbpkit::hal::Hm2Config& config);
+                        const lbpkit::linuxcnc::Hm2Config& config);
 
 // --card NAME and --pinout NAME as given (either may be empty): the card
 // (the default when no name) and its firmware (the card's default when no

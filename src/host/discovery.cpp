@@ -9,15 +9,11 @@
 #include <map>
 
 #include "lbpkit/error.hpp"
+#include "lbpkit/wire/names.hpp"
 
 namespace lbpkit {
 
 namespace {
-
-std::string lower(std::string s) {
-  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
 
 // Reads a remote's memory in aligned 8-byte chunks (LBP read 0x47) and
 // keeps them, so records and strings next to each other cost one command
@@ -137,7 +133,7 @@ std::uint64_t ProcessDataElement::unscale(double value) const {
 }
 
 std::string canonicalParameterName(const std::string& name) {
-  const std::string l = lower(name);
+  const std::string l = wire::asciiLower(name);
   // The manual's RPD/WPD spellings for what real remotes call NVWatchDogTimeout and WatchDogTime.
   if (l == "nvwatchdogtime" || l == "nvwatchdogtimeout") return "nvwatchdogtimeout";
   if (l == "watchdogtime" || l == "watchdogtimeout") return "watchdogtime";

@@ -12,17 +12,13 @@
 #include "lbpkit/wire/sslbp.hpp"
 #include "lbpkit/error.hpp"
 #include "lbpkit/faults.hpp"
+#include "lbpkit/wire/names.hpp"
 
 namespace lbpkit {
 
 namespace {
 using namespace wire::sslbp::command;
 namespace local = wire::sslbp::local;
-
-std::string lowerCase(std::string s) {
-  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
 
 // LBP through SSLBP setup mode: the command header in CS byte 3, the
 // address in bytes 1..0, data in interface 0/1; one DOIT per command
@@ -284,12 +280,12 @@ void SmartSerial::startNormal() {
 }
 
 ElementRef SmartSerial::find(unsigned channel, const std::string& name) const {
-  const std::string want = lowerCase(name);
+  const std::string want = wire::asciiLower(name);
   for (std::size_t s = 0; s < slots_.size(); ++s) {
     if (slots_[s].identity.channel != channel) continue;
     const auto& pd = slots_[s].description.processData;
     for (std::size_t i = 0; i < pd.size(); ++i)
-      if (lowerCase(pd[i].name) == want) return ElementRef{static_cast<std::uint8_t>(s), static_cast<std::uint8_t>(i)};
+      if (wire::asciiLower(pd[i].name) == want) return ElementRef{static_cast<std::uint8_t>(s), static_cast<std::uint8_t>(i)};
   }
   return {};
 }

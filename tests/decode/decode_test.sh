@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 18 item 3: lbpkit decode, lbpkit sim --trace, lbpkit remote --pty
+# lbpkit decode, lbpkit sim --trace, lbpkit remote --pty
 # --trace and the Wireshark dissector (contrib/wireshark/lbp16.lua).
 #
 #   decode_test.sh sim       LBPKIT SOURCE_DIR   the sim's capture of `lbpkit discover`, decoded

@@ -1,4 +1,4 @@
-// Issue 18 item 3: the packet recorder behind `--trace` (no allocation on
+// The packet recorder behind `--trace` (no allocation on
 // the recording thread, a pcap libpcap reads back, a full ring drops rather
 // than waits) and the decoder's register names and SSLBP commands.
 #include <gtest/gtest.h>
@@ -16,7 +16,7 @@
 #include "lbpkit/decode.hpp"
 #include "lbpkit/wire/lbp16.hpp"
 #include "sim_card/sim_transport.hpp"
-#include "../allocation_counter.hpp"
+#include "support/allocation_counter.hpp"
 
 using testing_alloc::tAllocations;  // this thread's own: the writer thread allocates
 

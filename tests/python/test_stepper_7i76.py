@@ -1,4 +1,4 @@
-"""Issue 17 in Python: the 7I92T's 7I77+7I76 firmware in process, a stepper
+"""In Python: the 7I92T's 7I77+7I76 firmware in process, a stepper
 axis on StepGen 0 (card.machine: steps, lost steps, stall) and the 7I76
 beside the 7I77 (card.board.seven_i76: inputs, outputs, field power, the
 spindle interface). The host writes the StepGen's registers as LinuxCNC's

@@ -1,4 +1,4 @@
-// The web view's event stream against pages that stop reading (issue 14):
+// The web view's event stream against pages that stop reading:
 // the card's server time per datagram stays what it is without them
 // (figures printed), the sim's memory does not grow, and the stalled pages
 // are dropped while a page that reads keeps getting its frames.

@@ -27,8 +27,10 @@
 #include <thread>
 #include <vector>
 
-#include "../process.hpp"
-#include "../stepgen_registers.hpp"
+#include "support/process.hpp"
+#include "support/sim_child.hpp"
+#include "support/wait.hpp"
+#include "support/stepgen_registers.hpp"
 #include "lbpkit/hostmot2.hpp"
 #include "lbpkit/lbp16_transport.hpp"
 #include "lbpkit/sserial.hpp"
@@ -42,48 +44,8 @@ using Clock = std::chrono::steady_clock;
 // 127.94.P.n: P from the process id (ctest runs tests side by side).
 inline std::string loopback(int n) { return "127.94." + std::to_string(::getpid() % 250) + "." + std::to_string(n); }
 
-// `lbpkit sim` on `address` (LBP16 and API on free ports), its own state file.
-class Sim {
- public:
-  explicit Sim(const std::string& address, std::vector<std::string> extra = {})
-      : address_(address),
-        state_((std::filesystem::temp_directory_path() / ("lbpkit-web-" + address + "-" + std::to_string(::getpid())))
-                   .string()) {
-    std::vector<std::string> args = {"sim", "--bind", address + ":0", "--api", address + ":0", "--no-realtime",
-                                     "--state", state_};
-    args.insert(args.end(), extra.begin(), extra.end());
-    daemon_ = std::make_unique<testing_process::Daemon>(args);
-    udpPort_ = std::atoi(daemon_->value("on UDP " + address + ":").c_str());
-    apiPort_ = std::atoi(daemon_->value("control API: http://" + address + ":").c_str());
-  }
-  ~Sim() {
-    daemon_.reset();
-    for (const char* suffix : {"", ".analog", ".flash"}) std::filesystem::remove(state_ + suffix);
-  }
-  [[nodiscard]] bool up() const { return udpPort_ > 0 && apiPort_ > 0; }
-  [[nodiscard]] const std::string& address() const { return address_; }
-  [[nodiscard]] int apiPort() const { return apiPort_; }
-  [[nodiscard]] int udpPort() const { return udpPort_; }
-  [[nodiscard]] pid_t pid() const { return daemon_->pid(); }
-  [[nodiscard]] std::string url(const std::string& path = "/") const {
-    return "http://" + address_ + ":" + std::to_string(apiPort_) + path;
-  }
-  json get(const std::string& path = "/api/state") const {
-    httplib::Client c(address_, apiPort_);
-    c.set_read_timeout(5, 0);
-    auto r = c.Get(path);
-    if (!r || r->status != 200) return json();
-    return json::parse(r->body, nullptr, false);
-  }
-  int stopWithin(std::chrono::milliseconds limit) { return daemon_->stopWithin(limit); }
-
- private:
-  std::string address_;
-  std::string state_;
-  std::unique_ptr<testing_process::Daemon> daemon_;
-  int udpPort_ = 0;
-  int apiPort_ = 0;
-};
+// `lbpkit sim` on `address` (LBP16 and API on free ports), its own state.
+using Sim = test_support::SimChild;
 
 // A host on the library: discovers the 7I77's two remotes and cycles them
 // at about 1 kHz on its own thread until destroyed. What it last read and
@@ -117,16 +79,6 @@ class Host {
   std::atomic<std::uint8_t> fieldIoFaults{0};  // the field I/O remote's fault byte (its CS)
   std::atomic<std::uint64_t> cycles{0};
   std::atomic<std::uint64_t> failedCycles{0};
-
-  // Waits up to `limit` for `done`, polling.
-  static bool waitFor(const std::function<bool()>& done, std::chrono::milliseconds limit = 5000ms) {
-    const auto end = Clock::now() + limit;
-    while (Clock::now() < end) {
-      if (done()) return true;
-      std::this_thread::sleep_for(10ms);
-    }
-    return done();
-  }
 
  private:
   void run() {
@@ -162,7 +114,7 @@ class Host {
   std::thread thread_;
 };
 
-// A host for the 7I77+7I76 firmwares' other half (issue 17): cycles the
+// A host for the 7I77+7I76 firmwares' other half: cycles the
 // 7I76 on SSerial channel 3 at about 1 kHz (outputs, SpinOut, SpinEna) and
 // commands StepGen 0's rate (StepGenRegisters), on its own thread until
 // destroyed.
@@ -298,7 +250,7 @@ class Browser {
     }
     client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
     client_->set_read_timeout(60, 0);
-    if (!Host::waitFor([this] {
+    if (!test_support::waitFor([this] {
           auto r = client_->Get("/status");
           return r && r->status == 200;
         }, 30000ms))  // a loaded 2-core machine starts it slowly
@@ -343,7 +295,7 @@ class Browser {
   }
   // Waits up to `limit` for `script` to return true in the page.
   bool waitFor(const std::string& script, std::chrono::milliseconds limit = 5000ms) {
-    return Host::waitFor([&] {
+    return test_support::waitFor([&] {
       const auto v = run(script);
       return v.is_boolean() && v.get<bool>();
     }, limit);

@@ -1,4 +1,4 @@
-// The web view in a real browser (issue 14): headless Chromium from Debian,
+// The web view in a real browser: headless Chromium from Debian,
 // driven through Debian's chromedriver, loads the page from `lbpkit sim`,
 // acts on the board as a user would (each action is an ordinary control-API
 // call the page makes), and the host library, cycling the sim at about
@@ -62,14 +62,14 @@ TEST_F(WebView, ThePageIsServedOfflineAndPushedAtLeast20FramesASecond) {
 TEST_F(WebView, ClickingAnInputIsReadByTheHost) {
   SKIP_WITHOUT_BROWSER();
   ASSERT_NO_FATAL_FAILURE(start(2));
-  ASSERT_TRUE(Host::waitFor([&] { return host->cycles > 50; }));
+  ASSERT_TRUE(test_support::waitFor([&] { return host->cycles > 50; }));
   EXPECT_EQ(host->inputs.load() & (1U << 5), 0U);
   b->click("#in-5-0");  // INPUT5, TB8 pin 6
-  EXPECT_TRUE(Host::waitFor([&] { return (host->inputs.load() >> 5) & 1U; })) << "the host never read INPUT5 on";
+  EXPECT_TRUE(test_support::waitFor([&] { return (host->inputs.load() >> 5) & 1U; })) << "the host never read INPUT5 on";
   EXPECT_TRUE(b->waitFor("return document.getElementById('in-5-0').dataset.on === 'true';"));
   b->screenshot("web-input-on");
   b->click("#in-5-0");
-  EXPECT_TRUE(Host::waitFor([&] { return ((host->inputs.load() >> 5) & 1U) == 0; })) << "INPUT5 never went off";
+  EXPECT_TRUE(test_support::waitFor([&] { return ((host->inputs.load() >> 5) & 1U) == 0; })) << "INPUT5 never went off";
 }
 
 TEST_F(WebView, AShortedOutputLightsTheFaultLedAndSetsTheFaultBits) {
@@ -85,7 +85,7 @@ TEST_F(WebView, AShortedOutputLightsTheFaultLedAndSetsTheFaultBits) {
   EXPECT_TRUE(b->waitFor("return document.getElementById('led-CR16-0').dataset.lit === 'true';"))
       << "CR16 (field I/O fault) did not light";
   EXPECT_TRUE(b->waitFor("return document.getElementById('fio-faults-0').textContent !== 'none';"));
-  EXPECT_TRUE(Host::waitFor([&] { return (host->fieldIoFaults.load() & 0x08U) != 0; }))
+  EXPECT_TRUE(test_support::waitFor([&] { return (host->fieldIoFaults.load() & 0x08U) != 0; }))
       << "the host never read OverCurrentFault (0x08) in the field I/O remote's fault byte";
   // The page names the fault the card has (the host's bit 0x08 above).
   EXPECT_TRUE(b->waitFor("return document.getElementById('fio-faults-0').textContent.includes('OverCurrentFault');"));
@@ -103,7 +103,7 @@ TEST_F(WebView, UnpluggingAChannelShowsItsCsState) {
   b->click("#ch-0-cable");
   EXPECT_TRUE(b->waitFor("return document.getElementById('ch-0-cable').dataset.connected === 'false';"));
   // The page shows the CS the card shows (GET /api/state), and it changed.
-  EXPECT_TRUE(Host::waitFor([&] {
+  EXPECT_TRUE(test_support::waitFor([&] {
     const auto cs = sim->get()["sserial"]["channels"][0]["cs"].get<std::string>();
     return b->run("return document.getElementById('ch-0-cs').textContent;").get<std::string>().rfind(cs, 0) == 0 &&
            b->run("return document.getElementById('ch-0-cs').textContent;").get<std::string>() != before;
@@ -135,7 +135,7 @@ TEST_F(WebView, WithTheMillAnAxisMovesOnThePlotWhileAHostDrivesIt) {
   host->volts0 = 0.0;
 }
 
-// Issue 17: on the 7I92T's 7I77+7I76 firmware, a stepper axis' row shows its
+// On the 7I92T's 7I77+7I76 firmware, a stepper axis' row shows its
 // StepGen's steps, the steps its motor lost and whether it stalled, and the
 // 7I76 has a panel of its own: inputs a click sets, outputs and the spindle
 // interface as a host on channel 3 drives them.
@@ -159,7 +159,7 @@ TEST_F(WebView, AStepperAxisAndThe7I76ShowWhatTheCardAndMachineDo) {
   SevenI76Host host76(*sim);
   // A click on INPUT20 reaches the host through channel 3.
   b->click("#i76-in-20");
-  EXPECT_TRUE(Host::waitFor([&] { return (host76.inputs.load() >> 20) & 1U; })) << "the host never read 7I76 INPUT20 on";
+  EXPECT_TRUE(test_support::waitFor([&] { return (host76.inputs.load() >> 20) & 1U; })) << "the host never read 7I76 INPUT20 on";
   EXPECT_TRUE(b->waitFor("return document.getElementById('i76-in-20').dataset.on === 'true';"));
   EXPECT_EQ(sim->get()["daughtercards"][1]["field_io"]["inputs"][20]["on"], true);
   // The host's outputs and spindle command show on the panel.

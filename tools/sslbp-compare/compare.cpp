@@ -451,7 +451,7 @@ struct Host {
     }
   }
 
-  // Issue 11: interface 0..2 after STOP ALL (and after STOP of one channel) that follows a
+  // Interface 0..2 after STOP ALL (and after STOP of one channel) that follows a
   // normal-run DOIT with field inputs 16..23 on, i.e. with byte 2 of interface 0 set
   // (SSLBP.MAC `initchannel` writes bytes 0, 1 and 3 of interface 0, not byte 2).
   void stopAfterNormalRun() {
@@ -476,7 +476,7 @@ struct Host {
     for (unsigned i = 16; i < 24; ++i) b.fieldInput(i, 0.0);
   }
 
-  // Issue 12 item 3: a remote fault held for n DOITs of the normal run. Prints the sequence of
+  // A remote fault held for n DOITs of the normal run. Prints the sequence of
   // (DATA, channel 0's CS) after each DOIT, run-length encoded, and whether TooManyErrors (CS
   // bit 7) ever set.
   template <typename Set>
@@ -530,7 +530,7 @@ struct Host {
     op("remotes", -1, b.remoteInfo());
   }
 
-  // Issue 12 item 7: the M bit (COMMAND bit 14, sserialwa.vhd `romwrena`) holds the processor in
+  // The M bit (COMMAND bit 14, sserialwa.vhd `romwrena`) holds the processor in
   // reset; while it is set, DATA reads and writes the program ROM word addressed by COMMAND bits
   // 10..0 (16 bits). Only our own pattern is printed, not the ROM's contents (the one exception:
   // the word at 0x7FF, which SSLBP.ASM fills with a "rom cookie" constant). Releasing M boots the

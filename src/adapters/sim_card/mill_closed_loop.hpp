@@ -1,8 +1,8 @@
 // The in-process 7I92 + 7I77 with the built-in mill behind it, and a host
 // closing a P position loop on X, Y and Z at 1 kHz, as a LinuxCNC servo
 // thread would, the spindle turning: one scenario for `lbpkit bench`'s
-// "board + mill" row and the BM_MillClosedLoop benchmark, so the figure the
-// README quotes and the benchmark that guards it run the same code.
+// "board + mill" row and the BM_MillClosedLoop benchmark, so the figure
+// docs/performance.md quotes and the benchmark that guards it run the same code.
 #pragma once
 
 #include <array>

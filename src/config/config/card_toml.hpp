@@ -1,4 +1,4 @@
-// The card configuration of `lbpkit sim --config FILE` (README: `--config`;
+// The card configuration of `lbpkit sim --config FILE` (docs/sim.md: `--config`;
 // examples/sim.toml): which daughtercards, field voltage, 7I77 or 7I77D,
 // jumpers, unit numbers.
 #pragma once

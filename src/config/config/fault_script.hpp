@@ -1,4 +1,4 @@
-// A fault script (issue 13): `[[fault]]` entries in the sim's TOML
+// A fault script: `[[fault]]` entries in the sim's TOML
 // (`lbpkit sim --config FILE`), each a control-API request carried out at a
 // set simulated time, and perhaps undone a while later, so that a user or a
 // test replays the same bad day every run:

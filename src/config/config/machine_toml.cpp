@@ -262,7 +262,7 @@ class MachineReader {
     return a;
   }
 
-  // A stepper on a StepGen (issue 17): its steps per machine unit as such,
+  // A stepper on a StepGen: its steps per machine unit as such,
   // or from the motor (full steps per revolution, the drive's microsteps)
   // and the axis' screw and gearing, as a stepper's data sheet gives them.
   StepperParameters stepper(const toml::table& t, const std::string& prefix, const AxisDescription& a) {

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <system_error>
 #include <vector>
+#include "lbpkit/wire/names.hpp"
 
 namespace config {
 
@@ -39,7 +40,7 @@ void ConfigReader::onlyKeys(const toml::table& t, const std::string& prefix,
     std::string_view best;
     std::size_t bestDistance = 3;  // suggest only near misses
     for (auto candidate : known) {
-      const auto d = editDistance(key, candidate);
+      const auto d = lbpkit::wire::editDistance(key, candidate);
       if (d < bestDistance) bestDistance = d, best = candidate;
     }
     std::string knownList;
@@ -196,21 +197,6 @@ std::string ConfigReader::typeName(const toml::node& n) {
     case toml::node_type::array: return "an array";
     default: return "a date or time";
   }
-}
-
-std::size_t editDistance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0U : 1U)});
-      diagonal = up;
-    }
-  }
-  return row[b.size()];
 }
 
 }  // namespace config

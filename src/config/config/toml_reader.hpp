@@ -87,7 +87,4 @@ class ConfigReader {
   std::string path_;
 };
 
-// Edit distance, for "did you mean".
-[[nodiscard]] std::size_t editDistance(std::string_view a, std::string_view b);
-
 }  // namespace config

@@ -1,5 +1,5 @@
 // HostMot2 QCount: plain (non-muxed) quadrature counters, one pin group per
-// encoder (docs/hostmot2-modules.md#encoder; firmware qcountersf.vhd,
+// encoder (docs/hostmot2-modules.md#qcount-plain-encoder; firmware qcountersf.vhd,
 // qcounterate.vhd, IDROMConst.vhd; LinuxCNC encoder.c). The registers and
 // counting are the muxed counters' (muxed_encoder.hpp), at their own base:
 //   0x3000 count   0x3100 CCR   0x3200 TSDiv   0x3300 TS

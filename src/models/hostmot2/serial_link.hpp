@@ -68,7 +68,7 @@ class SerialLink {
   void addExtra(Direction dir, unsigned count = 1) { faults(dir).add += count; }
   void breakNext() { breakNext_ = true; }
 
-  // Faults at a rate (issue 13), as a noisy cable makes them: each of a
+  // Faults at a rate, as a noisy cable makes them: each of a
   // character's 8 data bits flipped with probability `bitErrorRate`; a
   // character lost with `dropRate`; a noise character after one with
   // `extraRate`; a reply ending in a break with `breakRate`. Drawn from the

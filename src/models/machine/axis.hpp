@@ -36,7 +36,7 @@ class Axis {
   // over motors) and the brake engaged or not.
   void step(double driveTorque, bool brakeEngaged, double h);
 
-  // Faults a commissioning user rehearses (issue 10). An outside force (a
+  // Faults a commissioning user rehearses. An outside force (a
   // hand on the table, a collision) moves the axis by `distance` machine
   // units at `speed` units per second (above 0; else invalid_argument),
   // whatever the motors do; then it lets go, leaving the axis at rest. A

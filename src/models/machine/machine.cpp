@@ -17,7 +17,7 @@ constexpr unsigned kEncodersPer7I77 = 6;  // manual: ENCODER INTERFACE
 // take the first, hm2_7i92.0.encoder.06, and it is the one driven here.
 constexpr unsigned kSevenI76SpindleCounter = 6;
 
-// The first thing the description wires to the 7I76 (issue 17), in a
+// The first thing the description wires to the 7I76, in a
 // machine file's order (axes, spindle, switches, outputs: the order
 // sevenI76Where is noted in), or "" when it wires nothing there.
 std::string sevenI76Wiring(const MachineDescription& d) {

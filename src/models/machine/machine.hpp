@@ -1,9 +1,9 @@
-// A machine behind one 7I77's terminals (issue 10): axes with servo
+// A machine behind one 7I77's terminals: axes with servo
 // amplifiers on the analog outputs and drive enables, encoders on the
 // card's muxed counters, switches on the field inputs, a spindle on AOUT5 +
 // ENA5, and field outputs that drive a coolant pump, a lube pump, a brake.
-// An axis may instead be a stepper on one of the card's StepGens (issue 17:
-// StepperMotor), which goes where the StepGen's steps put it. On the
+// An axis may instead be a stepper on one of the card's StepGens
+// (StepperMotor), which goes where the StepGen's steps put it. On the
 // 7I77+7I76 firmwares switches, outputs, brakes and the spindle (its VFD on
 // SpinOut, SpinEna and SpinDir; its encoder on muxed counter 6) may be on
 // the 7I76's terminals instead (Daughtercard).
@@ -128,7 +128,7 @@ class Machine {
   // probes); how many there are.
   std::size_t setSwitches(SwitchKind kind, bool tripped);
 
-  // Faults to rehearse (issue 10), on axis `axis` (an index; see axisIndex):
+  // Faults to rehearse, on axis `axis` (an index; see axisIndex):
   // an outside force pushing it (Axis::push), a jam (Axis::setJammed), a
   // broken encoder channel of drive `drive` (QuadratureEncoder::setBroken).
   // The card's time is now. Out of range: std::out_of_range. A stepper axis
@@ -151,7 +151,7 @@ class Machine {
   [[nodiscard]] double commandVelocity(std::size_t axis) const;
   [[nodiscard]] double followingError(std::size_t axis) const;
 
-  // One row of the servo-cycle trace (issue 10): time_s, then per axis
+  // One row of the servo-cycle trace: time_s, then per axis
   // <a>_command_volts, <a>_command_velocity, <a>_position, <a>_velocity,
   // <a>_following_error (drive 0's amplifier), then spindle_rpm with a
   // spindle. traceRow fills `row` (traceColumns().size() values) without

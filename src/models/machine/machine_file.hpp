@@ -3,7 +3,7 @@
 // amplifiers, motors, loads and screws, the switches on the field inputs
 // and the field outputs that drive things. On the 7I77+7I76 firmwares
 // switches, outputs, a brake and the spindle may be on the 7I76's terminals
-// instead (Daughtercard; issue 17). Three built-ins: mill(),
+// instead (Daughtercard). Three built-ins: mill(),
 // lathe(), gantry() (docs/machine-mill.md has the mill's wiring as
 // LinuxCNC names the pins). Machine files are these in TOML:
 // config::loadMachine (src/config/config/machine_toml.hpp) reads them, and
@@ -43,7 +43,7 @@ struct DriveDescription {
 struct AxisDescription {
   std::string name;                     // "x"
   std::vector<DriveDescription> drives;  // one, or two for a gantry (rigidly coupled); none for a stepper
-  // A stepper on a StepGen in place of the servo drives (issue 17): the axis
+  // A stepper on a StepGen in place of the servo drives: the axis
   // goes where the steps put it (stepper_motor.hpp), not where torques do.
   std::optional<StepperParameters> stepper;
   double screwPitch = 5.0;              // mm per screw revolution (machine units are mm: the

@@ -61,7 +61,7 @@ class QuadratureEncoder {
     encoders_->setVelocity(input_, std::abs(error) < kAtRest ? 0.0 : error / seconds, from);
   }
 
-  // A broken channel (issue 10: a fault to rehearse). With A or B gone the
+  // A broken channel (a fault to rehearse). With A or B gone the
   // counter sees one channel toggle alone, up one count and back, and no
   // longer follows the shaft: the signal stays where it is. Mended, it goes
   // on from there; the motion in between is lost, as on the machine (the

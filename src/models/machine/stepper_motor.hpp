@@ -1,5 +1,5 @@
 // A stepper motor on an axis, driven by a HostMot2 StepGen's step/dir
-// outputs (issue 17, item 3): through its drive, each step the StepGen makes
+// outputs: through its drive, each step the StepGen makes
 // turns the motor one (micro)step, so the axis is where the steps put it:
 // the steps made since the machine was built over `stepsPerUnit`.
 //

@@ -1,6 +1,6 @@
 // The switches wired to the 7I77's field inputs (manual: FIELD
 // INPUT/OUTPUT CONNECTORS, FIELD INPUT CHARACTERISTICS, WHY SINKING INPUTS),
-// or to the 7I76's on the 7I77+7I76 firmwares (issue 17): home and limit
+// or to the 7I76's on the 7I77+7I76 firmwares: home and limit
 // switches that trip at positions along an axis, the E-stop chain, a probe.
 // A closed contact puts its board's field power on its input, an open one
 // leaves it at 0 V. Limits and the E-stop chain are normally closed, so the

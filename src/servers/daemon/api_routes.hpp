@@ -28,7 +28,7 @@ namespace net {
 // Where and how the API serves, who may use it, and its limits. The limits
 // keep it answering whatever clients do: slow or idle connections wait in
 // one thread that costs them nothing but a socket, and only whole requests
-// reach the threads that answer them (README: Reliability).
+// reach the threads that answer them (docs/reliability.md).
 struct ApiOptions {
   std::string address = "127.0.0.1";  // never anything else unless the user asks
   int port = 27182;                   // 0: any free port

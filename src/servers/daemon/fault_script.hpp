@@ -1,4 +1,4 @@
-// A fault script carried out (issue 13): control-API requests at set
+// A fault script carried out: control-API requests at set
 // simulated times, each perhaps undone a while later (`for`), read from the
 // sim's TOML by the app (config/fault_script.hpp) and handed over as these
 // entries. The API's own code carries them out (applyAction), so a script

@@ -1,4 +1,4 @@
-// The RS-422 link faults' face on the control API (issue 13): POST /api/link
+// The RS-422 link faults' face on the control API: POST /api/link
 // sets them on one smart-serial channel, GET /api/link shows, per channel,
 // what is set, what the cable did, and what the two ends made of it: the
 // SSLBP channel's judged errors (manual: CS REGISTER AFTER START, byte 0,

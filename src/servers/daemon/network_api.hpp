@@ -1,4 +1,4 @@
-// The network faults' face on the control API (issue 13): POST /api/network
+// The network faults' face on the control API: POST /api/network
 // sets them, GET /api/network shows what is set and what it did. A fault
 // script's "network" entries are the same request at a set time.
 #pragma once

@@ -1,8 +1,8 @@
 // The fields of a control-API request body (and of a fault script's entry,
 // which is the same request at a set time): each read checks its type and
 // range, and every complaint is an std::invalid_argument that names the key
-// and what it may be, in words, never the JSON library's own (README:
-// Control API). The API answers it with HTTP 400.
+// and what it may be, in words, never the JSON library's own
+// (docs/control-api.md). The API answers it with HTTP 400.
 #pragma once
 
 #include <cstdint>

@@ -260,7 +260,7 @@ std::string SimDaemon::banner() const {
   if (apiPort_ >= 0)
     s += fmt::format("  control API: http://{}:{}/api/state{}\n", options_.apiAddress, apiPort_,
                      options_.apiToken.empty() ? "" : " (with its token: Authorization: Bearer TOKEN)");
-  if (apiPort_ >= 0)  // issue 14: the board and the machine, live
+  if (apiPort_ >= 0)  // the board and the machine, live
     s += fmt::format("  web view: http://{}:{}/{}\n", options_.apiAddress, apiPort_,
                      options_.apiToken.empty() ? "" : "#token=TOKEN");
   if (clock_.source() == SimClock::Source::Host)
@@ -366,8 +366,8 @@ namespace {
 // (EEVDF, Linux 6.6 and later, where sched_attr.sched_runtime of a
 // SCHED_OTHER thread is its requested slice; 6.12 lets a woken task with a
 // shorter slice preempt). Needs no privilege. On an older kernel the call
-// fails or is ignored, and the thread runs as before. Measured here without
-// CAP_SYS_NICE beside LinuxCNC on 2 cores (README: Scheduling): the slice
+// fails or is ignored, and the thread keeps the default slice. Measured here without
+// CAP_SYS_NICE beside LinuxCNC on 2 cores (docs/sim.md: Scheduling): the slice
 // turns a datagram queued for up to 2.8 ms into one taken at once.
 struct SchedAttr {
   std::uint32_t size;

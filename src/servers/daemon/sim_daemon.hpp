@@ -57,7 +57,7 @@ struct SimOptions {
   // A little world for demonstrations: the 7I77's field outputs wired back
   // to its inputs 0..15, and encoder 0 turning at 10 000 counts/s.
   bool demo = false;
-  // A machine behind the 7I77 on connector 0 (issue 10): servo axes,
+  // A machine behind the 7I77 on connector 0: servo axes,
   // switches, spindle (machine/machine.hpp). Excludes `demo`.
   std::optional<machine::MachineDescription> machine;
   std::string machineSource;  // where it came from, for the banner ("built-in mill", a file)
@@ -70,13 +70,13 @@ struct SimOptions {
   // empty: in memory, blank at every start.
   std::filesystem::path flashFile;
   std::string configDescription = "built-in default";
-  // Faults at set simulated times (the TOML's [[fault]] entries, issue 13).
+  // Faults at set simulated times (the TOML's [[fault]] entries).
   std::vector<ScriptedFault> faultScript;
   // SSLBP channels brought out to a pseudo-terminal each, for a remote of
-  // the user's own (`--remote 2=pty`, issue 12 item 10; pty/pty_channel.hpp).
+  // the user's own (`--remote 2=pty`; pty/pty_channel.hpp).
   std::vector<unsigned> externalRemotes;
   // Every datagram in and every reply out, with its time, to this pcap file
-  // (`--trace FILE.pcap`, issue 18; daemon/pcap_recorder.hpp).
+  // (`--trace FILE.pcap`; daemon/pcap_recorder.hpp).
   std::string packetTraceFile;
 };
 

@@ -3,7 +3,7 @@
 // The models expose what can be observed as plain State structs next to
 // their registers; the daemon collects them into a SimState on the card
 // thread, and this is the only code that knows how they look in JSON. The
-// keys and values are an interface (tests, scripts and README.md use them):
+// keys and values are an interface (tests, scripts and docs/control-api.md use them):
 // add keys, never rename or reshape one.
 #pragma once
 
@@ -69,7 +69,7 @@ struct SimState {
     double queueMedianUs = 0;
     double queueP99Us = 0;
     double queueMaxUs = 0;
-    // For `lbpkit bench` (issue 15): the 99.9th percentiles, and how many
+    // For `lbpkit bench`: the 99.9th percentiles, and how many
     // datagrams took at least each of kAtLeastUs (hm2_eth's read timeout, 80 %
     // of its period, at 10, 4, 2 and 1 kHz).
     static constexpr std::array<unsigned, 4> kAtLeastUs{80, 200, 400, 800};
@@ -91,7 +91,7 @@ struct SimState {
     std::array<hm2::MuxedEncoder::State::Counter, kEncodersPerDaughtercard> encoders{};
   };
   std::vector<Daughtercard> daughtercards;
-  // The 7I76 on the 7I77+7I76 firmwares (issue 17): its field I/O
+  // The 7I76 on the 7I77+7I76 firmwares: its field I/O
   // processor, on SSerial channel `channel`, the card's connector
   // `connector` (IO17..33: PIN_7I77_7I76_34.vhd). Listed after the 7I77s in
   // "daughtercards", with "type": "7I76".

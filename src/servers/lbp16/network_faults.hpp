@@ -1,4 +1,4 @@
-// A bad network between the host and the virtual card, on purpose (issue 13):
+// A bad network between the host and the virtual card, on purpose:
 // datagrams dropped, delayed, duplicated, reordered or damaged, per
 // direction, and the cable pulled for a while.
 //

@@ -1,4 +1,4 @@
-// The web view's event stream (issue 14): server-sent events to every page
+// The web view's event stream: server-sent events to every page
 // that asked for them, a frame at a fixed rate, on a thread of its own.
 //
 // The card thread never waits on a page. A frame is made once per period
@@ -23,7 +23,7 @@
 namespace web {
 
 struct EventStreamOptions {
-  std::chrono::milliseconds period{40};  // 25 frames a second (issue 14: at least 20)
+  std::chrono::milliseconds period{40};  // 25 frames a second (at least 20)
   unsigned maxClients = 16;              // one more closes the oldest
   // A page that takes no byte of its frame for this long is dropped.
   std::chrono::milliseconds stallTimeout{3000};

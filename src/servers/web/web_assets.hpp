@@ -1,4 +1,4 @@
-// The web view's files (issue 14): the page, its script and style, and the
+// The web view's files: the page, its script and style, and the
 // plotting library (Chart.js, from Debian's libjs-chart.js), compiled into
 // lbpkit at build time (embed_assets.cmake), so `lbpkit sim` serves them
 // offline, with nothing beside the binary and no CDN.

@@ -1,6 +1,6 @@
 // Protocol decoding: what a host said to a HostMot2 card over LBP16, and
-// what it said to a smart-serial remote over LBP, in words (`lbpkit decode`;
-// issue 18). The caller brings the packets (lbpkit decode reads pcap files
+// what it said to a smart-serial remote over LBP, in words (`lbpkit decode`).
+// The caller brings the packets (lbpkit decode reads pcap files
 // with libpcap); this names every command: LBP16 space, address and the
 // register's name from the card's IDROM (`sserial.0.command`,
 // `encoder.03.count`, `watchdog.timer`), the SSLBP commands written (STOP,

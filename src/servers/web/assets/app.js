@@ -56,7 +56,7 @@
     for (const a of m.axes) {
       const n = a.name;
       // A stepper axis can be jammed, not pushed, and has no encoder
-      // (README: a stepper axis; the API refuses both).
+      // (docs/machines.md: a stepper axis; the API refuses both).
       const stepper = !!a.stepper;
       const jam = el("button", { id: `jam-${n}`, text: "jam", onclick: (e) => L.post("machine", { action: "jam", axis: n,
         jammed: e.target.dataset.jammed !== "true" }) });

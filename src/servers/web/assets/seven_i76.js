@@ -1,4 +1,4 @@
-// The 7I76 on the 7I77+7I76 firmwares (issue 17): its field I/O processor
+// The 7I76 on the 7I77+7I76 firmwares: its field I/O processor
 // on its SSerial channel, as GET /api/state lists it among the daughtercards
 // ("type": "7I76"): 32 inputs, 16 sourcing outputs, field power and the
 // spindle interface (SpinOut volts, SpinEna, SpinDir: LinuxCNC sserial(9)'s

@@ -1,0 +1,231 @@
+// What the tests of the real clients (tests/interop/: mesaflash, LinuxCNC's
+// hm2_eth, halcmd beside `lbpkit pins`) share: a shell command's output,
+// `lbpkit sim` as a user runs it, and LinuxCNC in a network namespace of
+// the test's own joined to the sim's by a veth pair.
+#pragma once
+
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "support/process.hpp"
+#include "support/sim_child.hpp"
+#include "support/wait.hpp"
+
+namespace interop {
+
+using namespace std::chrono_literals;
+using nlohmann::json;
+using test_support::Daemon;
+
+struct Shell {
+  int exit = -1;
+  std::string out;
+};
+
+// Runs a shell command; its output goes through a file, not a pipe, since
+// what it starts (rtapi_app) may keep its output open long after it exits.
+inline Shell sh(const std::string& command) {
+  static int serial = 0;
+  const auto file = std::filesystem::temp_directory_path() /
+                    ("lbpkit-sh-" + std::to_string(::getpid()) + "-" + std::to_string(serial++));
+  Shell r;
+  const int status = std::system((command + " > " + file.string() + " 2>&1 < /dev/null").c_str());
+  r.exit = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream in(file);
+  r.out.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  std::filesystem::remove(file);
+  return r;
+}
+
+template <typename... A>
+std::string fmt(const char* f, A... a) {
+  char buf[128];
+  std::snprintf(buf, sizeof buf, f, a...);
+  return buf;
+}
+
+inline bool have(const char* tool) { return sh(std::string("command -v ") + tool).exit == 0; }
+
+inline void reapOrphans() {
+  while (::waitpid(-1, nullptr, WNOHANG) > 0) {
+  }
+}
+
+// `lbpkit sim` on ADDRESS, on the port hm2_eth and mesaflash use, at the
+// priority a user runs it (no --no-realtime), with its control API on a
+// free port of 127.0.0.1 and its state in a folder of its own.
+class Sim : public test_support::SimChild {
+ public:
+  explicit Sim(const std::string& address, std::vector<std::string> extra = {})
+      : SimChild(test_support::SimOptions{address, -1, false, false, {}, std::move(extra)}) {}
+  [[nodiscard]] bool up() const { return apiPort() > 0; }
+  // POST: the JSON answer, whatever its status.
+  json post(const std::string& path, const json& body) { return SimChild::post(path, body).body; }
+};
+
+// Not faster than every 25 ms: each look may ask the sim for its whole state
+// or start halcmd (five programs through ip netns exec), and on two cores
+// that takes CPU from the sim and from LinuxCNC's servo thread.
+template <typename F>
+bool waitFor(F&& ok, std::chrono::milliseconds limit) {
+  return test_support::waitFor(std::forward<F>(ok), limit, 25ms);
+}
+
+// A loopback address of this test's own (several cards can run side by side).
+inline std::string loopback() { return "127.77." + std::to_string(::getpid() % 200) + ".1"; }
+
+// LinuxCNC's hm2_eth in a network namespace joined by a veth pair to the
+// namespace `lbpkit sim` answers in (Debian's hm2_eth cannot use loopback).
+// hm2_eth gives the card little time at set-up: a few milliseconds for the
+// MAC address (else "rtapi_app_main: Resource temporarily unavailable"), 51
+// ms for each smart-serial DoIt of the discovery (else "hm2_sserial_waitfor:
+// Timeout"); the sim's card thread answers within microseconds at SCHED_FIFO
+// (it runs as root here), and the interop tests run one at a time
+// (RUN_SERIAL), so nothing else takes the CPU from it. `hal` runs halcmd in
+// the test's namespace.
+// hm2_eth counts a reply that has not come 80 % of a servo period after its
+// read as a packet error, and ten in a row set io_error. On this kernel
+// LinuxCNC's servo thread is not real-time, and one held back past that
+// moment finds its deadline gone before it looks for the reply the card
+// sent in microseconds: errors of LinuxCNC's own scheduling. The tests of
+// names, values and watchdogs let it wait 20 ms (packet-read-timeout, in
+// nanoseconds: hm2_eth(9)), as a configuration for such a machine would;
+// the measurements below keep hm2_eth's own timeout and print what it counts.
+inline std::string patientReadTimeout(const std::string& board) {
+  return "setp " + board + ".packet-read-timeout 20000000\n";
+}
+
+class LinuxCnc : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (::geteuid() != 0) GTEST_SKIP() << "network namespaces need root";
+    if (!have("halcmd") || !have("ip")) GTEST_SKIP() << "linuxcnc-uspace or iproute2 is not installed (scripts/test installs them)";
+    ::prctl(PR_SET_CHILD_SUBREAPER, 1);  // rtapi_app outlives halcmd: reap it ourselves
+    const auto id = std::to_string(::getpid() % 100000);
+    ns_ = "lbpkit-" + id;
+    vethCard_ = "lbk" + id + "c";
+    vethHost_ = "lbk" + id + "h";
+    const auto net = "10.211." + std::to_string(::getpid() % 250) + ".";
+    cardIp_ = net + "1";
+    hostIp_ = net + "2";
+    fifo_ = "/tmp/lbpkit-rtapi-" + id;
+    const auto r = sh("ip netns add " + ns_ + " && ip link add " + vethCard_ + " type veth peer name " + vethHost_ +
+                      " && ip link set " + vethHost_ + " netns " + ns_ + " && ip addr add " + cardIp_ + "/24 dev " +
+                      vethCard_ + " && ip link set " + vethCard_ + " up && ip -n " + ns_ + " addr add " + hostIp_ +
+                      "/24 dev " + vethHost_ + " && ip -n " + ns_ + " link set " + vethHost_ + " up && ip -n " + ns_ +
+                      " link set lo up");
+    ASSERT_EQ(r.exit, 0) << r.out;
+    created_ = true;
+  }
+  void TearDown() override {
+    if (!created_) return;
+    // A failed run says how late the sim was (its own figures, from each
+    // datagram's kernel receive time) and how it was scheduled, beside what
+    // hm2_eth counted: whose lateness it was.
+    if (HasFailure() && sim_)
+      std::printf("sim server: %s\nhm2_eth: packet-error-total %s, io_error %s\n", sim_->get()["server"].dump().c_str(),
+                  getp("hm2_7i92.0.packet-error-total").c_str(), getp("hm2_7i92.0.io_error").c_str());
+    hal("halrun -U");
+    sim_.reset();
+    sh("ip link del " + vethCard_);
+    sh("ip netns del " + ns_);
+    std::filesystem::remove(fifo_);
+    std::this_thread::sleep_for(100ms);
+    reapOrphans();
+  }
+  // rtapi_app (LinuxCNC's servo thread, hm2_eth's sender) is started by the
+  // first halcmd and inherits its scheduling: HAL commands run at SCHED_FIFO
+  // priority 1 (below the sim's card thread, 40), as a real-time kernel
+  // would run LinuxCNC. hm2_eth's set-up gives each queued read 1.6 ms
+  // before its HAL parameters exist (LinuxCNC: hm2_eth.c), and a rtapi_app
+  // held back by other work past that deadline fails to load ("rtapi_app_main:
+  // Resource temporarily unavailable") though the card answered at once.
+  // The polls pass `nice` instead: they yield to the sim and to LinuxCNC.
+  Shell hal(const std::string& command, const char* nice = "") {
+    const std::string priority = *nice != '\0' ? std::string(nice) : std::string("chrt -f 1 ");
+    return sh(priority + "ip netns exec " + ns_ + " env RTAPI_UID=" + std::to_string(65534) +
+              " RTAPI_FIFO_PATH=" + fifo_ + " timeout 60 " + command);
+  }
+  // The polls (halcmd through ip netns exec, every 25 ms) at nice 10: they
+  // yield the CPU to the sim, which must answer within 0.8 ms, and to
+  // rtapi_app. rtapi_app is already running when a test polls.
+  std::string getp(const std::string& pin) {
+    auto v = hal("halcmd getp " + pin, "nice -n 10 ").out;
+    while (!v.empty() && (v.back() == '\n' || v.back() == ' ')) v.pop_back();
+    return v;
+  }
+  // Loads hostmot2 and hm2_eth with `config`, `board`'s read and write in a
+  // 1 kHz servo thread, hm2_eth waiting up to patientReadTimeout for each
+  // reply.
+  Shell loadBoard(const std::string& board, const std::string& config) {
+    const auto file = fifo_ + ".hal";
+    std::ofstream(file) << "loadrt hostmot2\nloadrt hm2_eth board_ip=" << cardIp_ << " config=\"" << config << "\"\n"
+                        << patientReadTimeout(board) << "loadrt threads name1=servo period1=1000000\n"
+                        << "addf " << board << ".read servo\naddf " << board << ".write servo\nstart\n";
+    auto r = hal("halcmd -f " + file);
+    std::filesystem::remove(file);
+    return r;
+  }
+  // A copy of a corpus HAL file (board_ip=10.10.10.10) pointed at the sim:
+  // its path, `name` telling it apart.
+  std::string ownCopy(const std::filesystem::path& file, const std::string& name) {
+    std::ifstream in(file);
+    std::ostringstream text;
+    for (std::string l; std::getline(in, l);) {
+      const auto at = l.find("board_ip=10.10.10.10");
+      text << (at == std::string::npos ? l : l.replace(at, 20, "board_ip=" + cardIp_)) << "\n";
+    }
+    const auto own = fifo_ + "-" + name + ".hal";
+    std::ofstream(own) << text.str();
+    return own;
+  }
+  // Loads hostmot2 + hm2_eth with the servo thread running; `patient`:
+  // hm2_eth waits up to patientReadTimeout for each reply (else its own
+  // 80 % of the period, which the measurements count against).
+  Shell load(const std::string& sserialPort, bool patient = true) {
+    const auto file = fifo_ + ".hal";
+    std::ofstream(file) << "loadrt hostmot2\n"
+                        << "loadrt hm2_eth board_ip=" << cardIp_ << " config=\"num_encoders=6 sserial_port_0="
+                        << sserialPort << "\"\n"
+                        << (patient ? patientReadTimeout("hm2_7i92.0") : "") << "loadrt threads name1=servo period1=1000000\n"
+                        << "addf hm2_7i92.0.read servo\naddf hm2_7i92.0.write servo\nstart\n";
+    auto r = hal("halcmd -f " + file);
+    std::filesystem::remove(file);
+    return r;
+  }
+  // For the measurements: hm2_eth on its own read timeout. Its set-up gives
+  // each queued read 1.6 ms, so on the wall clock of a busy machine it may
+  // not load at all; that is printed as what was measured, not failed on.
+  bool measuredLoad() {
+    const auto r = load("00xxxxxx", false);
+    if (r.exit != 0) std::printf("hm2_eth did not load on its own read timeout this time:\n%s\n", r.out.c_str());
+    return r.exit == 0;
+  }
+  void startSim() {
+    sim_ = std::make_unique<Sim>(cardIp_);
+    ASSERT_TRUE(sim_->up());
+  }
+
+  std::string ns_, vethCard_, vethHost_, cardIp_, hostIp_, fifo_;
+  bool created_ = false;
+  std::unique_ptr<Sim> sim_;
+};
+
+}  // namespace interop
