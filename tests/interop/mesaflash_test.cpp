@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "support/interop.hpp"
+#include "support/temp_dir.hpp"
 
 namespace interop {
 namespace {
@@ -49,9 +50,16 @@ TEST(Mesaflash, ReadsTheVirtualCard) {
   EXPECT_EQ(sim.stop(), 0);
 }
 
+// A file of this process's own, in a folder that goes when the process
+// ends, however a test ended.
+std::string scratch(const std::string& name) {
+  static const test_support::TempDir folder("lbpkit-mesaflash");
+  return folder / name;
+}
+
 // A Xilinx .bit file (header fields a..e, then the data) with made-up data.
 std::string fakeBitfile() {
-  const auto path = (std::filesystem::temp_directory_path() / ("lbpkit-" + std::to_string(::getpid()) + ".bit")).string();
+  const auto path = scratch("fake.bit");
   std::ofstream f(path, std::ios::binary);
   const unsigned char magic[] = {0x00, 0x09, 0x0f, 0xf0, 0x0f, 0xf0, 0x0f, 0xf0, 0x0f, 0xf0, 0x00, 0x00, 0x01};
   f.write(reinterpret_cast<const char*>(magic), sizeof magic);
@@ -211,7 +219,7 @@ TEST(Mesaflash, ReadsEveryCardOfTheCatalogue) {
 // An Efinix .bin as mesaflash's bitfile.c reads one: text lines, the 7th
 // naming the part after a blank, then (made-up) data.
 std::string fakeEfinixBin() {
-  const auto path = (std::filesystem::temp_directory_path() / ("lbpkit-" + std::to_string(::getpid()) + ".bin")).string();
+  const auto path = scratch("fake.bin");
   std::ofstream f(path, std::ios::binary);
   f << "Version: lbpkit\nDate: 2026-12-02\nMode: active\nWidth: 4\nFamily: Trion\nFPGA: T20\n"
     << "Device: T20F256\nProject: lbpkit_test\nPadded: yes\nEnd: 1\n";
