@@ -29,6 +29,7 @@
 
 #include "support/process.hpp"
 #include "support/sim_child.hpp"
+#include "support/temp_dir.hpp"
 #include "support/wait.hpp"
 #include "support/stepgen_registers.hpp"
 #include "lbpkit/hostmot2.hpp"
@@ -227,23 +228,16 @@ inline std::string base64Decode(const std::string& in) {
   return out;
 }
 
-// A folder of this process's own under the temporary directory.
-inline std::string ownTemporaryDirectory() {
-  std::string name = (std::filesystem::temp_directory_path() / "lbpkit-browser-XXXXXX").string();
-  if (::mkdtemp(name.data()) == nullptr) throw std::runtime_error("mkdtemp " + name + " failed");
-  return name;
-}
-
 // chromedriver and one headless Chromium session, both gone when this goes.
 class Browser {
  public:
-  Browser() : port_(freeTcpPort()), tmp_(ownTemporaryDirectory()) {
+  Browser() : port_(freeTcpPort()) {
     pid_ = ::fork();
     if (pid_ == 0) {
       ::prctl(PR_SET_PDEATHSIG, SIGTERM);
       // chromedriver's profile and Chromium's singleton folders go here,
       // removed with it, whatever state the browser was left in.
-      ::setenv("TMPDIR", tmp_.c_str(), 1);
+      ::setenv("TMPDIR", tmp_.path().c_str(), 1);
       const std::string portArg = "--port=" + std::to_string(port_);
       ::execl(kChromedriver, kChromedriver, portArg.c_str(), "--log-level=OFF", static_cast<char*>(nullptr));
       ::_exit(127);
@@ -277,8 +271,6 @@ class Browser {
       ::kill(pid_, SIGTERM);
       ::waitpid(pid_, nullptr, 0);
     }
-    std::error_code ignored;
-    std::filesystem::remove_all(tmp_, ignored);
   }
   Browser(const Browser&) = delete;
   Browser& operator=(const Browser&) = delete;
@@ -325,7 +317,7 @@ class Browser {
   }
 
   int port_;
-  std::string tmp_;
+  test_support::TempDir tmp_{"lbpkit-browser"};  // removed after the browser has gone
   pid_t pid_ = -1;
   std::unique_ptr<httplib::Client> client_;
   std::string session_;
