@@ -269,19 +269,19 @@ bool VirtualBoard::enable(unsigned channel, unsigned connector) {
 
 bool VirtualBoard::watchdogBitten() {
   auto l = card_->lock();
-  return card_->board().watchdog().bitten();
+  return card_->board().part<hm2::Watchdog>().bitten();
 }
 
 void VirtualBoard::setCable(unsigned channel, bool connected) {
   auto l = card_->lock();
-  auto& ss = card_->board().smartSerial();
+  auto& ss = card_->board().part<hm2::SmartSerial>();
   if (channel >= ss.channels())
     throw std::out_of_range(fmt::format("channel {}: the card has smart-serial channels 0..{}", channel, ss.channels() - 1));
   ss.link(channel).setConnected(connected);
 }
 
 void VirtualBoard::checkEncoder(unsigned encoder) {
-  const unsigned n = card_->board().encoders().counters();
+  const unsigned n = card_->board().part<hm2::MuxedEncoder>().counters();
   if (encoder >= n) throw std::out_of_range(fmt::format("encoder {}: the card has encoders 0..{}", encoder, n - 1));
 }
 
@@ -300,14 +300,14 @@ void VirtualBoard::setEncoder(unsigned encoder, std::optional<double> countsPerS
   if (countsPerSecond && (!std::isfinite(*countsPerSecond) || std::abs(*countsPerSecond) > 1e8))
     throw std::invalid_argument(fmt::format("encoder {}: {} counts per second", encoder, *countsPerSecond));
   auto& b = card_->board();
-  if (countsPerRev) b.encoders().setIndexPeriod(encoder, *countsPerRev);
-  if (countsPerSecond) b.encoders().setVelocity(encoder, *countsPerSecond, b.now());
+  if (countsPerRev) b.part<hm2::MuxedEncoder>().setIndexPeriod(encoder, *countsPerRev);
+  if (countsPerSecond) b.part<hm2::MuxedEncoder>().setVelocity(encoder, *countsPerSecond, b.now());
 }
 
 std::uint16_t VirtualBoard::encoderCount(unsigned encoder) {
   auto l = card_->lock();
   checkEncoder(encoder);
-  return card_->board().encoders().count(encoder);
+  return card_->board().part<hm2::MuxedEncoder>().count(encoder);
 }
 
 // --- VirtualMachine -----------------------------------------------------------------------------

@@ -34,7 +34,7 @@ TEST(RealTime, TheHostCycleDoesNotAllocate) {
   enc.initialize();
   const auto out = ss.find(0, "output");
   const auto a0 = ss.find(1, "analogout0");
-  t.card().encoders().setVelocity(0, 1000, hm2::SimTime{t.now()});
+  t.card().part<hm2::MuxedEncoder>().setVelocity(0, 1000, hm2::SimTime{t.now()});
   for (int i = 0; i < 10; ++i) ss.cycle();  // warm up
   const auto before = gAllocations.load();
   for (int i = 0; i < 1000; ++i) {

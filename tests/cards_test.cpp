@@ -201,8 +201,8 @@ TEST(Cards, The7I92TRunsThe7I77And7I76FirmwareWithTheDpll) {
   EXPECT_EQ(r.find(kMqc)->instances, 8);
   EXPECT_EQ(r.find(kSg)->instances, 5);
   EXPECT_EQ(r.find(kSg)->version, 2);
-  EXPECT_EQ(card.smartSerial().channels(), 5U);
-  EXPECT_EQ(card.encoders().counters(), 8U);
+  EXPECT_EQ(card.part<hm2::SmartSerial>().channels(), 5U);
+  EXPECT_EQ(card.part<hm2::MuxedEncoder>().counters(), 8U);
   EXPECT_EQ(r.fn(0), 0x00C193U);   // the 7I77 on P2 (IO0): SS2TXEN
   EXPECT_EQ(r.fn(7), 0x000D81U);   // ENCMUX
   EXPECT_EQ(r.fn(17), 0x000582U);  // IO17: StepGen 0 Dir
@@ -249,12 +249,12 @@ TEST(Cards, The7I96SHasThe7I77OnP1AndItsOwnStepGensOnTb1Tb2) {
   EXPECT_EQ(r.fn(50), 0x020C03U);  // QCMUXI45
   // The 7I77 answers on channels 0 and 1; channels 2 (TB6) and 3 (TB2) have nobody.
   CardHost h{card};
-  EXPECT_EQ(card.smartSerial().channels(), 4U);
+  EXPECT_EQ(card.part<hm2::SmartSerial>().channels(), 4U);
   h.command(cmd::kStop);
   for (unsigned ch = 0; ch < 4; ++ch) h.write(CardHost::cs(ch), 0);
   EXPECT_EQ(h.command(cmd::kStart | 0x0F), 0x0C);
-  EXPECT_TRUE(card.smartSerial().channelRunning(0));
-  EXPECT_TRUE(card.smartSerial().channelRunning(1));
+  EXPECT_TRUE(card.part<hm2::SmartSerial>().channelRunning(0));
+  EXPECT_TRUE(card.part<hm2::SmartSerial>().channelRunning(1));
   EXPECT_EQ(card.daughtercard(0).fieldIo.unitNumber() >> 24, 0x12U);
 }
 
@@ -262,7 +262,7 @@ TEST(Cards, The7I80HDHasThe7I77OnIo0To16OfThreeTwentyFourPinPorts) {
   auto card = make("7I80HD-25");
   Idrom r(card);
   EXPECT_EQ(r.tags(), (std::vector<std::uint8_t>{kWd, kIo, kMqc, kMqs, kSs, kLed}));
-  EXPECT_EQ(card.smartSerial().channels(), 3U);
+  EXPECT_EQ(card.part<hm2::SmartSerial>().channels(), 3U);
   EXPECT_EQ(r.fn(0), 0x00C193U);
   EXPECT_EQ(r.fn(16), 0x020C03U);
   for (unsigned io = 17; io < 72; ++io) EXPECT_EQ(r.fn(io), 0U) << io;
@@ -270,7 +270,7 @@ TEST(Cards, The7I80HDHasThe7I77OnIo0To16OfThreeTwentyFourPinPorts) {
   CardHost h{card};
   h.write(hm2::IoPort::kDdr, 1U << 23);
   h.write(hm2::IoPort::kData, 0);
-  EXPECT_FALSE(card.ioPort().pin(0, 23));
+  EXPECT_FALSE(card.part<hm2::IoPort>().pin(0, 23));
   EXPECT_EQ(h.read(hm2::IoPort::kDdr), 1U << 23);
 }
 
@@ -278,17 +278,17 @@ TEST(Cards, The7I80HDHasThe7I77OnIo0To16OfThreeTwentyFourPinPorts) {
 // models in src/models/hostmot2), the StepGens timed by its DPLL; a firmware without them has none.
 TEST(Cards, TheFirmwaresStepGensPwmGenAndDpllAreTheCards) {
   hm2::HostMot2Card plain;
-  EXPECT_EQ(plain.stepGens(), nullptr);
-  EXPECT_EQ(plain.pwmGens(), nullptr);
-  EXPECT_EQ(plain.dpll(), nullptr);
+  EXPECT_EQ(plain.module<hm2::StepGen>(), nullptr);
+  EXPECT_EQ(plain.module<hm2::PwmGen>(), nullptr);
+  EXPECT_EQ(plain.module<hm2::Dpll>(), nullptr);
   auto card = make("7I96S");
-  ASSERT_NE(card.stepGens(), nullptr);
-  ASSERT_NE(card.pwmGens(), nullptr);
-  ASSERT_NE(card.dpll(), nullptr);
-  EXPECT_EQ(card.module(0x05), card.stepGens());
-  EXPECT_EQ(card.module(0x06), card.pwmGens());
-  EXPECT_EQ(card.module(0x1A), card.dpll());
-  EXPECT_EQ(card.stepGens()->descriptor().instances, 5);
+  ASSERT_NE(card.module<hm2::StepGen>(), nullptr);
+  ASSERT_NE(card.module<hm2::PwmGen>(), nullptr);
+  ASSERT_NE(card.module<hm2::Dpll>(), nullptr);
+  EXPECT_EQ(card.module(0x05), card.module<hm2::StepGen>());
+  EXPECT_EQ(card.module(0x06), card.module<hm2::PwmGen>());
+  EXPECT_EQ(card.module(0x1A), card.module<hm2::Dpll>());
+  EXPECT_EQ(card.module<hm2::StepGen>()->descriptor().instances, 5);
   // Each record in the IDROM is the module's own descriptor.
   Idrom r(card);
   std::size_t i = 0;
@@ -302,9 +302,9 @@ TEST(Cards, TheFirmwaresStepGensPwmGenAndDpllAreTheCards) {
   }
   EXPECT_EQ(i, r.modules.size());
   auto t = make("7I92T");
-  ASSERT_NE(t.stepGens(), nullptr);
-  EXPECT_EQ(t.pwmGens(), nullptr);
-  ASSERT_NE(t.dpll(), nullptr);
+  ASSERT_NE(t.module<hm2::StepGen>(), nullptr);
+  EXPECT_EQ(t.module<hm2::PwmGen>(), nullptr);
+  ASSERT_NE(t.module<hm2::Dpll>(), nullptr);
 }
 
 std::string writeToml(const std::string& text) {

@@ -77,7 +77,7 @@ TEST(CycleStatus, EncodersSkipACycleWithoutFreshData) {
   auto& ss = rc.ss;
   lbpkit::MuxedEncoders enc(t, rc.info);
   enc.initialize();
-  t.card().encoders().setVelocity(0, 10000, hm2::SimTime{t.now()});
+  t.card().part<hm2::MuxedEncoder>().setVelocity(0, 10000, hm2::SimTime{t.now()});
   auto cycle = [&](bool expectFresh) {
     const auto start = t.now();
     ss.queueOutputs();

@@ -133,17 +133,17 @@ TEST(Card, TheTwo7I77FirmwareWithOne7I77HasSixChannelsAndTwelveCounters) {
   hm2::HostMot2Card card;
   CardHost h{card};
   ASSERT_EQ(card.daughtercards(), 1U);
-  EXPECT_EQ(card.smartSerial().channels(), 6U);
-  EXPECT_EQ(card.encoders().counters(), 12U);
+  EXPECT_EQ(card.part<hm2::SmartSerial>().channels(), 6U);
+  EXPECT_EQ(card.part<hm2::MuxedEncoder>().counters(), 12U);
   h.command(cmd::kStop);
   for (unsigned ch = 0; ch < 6; ++ch) h.write(CardHost::cs(ch), 0);
   EXPECT_EQ(h.command(cmd::kStart | 0x3F), 0x3C);  // no remote on 2..5
-  EXPECT_TRUE(card.smartSerial().channelRunning(0));
-  EXPECT_TRUE(card.smartSerial().channelRunning(1));
-  for (unsigned ch = 2; ch < 6; ++ch) EXPECT_FALSE(card.smartSerial().channelRunning(ch)) << ch;
+  EXPECT_TRUE(card.part<hm2::SmartSerial>().channelRunning(0));
+  EXPECT_TRUE(card.part<hm2::SmartSerial>().channelRunning(1));
+  for (unsigned ch = 2; ch < 6; ++ch) EXPECT_FALSE(card.part<hm2::SmartSerial>().channelRunning(ch)) << ch;
   EXPECT_EQ(h.read(CardHost::iface(1, 3)), 0U);  // no unit number on channel 3
   EXPECT_EQ(h.read(CardHost::iface(2, 3)), 0U);  // no discovery
-  card.encoders().setVelocity(11, -1000, h.now);
+  card.part<hm2::MuxedEncoder>().setVelocity(11, -1000, h.now);
   h.wait(10ms);
   EXPECT_NEAR(static_cast<std::int16_t>(h.read(hm2::MuxedEncoder::kCount + 4 * 11) & 0xFFFF), -10, 1);
 }
@@ -155,8 +155,8 @@ TEST(Card, TheGpioPinoutHasNoSecond7I77) {
   EXPECT_THROW(hm2::HostMot2Card{o}, std::invalid_argument);
   o.second.reset();
   hm2::HostMot2Card card(o);
-  EXPECT_EQ(card.smartSerial().channels(), 3U);
-  EXPECT_EQ(card.encoders().counters(), 6U);
+  EXPECT_EQ(card.part<hm2::SmartSerial>().channels(), 3U);
+  EXPECT_EQ(card.part<hm2::MuxedEncoder>().counters(), 6U);
 }
 
 TEST(Card, UnmappedAccessesAreHarmless) {
@@ -176,7 +176,7 @@ TEST(Watchdog, BitesAfterItsTimeoutAndResetsGpio) {
   EXPECT_EQ(h.read(hm2::Watchdog::kTimer), hm2::Watchdog::kDisarmed);  // power-up: disarmed
   h.write(hm2::IoPort::kDdr, 0x1);
   h.write(hm2::IoPort::kData, 0x1);
-  EXPECT_TRUE(card.ioPort().pin(0, 0));
+  EXPECT_TRUE(card.part<hm2::IoPort>().pin(0, 0));
   h.write(hm2::Watchdog::kTimer, 499999);  // LinuxCNC's 5 ms at 100 MHz
   for (int i = 0; i < 20; ++i) {
     h.wait(1ms);
@@ -187,7 +187,7 @@ TEST(Watchdog, BitesAfterItsTimeoutAndResetsGpio) {
   EXPECT_EQ(h.read(hm2::Watchdog::kStatus), 0U);
   h.wait(200us);
   EXPECT_EQ(h.read(hm2::Watchdog::kStatus), 1U);
-  EXPECT_EQ(card.ioPort().ddr(0), 0U);
+  EXPECT_EQ(card.part<hm2::IoPort>().ddr(0), 0U);
   // A pet with the wrong key does not help; clearing the status and
   // rewriting the timer re-arms.
   h.write(hm2::Watchdog::kStatus, 0);
@@ -216,7 +216,7 @@ TEST(Watchdog, WritingBit31WhileItRunsBitesIt) {
   EXPECT_EQ(h.read(hm2::Watchdog::kStatus), 0U);
   h.write(hm2::Watchdog::kTimer, hm2::Watchdog::kDisarmed);  // running: bit 31 rises
   EXPECT_EQ(h.read(hm2::Watchdog::kStatus), 1U);
-  EXPECT_EQ(card.ioPort().ddr(0), 0U);  // GPIO released
+  EXPECT_EQ(card.part<hm2::IoPort>().ddr(0), 0U);  // GPIO released
   EXPECT_EQ(h.read(hm2::Watchdog::kTimer), hm2::Watchdog::kDisarmed);  // and it stays stopped
   h.write(hm2::Watchdog::kStatus, 0);
   h.wait(10ms);
@@ -269,9 +269,9 @@ TEST(MuxedEncoder, PowerUpDivisorIsTheFirmwares) {
   hm2::HostMot2Card card;
   CardHost h{card};
   EXPECT_EQ(h.read(hm2::MuxedEncoder::kRate), 11U);
-  EXPECT_EQ(card.encoders().samplePeriod(), SimTime{260});
+  EXPECT_EQ(card.part<hm2::MuxedEncoder>().samplePeriod(), SimTime{260});
   h.write(hm2::MuxedEncoder::kRate, 10);  // what LinuxCNC writes for its 8 MHz default
-  EXPECT_EQ(card.encoders().samplePeriod(), SimTime{240});
+  EXPECT_EQ(card.part<hm2::MuxedEncoder>().samplePeriod(), SimTime{240});
   hm2::MuxedEncoder at50(6, 50'000'000);  // round(6.25) - 2
   EXPECT_EQ(at50.samplePeriod(), SimTime{2 * 6 * 20});
   hm2::MuxedEncoder at33(6, 33'333'333);  // round(4.17) - 2
@@ -284,8 +284,8 @@ TEST(MuxedEncoder, ExactUpTo2MHzAndLosingCountsAbove) {
     CardHost h{card};
     h.write(hm2::MuxedEncoder::kRate, 10);  // LinuxCNC's rate: 8.33 MHz mux ticks, exact to 2.08 MHz
     h.write(static_cast<std::uint16_t>(hm2::MuxedEncoder::kControl), 0);  // 3-tick filter
-    card.encoders().setVelocity(0, rate, h.now);
-    card.encoders().setVelocity(1, -rate, h.now);
+    card.part<hm2::MuxedEncoder>().setVelocity(0, rate, h.now);
+    card.part<hm2::MuxedEncoder>().setVelocity(1, -rate, h.now);
     const SimTime span = 1ms;
     h.wait(span);
     const auto expected = static_cast<std::int64_t>(rate * 1e-3);
@@ -304,7 +304,7 @@ TEST(MuxedEncoder, ExactUpTo2MHzAndLosingCountsAbove) {
 TEST(MuxedEncoder, IndexLatchesJustOnceAndTimestamps) {
   hm2::HostMot2Card card;
   CardHost h{card};
-  auto& enc = card.encoders();
+  auto& enc = card.part<hm2::MuxedEncoder>();
   enc.setIndexPeriod(2, 1000);
   h.write(hm2::MuxedEncoder::kTimestampDiv, 48);  // 2 MHz timestamps
   // LinuxCNC's index-enable: latch on index + just once (+ filter).
@@ -350,9 +350,9 @@ TEST(Card, PowerCycleLeavesEveryRegisterAsAFreshCardHasIt) {
 
   // Muxed encoders: 1000 counts on encoder 0 (ending on quadrature state 0,
   // where a fresh card's encoder is), CCR, timestamp divisor and mux rate.
-  card.encoders().setVelocity(0, 1000, h.now);
+  card.part<hm2::MuxedEncoder>().setVelocity(0, 1000, h.now);
   h.wait(1s);
-  card.encoders().setVelocity(0, 0, h.now);
+  card.part<hm2::MuxedEncoder>().setVelocity(0, 0, h.now);
   h.write(hm2::MuxedEncoder::kControl + 4, 0x0C30);
   h.write(hm2::MuxedEncoder::kTimestampDiv, 48);
   h.write(hm2::MuxedEncoder::kRate, 20);
@@ -365,7 +365,7 @@ TEST(Card, PowerCycleLeavesEveryRegisterAsAFreshCardHasIt) {
     for (std::uint16_t port = 0; port < 2; ++port)
       h.write(static_cast<std::uint16_t>(reg + 4 * port), 0x1A5A5U >> port);
   h.write(hm2::Led::kLeds, 0xF0000000U);
-  ASSERT_NE(card.led().leds(), 0U);
+  ASSERT_NE(card.part<hm2::Led>().leds(), 0U);
 
   // The 7I77 in setup mode: working watchdog times changed, and the field
   // I/O processor's NV one (the manual's NVWATCHDOGTIME) set to 100 ms.
@@ -406,7 +406,7 @@ TEST(Card, PowerCycleLeavesEveryRegisterAsAFreshCardHasIt) {
   ASSERT_NE(h.read(hm2::SmartSerial::kCommand), 0U);
   card.powerCycle(h.now);
   EXPECT_EQ(registerDifferences(card, fresh, h.now, true), 0U);
-  EXPECT_EQ(card.led().leds(), 0U);  // write only: not seen by reads
+  EXPECT_EQ(card.part<hm2::Led>().leds(), 0U);  // write only: not seen by reads
   // The 7I77 booted: working values from the EEPROM (manual: NON-VOLATILE
   // FIELD I/O PARAMETERS), and the power-up watchdog fault.
   EXPECT_EQ(io.watchdogTimeMs(), 100);

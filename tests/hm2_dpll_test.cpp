@@ -15,7 +15,7 @@ using hm2::Dpll;
 using hm2::SimTime;
 
 constexpr std::uint32_t kClock = 100'000'000;
-constexpr std::uint16_t kBase = Dpll::kDefaultBase;
+constexpr std::uint16_t kBase = Dpll::kKind.base;
 constexpr std::uint16_t kBaseRate = 0x7000, kPhase = 0x7100, kControl0 = 0x7200, kControl1 = 0x7300,
                         kTimers12 = 0x7400, kTimers34 = 0x7500, kSync = 0x7600;
 

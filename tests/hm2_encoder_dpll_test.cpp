@@ -32,7 +32,7 @@ TEST(EncoderDpllTimer, TheRegisterIsThereOnlyWithADpll) {
   MuxedEncoder plain(6, kClock);
   EXPECT_FALSE(plain.decodes(0x3A00));
   EXPECT_EQ(plain.write(0x3A00, 0x8000, SimTime{}), hm2::WriteResult::Unmapped);
-  Dpll dpll(Dpll::kDefaultBase, 1, kClock);
+  Dpll dpll(Dpll::kKind.base, 1, kClock);
   MuxedEncoder m(6, kClock);
   m.attachDpll(&dpll);
   EXPECT_TRUE(m.decodes(0x3A00));
@@ -62,7 +62,7 @@ TEST(EncoderDpllTimer, TheRegisterIsThereOnlyWithADpll) {
 }
 
 TEST(EncoderDpllTimer, CountsAndTimestampAreTheTimersRisingEdges) {
-  Dpll dpll(Dpll::kDefaultBase, 1, kClock);
+  Dpll dpll(Dpll::kKind.base, 1, kClock);
   runAsLinuxCncDoes(dpll);
   MuxedEncoder e(2, kClock);
   e.attachDpll(&dpll);

@@ -13,7 +13,7 @@ using hm2::PwmGen;
 using hm2::SimTime;
 
 constexpr std::uint32_t kClockHigh = 200'000'000;
-constexpr std::uint16_t kBase = PwmGen::kDefaultBase;
+constexpr std::uint16_t kBase = PwmGen::kKind.base;
 
 std::uint16_t reg(unsigned r, unsigned instance = 0) {
   return static_cast<std::uint16_t>(kBase + r * hm2::kRegisterStride + instance * 4);

@@ -16,7 +16,7 @@ using hm2::SimTime;
 using hm2::StepGen;
 
 constexpr std::uint32_t kClock = 100'000'000;  // 10 ns ticks
-constexpr std::uint16_t kBase = StepGen::kDefaultBase;
+constexpr std::uint16_t kBase = StepGen::kKind.base;
 
 SimTime ticks(std::uint64_t n) { return SimTime{static_cast<std::int64_t>(n * 10)}; }
 std::uint16_t reg(unsigned r, unsigned instance = 0) {
@@ -219,7 +219,7 @@ TEST(StepGen, QuadratureAndTableOutputs) {
 }
 
 TEST(StepGen, DpllTimerLatchesTheAccumulator) {
-  hm2::Dpll dpll(hm2::Dpll::kDefaultBase, 1, kClock);
+  hm2::Dpll dpll(hm2::Dpll::kKind.base, 1, kClock);
   StepGen s(kBase, 1, kClock);
   s.attachDpll(&dpll);
   // A 1 kHz reference (prescale 24) and timer 1 at -100 us, as LinuxCNC sets them.

@@ -24,7 +24,7 @@ using hm2::Ssr;
 constexpr std::uint32_t kClockLow = 100'000'000;
 constexpr unsigned kInputs = 11;  // the 7I96S's IN0..IN10
 
-std::uint16_t inmReg(unsigned r) { return static_cast<std::uint16_t>(InM::kDefaultBase + r * hm2::kRegisterStride); }
+std::uint16_t inmReg(unsigned r) { return static_cast<std::uint16_t>(InM::kKind.base + r * hm2::kRegisterStride); }
 
 // inm.c hm2_inm_write with its defaults: 20 kHz per input, 5 and 500 scans,
 // the invert bit.
@@ -37,7 +37,7 @@ std::uint32_t linuxCncControl(unsigned inputs = kInputs) {
 // An InM over the first 11 pins of a one-port IOPort, as the 7I96S wires it.
 struct Tb3 {
   hm2::IoPort io{1, 17};
-  InM inm{InM::kDefaultBase, 1, kInputs, kClockLow};
+  InM inm{InM::kKind.base, 1, kInputs, kClockLow};
   SimTime now{};
   Tb3() {
     for (unsigned n = 0; n < kInputs; ++n) inm.connect(&io, 0, n, 0, n);
@@ -149,10 +149,10 @@ TEST(InM, MpgCountersCountTheFilteredQuadratureOfInputPairs) {
   EXPECT_EQ(t.inm.mpgCount(0, 2), 0U);
 }
 
-std::uint16_t ssrReg(unsigned r) { return static_cast<std::uint16_t>(Ssr::kDefaultBase + r * hm2::kRegisterStride); }
+std::uint16_t ssrReg(unsigned r) { return static_cast<std::uint16_t>(Ssr::kKind.base + r * hm2::kRegisterStride); }
 
 TEST(Ssr, ASwitchClosesOnlyWhileTheDriveRuns) {
-  Ssr s(Ssr::kDefaultBase, 1, kClockLow);
+  Ssr s(Ssr::kKind.base, 1, kClockLow);
   const SimTime t{};
   testing_hm2::expectDescriptor(s.descriptor(), {0xC3, 0, hm2::kClockLow, 1, 0x7D00, 2, 0, 0x3});
   // ssr.c loads 0 into both, then data from out-NN XOR invert-NN.
@@ -180,7 +180,7 @@ TEST(Ssr, ASwitchClosesOnlyWhileTheDriveRuns) {
 }
 
 TEST(OutM, DataBitsAreTheOutputs) {
-  OutM o(OutM::kDefaultBase, 1);
+  OutM o(OutM::kKind.base, 1);
   const SimTime t{};
   testing_hm2::expectDescriptor(o.descriptor(), {0x2D, 0, hm2::kClockLow, 1, 0xB000, 1, 0, 0x1});
   EXPECT_EQ(o.write(0xB000, 1U << 5, t), hm2::WriteResult::Accepted);
@@ -201,13 +201,13 @@ TEST(Tb3, The7I96SCarriesInmSsrAndOutmOnTb3) {
   hm2::HostMot2Card::Options options;
   options.card = hm2::cards::find("7I96S");
   hm2::HostMot2Card card(options);
-  ASSERT_NE(card.inm(), nullptr);
-  ASSERT_NE(card.ssr(), nullptr);
-  ASSERT_NE(card.outm(), nullptr);
-  EXPECT_EQ(card.module(InM::kTag), card.inm());
-  EXPECT_EQ(card.module(Ssr::kTag), card.ssr());
-  EXPECT_EQ(card.module(OutM::kTag), card.outm());
-  EXPECT_EQ(card.inm()->inputs(), kInputs);
+  ASSERT_NE(card.module<hm2::InM>(), nullptr);
+  ASSERT_NE(card.module<hm2::Ssr>(), nullptr);
+  ASSERT_NE(card.module<hm2::OutM>(), nullptr);
+  EXPECT_EQ(card.module(InM::kKind.tag), card.module<hm2::InM>());
+  EXPECT_EQ(card.module(Ssr::kKind.tag), card.module<hm2::Ssr>());
+  EXPECT_EQ(card.module(OutM::kKind.tag), card.module<hm2::OutM>());
+  EXPECT_EQ(card.module<hm2::InM>()->inputs(), kInputs);
   const auto& words = card.idromWords();
   const unsigned pins = words[hm2::idrom::kOffsetToPinsField / 4] / 4;
   auto fn = [&](unsigned io) { return words[pins + io] & 0x00FFFFFFU; };
@@ -219,24 +219,24 @@ TEST(Tb3, The7I96SCarriesInmSsrAndOutmOnTb3) {
   EXPECT_EQ(fn(16), 0x002D86U);  // OutM out 5
   EXPECT_EQ(fn(17), 0x000581U);  // TB1 as on the other firmwares: StepGen 0 Step
   // The other firmwares have none of them.
-  EXPECT_EQ(hm2::HostMot2Card().inm(), nullptr);
+  EXPECT_EQ(hm2::HostMot2Card().module<hm2::InM>(), nullptr);
   // An input energized at the terminals reaches the filtered data register.
   SimTime now{1ms};
   card.write32(0x8500, linuxCncControl(), now);
-  card.ioPort().setInput(0, 9, false);
+  card.part<hm2::IoPort>().setInput(0, 9, false);
   now += 1ms;
   EXPECT_EQ(card.read32(0x8700, now), 1U << 9);
   EXPECT_EQ(card.read32(0x8800, now), 1U << 9);
   card.write32(0x7E00, 48U | Ssr::kEnable, now);
   card.write32(0x7D00, 1U << 2, now);
   card.write32(0xB000, 1U << 4, now);
-  EXPECT_TRUE(card.ssr()->closed(0, 2));
-  EXPECT_TRUE(card.outm()->output(0, 4));
+  EXPECT_TRUE(card.module<hm2::Ssr>()->closed(0, 2));
+  EXPECT_TRUE(card.module<hm2::OutM>()->output(0, 4));
   EXPECT_EQ(card.unmappedReads() + card.unmappedWrites(), 0U);
   // Power off and on: the switches open, the outputs off.
   card.powerCycle(now + 1ms);
-  EXPECT_FALSE(card.ssr()->closed(0, 2));
-  EXPECT_FALSE(card.outm()->output(0, 4));
+  EXPECT_FALSE(card.module<hm2::Ssr>()->closed(0, 2));
+  EXPECT_FALSE(card.module<hm2::OutM>()->output(0, 4));
 }
 
 }  // namespace

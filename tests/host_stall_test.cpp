@@ -71,7 +71,7 @@ struct Host {
     auto& a = card().daughtercard(0).analog;
     return a.enable(0) && a.outputVoltage(0) > 4.9;
   }
-  bool hm2Bitten() { return card().watchdog().state(hm2::SimTime{rc.t.now()}).bitten; }
+  bool hm2Bitten() { return card().part<hm2::Watchdog>().state(hm2::SimTime{rc.t.now()}).bitten; }
 };
 
 TEST(HostStall, OutputsGoOffWithinTheTimeoutAndComeBackOnlyAsTheManualAllows) {

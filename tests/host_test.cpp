@@ -118,7 +118,7 @@ TEST(HostCycle, SixtySecondsAt1kHz) {
   const auto ena = ss.find(1, "analogena");
   const auto spin = ss.find(1, "spinena");
   ASSERT_TRUE(input.valid() && output.valid() && ena.valid() && spin.valid());
-  t.card().encoders().setVelocity(3, 5000, hm2::SimTime{t.now()});
+  t.card().part<hm2::MuxedEncoder>().setVelocity(3, 5000, hm2::SimTime{t.now()});
 
   unsigned outputsSeen = 0, inputsSeen = 0, faultsDecoded = 0;
   std::uint32_t inputMask = 0;
@@ -322,8 +322,8 @@ TEST(HostEncoders, VelocityFallsToZeroWhenTheEncoderStops) {
   const auto info = lbpkit::readCardInfo(t);
   lbpkit::MuxedEncoders enc(t, info);
   enc.initialize();
-  t.card().encoders().setVelocity(0, 10000, hm2::SimTime{t.now()});
-  t.card().encoders().setVelocity(1, 5, hm2::SimTime{t.now()});  // slower than the timestamps span
+  t.card().part<hm2::MuxedEncoder>().setVelocity(0, 10000, hm2::SimTime{t.now()});
+  t.card().part<hm2::MuxedEncoder>().setVelocity(1, 5, hm2::SimTime{t.now()});  // slower than the timestamps span
   for (int i = 0; i < 3000; ++i) {
     enc.queue();
     t.flush();
@@ -332,7 +332,7 @@ TEST(HostEncoders, VelocityFallsToZeroWhenTheEncoderStops) {
   }
   EXPECT_NEAR(enc.velocity(0), 10000, 100);
   EXPECT_NEAR(enc.velocity(1), 5, 1);
-  t.card().encoders().setVelocity(0, 0, hm2::SimTime{t.now()});
+  t.card().part<hm2::MuxedEncoder>().setVelocity(0, 0, hm2::SimTime{t.now()});
   for (int i = 0; i < 1000; ++i) {
     enc.queue();
     t.flush();
@@ -391,7 +391,7 @@ TEST(HostEncoders, OnlyTheCountersInUseAreRead) {
     return t.now() - start;
   };
   EXPECT_LT(cycleTime(six), cycleTime(all));  // each access takes the card's time
-  t.card().encoders().setVelocity(5, 4000, hm2::SimTime{t.now()});
+  t.card().part<hm2::MuxedEncoder>().setVelocity(5, 4000, hm2::SimTime{t.now()});
   t.sleep(std::chrono::milliseconds(10));
   cycleTime(six);
   EXPECT_GT(six.counts(5), 30);

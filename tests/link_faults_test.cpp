@@ -89,7 +89,7 @@ TEST(SerialLinkRates, DropsAndExtrasComeAtTheirRatesInTheirDirectionOnly) {
 // normal mode, at 1 kHz.
 struct Running {
   testing_host::RunningCard rc;
-  hm2::SmartSerial& sserial = rc.t.card().smartSerial();
+  hm2::SmartSerial& sserial = rc.t.card().part<hm2::SmartSerial>();
   // Cycles; returns how many failed on `channel`.
   unsigned cycles(unsigned n, unsigned channel = 0) {
     unsigned failed = 0;
@@ -269,7 +269,7 @@ TEST(LinkFaultScript, ALinkEntryTakesForAndEndsAsItWasBefore) {
                             "f.toml:7:1"}},
                           hm2::HostMot2Card::Options{}, std::nullopt);
   auto log = [](const std::string&) {};
-  auto& link0 = card.smartSerial().link(0);
+  auto& link0 = card.part<hm2::SmartSerial>().link(0);
   script.runDue(lbp::SimTime{10ms}, t, log);
   EXPECT_EQ(link0.rates().toRemote.bitErrorRate, 1e-3);
   EXPECT_EQ(link0.rates().fromRemote.bitErrorRate, 1e-3);
@@ -278,10 +278,10 @@ TEST(LinkFaultScript, ALinkEntryTakesForAndEndsAsItWasBefore) {
   EXPECT_EQ(link0.rates(), SerialLink::RateSettings{}) << "a clean cable again after its 5 ms";
   card.advance(lbp::SimTime{20ms});
   script.runDue(lbp::SimTime{20ms}, t, log);
-  EXPECT_FALSE(card.smartSerial().link(1).connectedAt(card.now()));
+  EXPECT_FALSE(card.part<hm2::SmartSerial>().link(1).connectedAt(card.now()));
   card.advance(lbp::SimTime{21ms});
   script.runDue(lbp::SimTime{21ms}, t, log);
-  EXPECT_TRUE(card.smartSerial().link(1).connectedAt(card.now())) << "plugged back when the entry ended";
+  EXPECT_TRUE(card.part<hm2::SmartSerial>().link(1).connectedAt(card.now())) << "plugged back when the entry ended";
 
   // A mistake in an entry is an error before the sim starts.
   EXPECT_THROW(net::FaultScript({{lbp::SimTime{1ms}, "link", json{{"channel", 0}, {"bit_error_rate", -1}},

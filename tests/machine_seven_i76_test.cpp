@@ -104,7 +104,7 @@ struct SevenI76Machine : testing::Test {
     }
   }
   void writeStepGen(unsigned reg, std::uint32_t value) {
-    const auto base = t.card().stepGens()->descriptor().baseAddress;
+    const auto base = t.card().module<hm2::StepGen>()->descriptor().baseAddress;
     t.card().write32(static_cast<std::uint16_t>(base + reg * hm2::kRegisterStride), value, SimTime{t.now()});
   }
   // StepGen 0 stepping at `stepsPerSecond`, with hostmot2's timings.
@@ -231,14 +231,14 @@ TEST_F(SevenI76Machine, TheSpindleTurnsAtSpinOutVoltsInTheDirectionSpinDirSays) 
   // The counter is where the shaft was at the card's time, the plant's
   // revolutions at its own step's end: they agree within a step's counts
   // (50 us: 10 counts).
-  const std::uint16_t c0 = t.card().encoders().count(kSpindleCounter);
+  const std::uint16_t c0 = t.card().part<hm2::MuxedEncoder>().count(kSpindleCounter);
   const double r0 = m.state().spindle->revolutions;
   cycles(5);
-  const auto forward = static_cast<std::int16_t>(t.card().encoders().count(kSpindleCounter) - c0);
+  const auto forward = static_cast<std::int16_t>(t.card().part<hm2::MuxedEncoder>().count(kSpindleCounter) - c0);
   EXPECT_GT(forward, 1000);
   EXPECT_NEAR(forward, (m.state().spindle->revolutions - r0) * 1024.0, 11.0);
-  EXPECT_EQ(t.card().encoders().count(5), 0U);  // the 7I77's spindle encoder input: nothing there
-  EXPECT_EQ(m.state().spindle->encoderCount, t.card().encoders().count(kSpindleCounter));
+  EXPECT_EQ(t.card().part<hm2::MuxedEncoder>().count(5), 0U);  // the 7I77's spindle encoder input: nothing there
+  EXPECT_EQ(m.state().spindle->encoderCount, t.card().part<hm2::MuxedEncoder>().count(kSpindleCounter));
 
   // SpinDir on: the same speed in reverse.
   ss.setRaw(spindir, 1);
@@ -246,10 +246,10 @@ TEST_F(SevenI76Machine, TheSpindleTurnsAtSpinOutVoltsInTheDirectionSpinDirSays) 
   look();
   EXPECT_DOUBLE_EQ(state_.spindle->commandRpm, -board.spindleVolts() * kRpmPerVolt);
   EXPECT_NEAR(state_.spindle->rpm, -12'000.0, 1.0);
-  const std::uint16_t c1 = t.card().encoders().count(kSpindleCounter);
+  const std::uint16_t c1 = t.card().part<hm2::MuxedEncoder>().count(kSpindleCounter);
   const double r1 = m.state().spindle->revolutions;
   cycles(5);
-  const auto backward = static_cast<std::int16_t>(t.card().encoders().count(kSpindleCounter) - c1);
+  const auto backward = static_cast<std::int16_t>(t.card().part<hm2::MuxedEncoder>().count(kSpindleCounter) - c1);
   EXPECT_LT(backward, -1000);
   EXPECT_NEAR(backward, (m.state().spindle->revolutions - r1) * 1024.0, 11.0);
 

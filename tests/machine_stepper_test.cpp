@@ -54,7 +54,7 @@ struct Rig {
   SimTime t{};
   std::uint16_t base;
 
-  explicit Rig(machine::MachineDescription d) : m(std::move(d), card), base(card.stepGens()->descriptor().baseAddress) {
+  explicit Rig(machine::MachineDescription d) : m(std::move(d), card), base(card.module<hm2::StepGen>()->descriptor().baseAddress) {
     // Step timing as hostmot2's stepgen writes it from steplen, stepspace,
     // dirsetup and dirhold (ns x ClockLow / 1e9): 1 us, 1 us, 10 us, 10 us.
     write(StepGen::kPulseWidth, 100);
@@ -83,7 +83,7 @@ struct Rig {
     // StepGen ahead of the card).
     m.advance(t + 1us);
   }
-  [[nodiscard]] std::int64_t steps() { return card.stepGens()->steps(0, t); }
+  [[nodiscard]] std::int64_t steps() { return card.module<hm2::StepGen>()->steps(0, t); }
   [[nodiscard]] double z() const { return m.position(kZ); }
 };
 
@@ -253,11 +253,11 @@ TEST_F(MachineStepperFile, LoadsAndDrivesZ) {
   // And it runs: StepGen 2's steps move Z.
   hm2::HostMot2Card card{sevenI76Firmware()};
   machine::Machine machine(d, card);
-  const std::uint16_t rate = card.stepGens()->descriptor().baseAddress + 2 * 4;
+  const std::uint16_t rate = card.module<hm2::StepGen>()->descriptor().baseAddress + 2 * 4;
   card.write32(rate, 0x00100000U, SimTime{});  // 2^20 x 1e8 / 2^32: 24414 steps/s
   card.advance(SimTime{10ms});
   machine.advance(SimTime{10ms});
-  const auto steps = card.stepGens()->steps(2, SimTime{10ms});
+  const auto steps = card.module<hm2::StepGen>()->steps(2, SimTime{10ms});
   EXPECT_NEAR(static_cast<double>(steps), 244.0, 1.0);
   EXPECT_EQ(machine.position(0), -75.0 + static_cast<double>(steps) / 800.0);
 }

@@ -56,12 +56,12 @@ struct HandFed {
   CardHost& h;
   bool answering = true;
   void operator()() {
-    auto& link = card.smartSerial().link(kExpansion);
+    auto& link = card.part<hm2::SmartSerial>().link(kExpansion);
     std::vector<std::uint8_t> reply;
     for (std::uint8_t b : link.outbox())
       for (std::uint8_t r : io.receive(b, h.now)) reply.push_back(r);
     link.consumeOutbox(link.outbox().size());
-    if (answering && !reply.empty()) card.smartSerial().remoteBytes(kExpansion, reply, h.now);
+    if (answering && !reply.empty()) card.part<hm2::SmartSerial>().remoteBytes(kExpansion, reply, h.now);
   }
 };
 
@@ -69,7 +69,7 @@ struct HandFed {
 class SslbpExternal : public ::testing::Test {
  protected:
   void SetUp() override {
-    card.smartSerial().link(kExpansion).setExternal(true);
+    card.part<hm2::SmartSerial>().link(kExpansion).setExternal(true);
     h.command(cmd::kStop);
     h.write(CardHost::cs(kExpansion), 0);
   }
@@ -115,7 +115,7 @@ TEST_F(SslbpExternal, RelaxedTimeoutAndLateAndDamagedReplies) {
   h.write(CardHost::cs(kExpansion), (0x45U << 24) | wd);
   h.write(SmartSerial::kCommand, cmd::kDoit | (1U << kExpansion));
   h.wait(SimTime{10'000});
-  auto& link = card.smartSerial().link(kExpansion);
+  auto& link = card.part<hm2::SmartSerial>().link(kExpansion);
   std::vector<std::uint8_t> reply;
   for (std::uint8_t b : link.outbox())
     for (std::uint8_t r : io.receive(b, h.now)) reply.push_back(r);
@@ -123,7 +123,7 @@ TEST_F(SslbpExternal, RelaxedTimeoutAndLateAndDamagedReplies) {
   ASSERT_EQ(reply.size(), 3U);  // two data bytes and the CRC
   const auto good = reply;
   reply[0] ^= 0x5A;
-  card.smartSerial().remoteBytes(kExpansion, reply, h.now);
+  card.part<hm2::SmartSerial>().remoteBytes(kExpansion, reply, h.now);
   EXPECT_NE(h.read(CardHost::cs(kExpansion)) & cs::kCrcError, 0U);
   // Discarded: the channel waits out setup mode's 50 ms timeout, relaxed.
   h.wait(SimTime{50ms} * SmartSerial::kExternalTimeoutFactor - SimTime{1ms});
@@ -135,7 +135,7 @@ TEST_F(SslbpExternal, RelaxedTimeoutAndLateAndDamagedReplies) {
   EXPECT_NE(h.read(CardHost::cs(kExpansion)) & cs::kTimeout, 0U);
   // The good reply after the timeout: too late, it lands in the receive
   // FIFO; the next transmit finds it there (an extra character).
-  card.smartSerial().remoteBytes(kExpansion, good, h.now);
+  card.part<hm2::SmartSerial>().remoteBytes(kExpansion, good, h.now);
   EXPECT_EQ(h.read(CardHost::cs(kExpansion)) & cs::kExtraCharacter, 0U);
   EXPECT_EQ(commandServed(h, cmd::kDoit | (1U << kExpansion), std::ref(serve), took), 0);
   EXPECT_EQ(h.read(CardHost::iface(0, kExpansion)) & 0xFFFF, 50U);
@@ -183,7 +183,7 @@ TEST(PtyChannel, RemoteOnThePtyAnswersSetupStartAndCommands) {
   hm2::HostMot2Card card;
   CardHost h{card};
   net::PtyChannel channel(card, kExpansion);
-  EXPECT_TRUE(card.smartSerial().link(kExpansion).external());
+  EXPECT_TRUE(card.part<hm2::SmartSerial>().link(kExpansion).external());
   const int fd = ::open(channel.path().c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
   ASSERT_GE(fd, 0) << channel.path();
   remote::FieldIoProcessor io;
@@ -241,7 +241,7 @@ TEST(PtyChannel, RefusesAChannelWithA7I77ProcessorOrNone) {
     EXPECT_STREQ(e.what(), "channel 1 carries the 7I77's analog processor");
   }
   EXPECT_THROW(net::PtyChannel(card, 6), std::invalid_argument);
-  EXPECT_FALSE(card.smartSerial().link(0).external());
+  EXPECT_FALSE(card.part<hm2::SmartSerial>().link(0).external());
 }
 
 // `lbpkit sim --remote`: a 7I77's channel, or a bad value, is refused before anything starts.

@@ -61,7 +61,7 @@ class Soak {
 
   // Clear every fault, then STOP ALL and START: both channels must come back.
   void checkRecovers(std::uint64_t at) {
-    for (unsigned ch = 0; ch < 2; ++ch) card_.smartSerial().link(ch).setConnected(true);
+    for (unsigned ch = 0; ch < 2; ++ch) card_.part<hm2::SmartSerial>().link(ch).setConnected(true);
     auto& io = card_.daughtercard(0).fieldIo;
     io.setFieldVoltage(24.0, h_.now);
     for (unsigned o = 0; o < 16; ++o) io.setOutputLoad(o, 1e6);
@@ -77,7 +77,7 @@ class Soak {
     const auto data = h_.read(SmartSerial::kData);
     ASSERT_EQ(data, 0U) << "after step " << at << " STOP ALL + START left channels 0x" << std::hex << data
                         << " failed; CS0 0x" << h_.read(CardHost::cs(0)) << " CS1 0x" << h_.read(CardHost::cs(1))
-                        << " lost commands " << std::dec << card_.smartSerial().counters().lostCommands << history();
+                        << " lost commands " << std::dec << card_.part<hm2::SmartSerial>().counters().lostCommands << history();
     h_.write(SmartSerial::kCommand, cmd::kDoit | 0x03);
     ASSERT_GE(h_.waitCommand().count(), 0) << history();
     ASSERT_EQ(h_.read(SmartSerial::kData), 0U) << "the first DOIT after START failed" << history();
@@ -153,7 +153,7 @@ class Soak {
     h_.wait(std::chrono::milliseconds(ms));
   }
   void linkFault() {
-    auto& link = card_.smartSerial().link(pick(2));
+    auto& link = card_.part<hm2::SmartSerial>().link(pick(2));
     const auto dir = pick(2) ? SerialLink::Direction::FromRemote : SerialLink::Direction::ToRemote;
     switch (pick(4)) {
       case 0: note("corrupt"), link.corruptNext(dir, 1 + pick(3)); break;
@@ -166,7 +166,7 @@ class Soak {
     const unsigned ch = pick(2);
     const bool on = pick(2) != 0;
     note(std::string(on ? "plug" : "unplug") + " channel " + std::to_string(ch));
-    card_.smartSerial().link(ch).setConnected(on);
+    card_.part<hm2::SmartSerial>().link(ch).setConnected(on);
   }
   void fieldPower() {
     const double v = pick(2) ? 24.0 : 3.0 + pick(15);

@@ -43,8 +43,8 @@ TEST(Sslbp, LocalParameters) {
   EXPECT_EQ(localRead(h, hm2::local::kChannelStride), hm2::local::kChannelBlockStride);
   EXPECT_EQ(localRead(h, hm2::local::kProcessorType), 0xD8);
   // Copied from the hardware channel count: 6 with two 7I77 connectors.
-  EXPECT_EQ(localRead(h, hm2::local::kChannels), card.smartSerial().channels());
-  EXPECT_EQ(card.smartSerial().channels(), 6U);
+  EXPECT_EQ(localRead(h, hm2::local::kChannels), card.part<hm2::SmartSerial>().channels());
+  EXPECT_EQ(card.part<hm2::SmartSerial>().channels(), 6U);
   // Local write then read back (the channel 0 baud rate, LSB).
   const std::uint16_t baud0 = hm2::local::kChannelBlock + hm2::local::kBaudOffset;
   EXPECT_EQ(localRead(h, baud0), 2500000 & 0xFF);
@@ -320,7 +320,7 @@ TEST(Sslbp, DoitTimingFollowsTheCharactersOnTheWire) {
       h.command(cmd::kWrite | cmd::kRequest | (baud0 + i));
     }
     h.command(cmd::kStop);  // STOP ALL reloads the baud rates
-    EXPECT_EQ(card.smartSerial().channelBaud(0), 115200U);
+    EXPECT_EQ(card.part<hm2::SmartSerial>().channelBaud(0), 115200U);
     ASSERT_EQ(h.command(cmd::kSetupStart | 0x01), 0);
     auto& io = card.daughtercard(0).fieldIo;
     h.write(CardHost::cs(0), 0x45000000U | io.address(io.standard(remote::Standard::NvBaudRate)));
@@ -343,7 +343,7 @@ TEST(Sslbp, CommandWrittenWhileBusyIsLostAndReported) {
   EXPECT_EQ(h.read(SmartSerial::kCommand), cmd::kDoit | 0x01U);
   ASSERT_GE(h.waitCommand().count(), 0);
   EXPECT_EQ(h.read(SmartSerial::kData), 0xFFU);
-  EXPECT_EQ(card.smartSerial().counters().lostCommands, 1U);
+  EXPECT_EQ(card.part<hm2::SmartSerial>().counters().lostCommands, 1U);
   // Writes with bit 31 set are ignored, even while busy.
   h.write(SmartSerial::kCommand, cmd::kDoit | 0x01);
   h.write(SmartSerial::kCommand, 0x80000000U | cmd::kStart | 0x02);
@@ -372,7 +372,7 @@ TEST(Sslbp, ResetBitHoldsTheProcessorUntilReleased) {
 TEST(Sslbp, LinkFaultsShowAsCsBits) {
   hm2::HostMot2Card card;
   CardHost h{card};
-  auto& link = card.smartSerial().link(kFieldIo);
+  auto& link = card.part<hm2::SmartSerial>().link(kFieldIo);
   h.command(cmd::kStop);
   ASSERT_EQ(h.command(cmd::kStart | 0x01), 0);
   ASSERT_EQ(h.command(cmd::kDoit | 0x01), 0);
@@ -419,7 +419,7 @@ TEST(Sslbp, TheCardCountsRefusedCommandsByKind) {
   EXPECT_EQ(h.read(SmartSerial::kData), 0xFFU);
   EXPECT_EQ(card.accessCounters().ignoredCommands, 1U);
   EXPECT_EQ(card.accessCounters().lostCommands, 1U);
-  EXPECT_EQ(card.smartSerial().counters().lostCommands, 1U);
+  EXPECT_EQ(card.part<hm2::SmartSerial>().counters().lostCommands, 1U);
   auto recent = card.recentAccesses();
   ASSERT_EQ(recent.size, 2U);
   EXPECT_EQ(recent.events[0].kind, hm2::AccessKind::IgnoredCommand);
@@ -433,7 +433,7 @@ TEST(Sslbp, TheCardCountsRefusedCommandsByKind) {
   ASSERT_GE(h.waitCommand().count(), 0);
   EXPECT_EQ(card.accessCounters().lostCommands, 1U);
   // The registers of a channel the instance lacks are not there.
-  const unsigned missing = card.smartSerial().channels();
+  const unsigned missing = card.part<hm2::SmartSerial>().channels();
   h.write(CardHost::cs(missing - 1), 0);
   EXPECT_EQ(card.accessCounters().unmappedWrites, 0U);
   h.write(CardHost::cs(missing), 0x12345678);
@@ -461,16 +461,16 @@ TEST(Sslbp, ResetIsThePowerUpState) {
   h.write(SmartSerial::kData, 0x42);
   h.command(cmd::kWrite | cmd::kRequest | baud1);
   ASSERT_EQ(localRead(h, baud1), 0x42);
-  card.smartSerial().reset();
+  card.part<hm2::SmartSerial>().reset();
   EXPECT_EQ(h.read(SmartSerial::kCommand), 0U);
   EXPECT_EQ(h.read(SmartSerial::kData), 0xAAU);
   for (unsigned ch = 0; ch < 3; ++ch) {
     EXPECT_EQ(h.read(CardHost::cs(ch)), 0x0000C100U) << ch;
     for (unsigned n = 0; n < 3; ++n) EXPECT_EQ(h.read(CardHost::iface(n, ch)), 0U) << ch << " " << n;
-    EXPECT_FALSE(card.smartSerial().channelRunning(ch));
+    EXPECT_FALSE(card.part<hm2::SmartSerial>().channelRunning(ch));
   }
   EXPECT_EQ(localRead(h, baud1), 2500000 & 0xFF);
-  EXPECT_EQ(card.smartSerial().channelBaud(1), SmartSerial::kDefaultBaud);
+  EXPECT_EQ(card.part<hm2::SmartSerial>().channelBaud(1), SmartSerial::kDefaultBaud);
   // The remotes are still on their channels.
   ASSERT_EQ(h.command(cmd::kStart | 0x03), 0);
   EXPECT_EQ(h.read(CardHost::iface(1, kFieldIo)), 0x37374937U);  // "7I77", LSB first
@@ -613,7 +613,7 @@ TEST(Sslbp, BothProcessorsStartAndRunAsWithFirmware43) {
   EXPECT_EQ(h.read(CardHost::cs(kAnalog)), 0x00420000U);
   // The field I/O cable pulled: the next DOIT fails channel 0 after 87-89 us, CS 0x00422008
   // (timeout in the error log, communication error in the status).
-  card.smartSerial().link(kFieldIo).setConnected(false);
+  card.part<hm2::SmartSerial>().link(kFieldIo).setConnected(false);
   h.write(SmartSerial::kCommand, cmd::kDoit | 0x03);
   const SimTime pulled = waitPolled(h);
   EXPECT_NEAR(us(pulled), 88.0, 2.0) << "us";
@@ -759,7 +759,7 @@ TEST(Sslbp, MBitGivesTheHostTheRomAndBootsOnReleaseAsFirmware43) {
   CardHost h{card};
   h.accessTime = SimTime{20};
   auto& io = card.daughtercard(0).fieldIo;
-  auto& sserial = card.smartSerial();
+  auto& sserial = card.part<hm2::SmartSerial>();
   // A remote fault byte in CS (driver over-temperature) and channel 0's baud rate changed.
   startBoth(h);
   io.setDriverOverTemperature(0, true);
@@ -833,7 +833,7 @@ TEST(Sslbp, CommandWrittenWhileBootingIsLost) {
   h.write(SmartSerial::kCommand, 0x0001);
   h.wait(5us);
   h.write(SmartSerial::kCommand, cmd::kRequest | hm2::local::kMinorRev);
-  EXPECT_EQ(card.smartSerial().counters().lostCommands, 1U);
+  EXPECT_EQ(card.part<hm2::SmartSerial>().counters().lostCommands, 1U);
   ASSERT_GE(waitPolled(h).count(), 0);
   EXPECT_EQ(h.read(SmartSerial::kData), 0xAAU);
   EXPECT_EQ(localRead(h, hm2::local::kMinorRev), 43);

@@ -4,6 +4,7 @@
 #include <functional>
 
 #include "common.hpp"
+#include "lbpkit/wire/hostmot2.hpp"
 
 namespace app {
 extern std::function<int()> gRun;
@@ -23,7 +24,7 @@ int runInfo(const app::CardOptions& o) {
   for (const auto& m : i.modules)
     fmt::print("  {:<15} x{:<2} version {}  base 0x{:04X}  {} registers  strides 0x{:X}/0x{:X}  {} clock\n", m.name,
                m.instances, m.version, m.baseAddress, m.registers, m.registerStride, m.instanceStride,
-               m.clockTag == 1 ? "low" : "high");
+               m.clockTag == lbpkit::wire::hm2::kClockLow ? "low" : "high");
   fmt::print("Pins:\n");
   for (const auto& p : i.pins) {
     if (p.bit == 0) fmt::print("  connector {} (IO{}..IO{}):\n", p.connector, p.io, p.io + i.portWidth - 1);

@@ -136,7 +136,7 @@ int runMonitor(const MonitorOptions& o) {
         if (card.sim) {
           auto& board = card.sim->card().daughtercard(0);
           for (unsigned i = 0; i < 16; ++i) board.fieldIo.setInputVoltage(i, board.fieldIo.outputOn(i) ? 24.0 : 0.0);
-          if (frame == 0 && c == 0) card.sim->card().encoders().setVelocity(0, 10000, lbp::SimTime{start});
+          if (frame == 0 && c == 0) card.sim->card().part<hm2::MuxedEncoder>().setVelocity(0, 10000, lbp::SimTime{start});
         }
       }
       ss.queueOutputs();

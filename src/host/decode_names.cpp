@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <array>
-#include <cctype>
 #include <map>
 #include <string_view>
 #include <vector>
@@ -16,6 +15,7 @@
 #include "lbpkit/transport.hpp"
 #include "lbpkit/wire/hostmot2.hpp"
 #include "lbpkit/wire/lbp.hpp"
+#include "lbpkit/wire/names.hpp"
 
 namespace lbpkit::decode {
 
@@ -30,34 +30,19 @@ constexpr std::array<std::string_view, 16> kHeaderFields = {
     "instance_stride0", "instance_stride1", "register_stride0", "register_stride1"};
 constexpr unsigned kMaxModuleDescriptors = 32;  // firmware: IDROMConst.vhd
 
-// Register names per module, in register order (docs/protocol-facts.md:
-// module tags, muxed encoders, HostMot2 watchdog, SSLBP registers).
-std::vector<std::string_view> registerNames(std::uint8_t t) {
-  switch (t) {
-    case tag::kWatchdog: return {"timer", "status", "reset"};
-    case tag::kIoPort: return {"data", "ddr", "alt_source", "open_drain", "output_invert"};
-    case tag::kQCount:
-    case tag::kMuxedQCount: return {"count", "control", "timestamp_div", "timestamp_count", "filter_rate"};
-    case tag::kSSerial: return {"command", "data", "cs", "interface0", "interface1", "interface2"};
-    default: return {};
-  }
+// The name of register `index` of a module (the module map's; "regN"
+// where the map has none).
+std::string registerName(std::uint8_t t, unsigned index) {
+  const wire::hm2::ModuleKind* kind = wire::hm2::moduleKind(t);
+  const wire::hm2::Register* r = kind != nullptr ? kind->at(index) : nullptr;
+  return r != nullptr ? std::string(r->name) : fmt::format("reg{}", index);
 }
 
-// LinuxCNC's words for the modules (hostmot2 names its pins so).
+// LinuxCNC's words for the modules (hostmot2 names its pins so); the
+// IDROM's name in lower case for a module the map does not know.
 std::string moduleWord(std::uint8_t t) {
-  switch (t) {
-    case tag::kWatchdog: return "watchdog";
-    case tag::kIoPort: return "ioport";
-    case tag::kQCount:
-    case tag::kMuxedQCount: return "encoder";
-    case tag::kSSerial: return "sserial";
-    case tag::kLed: return "led";
-    default: {
-      std::string s = moduleName(t);
-      for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-      return s;
-    }
-  }
+  if (const wire::hm2::ModuleKind* kind = wire::hm2::moduleKind(t)) return std::string(kind->halWord);
+  return wire::asciiLower(moduleName(t));
 }
 
 // The registers of a capture as a card: reads answered from what the
@@ -144,8 +129,7 @@ std::string RegisterNames::name(std::uint16_t a) const {
     if (a < m.baseAddress || a >= m.baseAddress + m.registers * m.registerStride) continue;
     const unsigned reg = (a - m.baseAddress) / m.registerStride, off = (a - m.baseAddress) % m.registerStride;
     const std::string word = moduleWord(m.tag);
-    const auto regs = registerNames(m.tag);
-    const std::string regName = reg < regs.size() ? std::string(regs[reg]) : fmt::format("reg{}", reg);
+    const std::string regName = registerName(m.tag, reg);
     if (m.tag == tag::kLed) return word;
     if (m.tag == tag::kSSerial) {
       const unsigned instance = off / m.instanceStride, within = off % m.instanceStride;

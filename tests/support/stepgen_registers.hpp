@@ -11,17 +11,18 @@
 
 #include "lbpkit/hostmot2.hpp"
 #include "lbpkit/transport.hpp"
+#include "lbpkit/wire/hostmot2_modules.hpp"
 
 namespace testing_stepgen {
 
 class StepGenRegisters {
  public:
-  enum Register : unsigned { kRate = 0, kDirSetup = 3, kDirHold = 4, kPulseWidth = 5, kPulseIdle = 6, kMasterRate = 9 };
+  using enum lbpkit::wire::hm2::stepgen::Register;
 
   // Throws std::runtime_error when the firmware has no StepGen.
   StepGenRegisters(lbpkit::Transport& transport, const lbpkit::CardInfo& info) : t_(transport) {
     for (const auto& m : info.modules)
-      if (m.name == "StepGen") {
+      if (m.tag == lbpkit::wire::hm2::tag::kStepGen) {
         base_ = m.baseAddress;
         stride_ = m.registerStride;
         clockHz_ = m.clockHz;

@@ -16,12 +16,6 @@ namespace lbpkit::linuxcnc {
 namespace tag = wire::hm2::tag;
 namespace pinbits = wire::hm2::pin;
 
-// Module tags lbpkit's wire library does not name (LinuxCNC hostmot2.h
-// HM2_GTAG_*; mesaflash's hostmot2_def.h has the same numbers).
-constexpr std::uint8_t kTagDpll = 0x1A;  // HM2_GTAG_HM2DPLL
-constexpr std::uint8_t kTagInM = 0x23;   // HM2_GTAG_INM
-constexpr std::uint8_t kTagOutM = 0x2D;  // HM2_GTAG_OUTM
-constexpr std::uint8_t kTagSsr = 0xC3;   // HM2_GTAG_SSR
 // hostmot2's default config.stepgen_width: StepGen output pins past Step and
 // Dir (table mode) stay GPIO unless stepgen_width= says otherwise.
 constexpr int kDefaultStepgenWidth = 2;
@@ -119,10 +113,10 @@ std::optional<std::string> generalName(std::uint8_t t) {
   switch (t) {
     case tag::kQCount:
     case tag::kMuxedQCount:
-    case tag::kMuxedQCountSel: return "encoder";
-    case tag::kSSerial: return "sserial";
-    case tag::kStepGen: return "stepgen";
-    case tag::kPwm: return "pwmgen";
+    case tag::kMuxedQCountSel:
+    case tag::kSSerial:
+    case tag::kStepGen:
+    case tag::kPwm: return std::string(wire::hm2::moduleKind(t)->halWord);
     // InM, SSR and OutM have hostmot2 names, but no names for their pins'
     // functions: their output pins keep only the gpio.NNN parameters.
     default: return std::nullopt;
@@ -265,7 +259,7 @@ void inmItems(Builder& b, const std::string& p, const CardInfo& card, int n) {
     const auto origin = fmt::format("InM {}", i);
     unsigned width = 0;
     for (const auto& pin : card.pins)
-      if (pin.secondaryTag == kTagInM && static_cast<int>(pin.secondaryUnit) == i)
+      if (pin.secondaryTag == tag::kInM && static_cast<int>(pin.secondaryUnit) == i)
         width = std::max<unsigned>(width, pin.secondaryPin & pinbits::kCodeMask);
     for (const char* x : {"scan_rate", "slow_scans", "fast_scans"}) b.param(s + "." + x, Type::U32, Dir::RW, origin);
     for (int e = 0; e < 4; ++e) b.param(fmt::format("{}.enc{}_4xmode", s, e), Type::Bit, Dir::RW, origin);
@@ -286,7 +280,7 @@ void inmItems(Builder& b, const std::string& p, const CardInfo& card, int n) {
 // of the instance (secondary pin NN + 1; the SSR's 32nd, its internal AC
 // reference, has none); the SSR also its rate.
 void outputModuleItems(Builder& b, const std::string& p, const CardInfo& card, std::uint8_t t, int n) {
-  const bool ssr = t == kTagSsr;
+  const bool ssr = t == tag::kSsr;
   for (int i = 0; i < n; ++i) {
     const auto s = fmt::format("{}.{}.{:02d}", p, ssr ? "ssr" : "outm", i);
     const auto origin = fmt::format("{} {}", ssr ? "SSR" : "OutM", i);
@@ -408,13 +402,13 @@ std::map<std::string, unsigned> moduleInstances(const CardInfo& card) {
   for (const auto& m : card.modules) {
     switch (m.tag) {
       case tag::kQCount:
-      case tag::kMuxedQCount: out["encoder"] = m.instances; break;
-      case tag::kStepGen: out["stepgen"] = m.instances; break;
-      case tag::kPwm: out["pwmgen"] = m.instances; break;
-      case kTagDpll: out["dpll"] = m.instances; break;
-      case kTagInM: out["inm"] = m.instances; break;
-      case kTagSsr: out["ssr"] = m.instances; break;
-      case kTagOutM: out["outm"] = m.instances; break;
+      case tag::kMuxedQCount:
+      case tag::kStepGen:
+      case tag::kPwm:
+      case tag::kDpll:
+      case tag::kInM:
+      case tag::kSsr:
+      case tag::kOutM: out[std::string(wire::hm2::moduleKind(m.tag)->halWord)] = m.instances; break;
       default: break;
     }
   }
@@ -433,9 +427,9 @@ std::vector<std::string> hm2CountProblems(const CardInfo& card, const Hm2Config&
                                     {"num_encoders", tag::kQCount, "QCount"},
                                     {"num_stepgens", tag::kStepGen, "StepGen"},
                                     {"num_pwmgens", tag::kPwm, "PWMGen"},
-                                    {"num_inms", kTagInM, "InM"},
-                                    {"num_ssrs", kTagSsr, "SSR"},
-                                    {"num_outms", kTagOutM, "OutM"}};
+                                    {"num_inms", tag::kInM, "InM"},
+                                    {"num_ssrs", tag::kSsr, "SSR"},
+                                    {"num_outms", tag::kOutM, "OutM"}};
   std::vector<std::string> out;
   for (const auto& c : counted) {
     const auto* m = card.module(c.tag);
@@ -507,7 +501,7 @@ std::vector<Item> hostmot2Items(const CardInfo& card, const Hm2Config& config, c
   // A firmware with an HM2DPLL: hostmot2 gives the encoders and StepGens a
   // timer-number pin (when the encoder's DPLL timer register reads back 0,
   // as on the cards with one), whatever num_dplls says.
-  const bool dpll = card.module(kTagDpll) != nullptr;
+  const bool dpll = card.module(tag::kDpll) != nullptr;
   if (encoders > 0) {
     b.pin(p + ".encoder.hires-timestamp", Type::Bit, Dir::In, "the encoders");
     b.pin(p + (muxed ? ".encoder.muxed-sample-frequency" : ".encoder.sample-frequency"), Type::U32, Dir::In,
@@ -525,12 +519,12 @@ std::vector<Item> hostmot2Items(const CardInfo& card, const Hm2Config& config, c
     const ModuleInfo* m = card.module(t);
     return m ? enabled(config, key, m->instances) : 0;
   };
-  const int inms = instances(kTagInM, "num_inms");
-  const int ssrs = instances(kTagSsr, "num_ssrs");
-  const int outms = instances(kTagOutM, "num_outms");
+  const int inms = instances(tag::kInM, "num_inms");
+  const int ssrs = instances(tag::kSsr, "num_ssrs");
+  const int outms = instances(tag::kOutM, "num_outms");
   inmItems(b, p, card, inms);
-  outputModuleItems(b, p, card, kTagSsr, ssrs);
-  outputModuleItems(b, p, card, kTagOutM, outms);
+  outputModuleItems(b, p, card, tag::kSsr, ssrs);
+  outputModuleItems(b, p, card, tag::kOutM, outms);
 
   // Smart-serial ports: those the configuration names with a mode digit
   // (all of them when it names none).
@@ -589,9 +583,9 @@ std::vector<Item> hostmot2Items(const CardInfo& card, const Hm2Config& config, c
         break;
       }
       case tag::kPwm: taken = upTo(pwmgens); break;
-      case kTagInM: taken = upTo(inms); break;
-      case kTagSsr: taken = upTo(ssrs); break;
-      case kTagOutM: taken = upTo(outms); break;
+      case tag::kInM: taken = upTo(inms); break;
+      case tag::kSsr: taken = upTo(ssrs); break;
+      case tag::kOutM: taken = upTo(outms); break;
       default: break;
     }
     if (taken) gtag[i] = pin.secondaryTag;

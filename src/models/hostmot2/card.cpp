@@ -9,9 +9,6 @@
 namespace hm2 {
 
 namespace {
-constexpr std::uint32_t kConfigHost = 0x54534F48;  // "HOST"
-constexpr std::uint32_t kConfigMot2 = 0x32544F4D;  // "MOT2"
-
 // The identification area and the IDROM: read only (HostMot2 regmap;
 // docs/protocol-facts.md#identification-area-and-idrom).
 constexpr bool readOnlyIdentification(std::uint16_t address) {
@@ -60,20 +57,22 @@ HostMot2Card::HostMot2Card(Options options)
   // (field I/O, analog, and the TB6 RS-422 expansion port with nothing
   // attached) and six muxed counters.
   for (const auto& entry : firmware_->modules) build(entry);
-  if (watchdog_ == nullptr || ioport_ == nullptr || encoders_ == nullptr || sserial_ == nullptr || led_ == nullptr)
+  if (module<Watchdog>() == nullptr || module<IoPort>() == nullptr || module<MuxedEncoder>() == nullptr ||
+      module<SmartSerial>() == nullptr || module<Led>() == nullptr)
     throw std::logic_error("a firmware in the catalogue lacks a module every card here has");
+  auto& sserial = part<SmartSerial>();
   // A 7I77 slot without a 7I77 leaves its channels unattached: START finds
   // no remote there.
   for (unsigned i = 0; i < sevenI77s_.size(); ++i) {
     const auto& slot = firmware_->sevenI77s[i];
-    sserial_->link(slot.firstChannel + 0U).attach(&sevenI77s_[i]->fieldIo);
-    sserial_->link(slot.firstChannel + 1U).attach(&sevenI77s_[i]->analog);
+    sserial.link(slot.firstChannel + 0U).attach(&sevenI77s_[i]->fieldIo);
+    sserial.link(slot.firstChannel + 1U).attach(&sevenI77s_[i]->analog);
   }
   // The 7I76 beside the 7I77: its field I/O processor on its channel, its
   // expansion port (the next channel) with nothing attached.
   if (const auto channel = cards::sevenI76Channel(*firmware_)) {
     sevenI76_ = std::make_unique<remote::SevenI76FieldIo>(remote::SevenI76FieldIo::Options{});
-    sserial_->link(*channel).attach(sevenI76_.get());
+    sserial.link(*channel).attach(sevenI76_.get());
   }
   for (Module* m : modules_)
     for (unsigned block = 0; block < 256; ++block)
@@ -88,58 +87,60 @@ HostMot2Card::HostMot2Card(Options options)
   std::vector<PinDescriptor> pins(static_cast<std::size_t>(b.ioPorts) * b.portWidth);  // GPIO unless the firmware says
   firmware_->pins(pins);
   // The InM reads the I/O pins its pin descriptors give it (input n: pin n + 1).
-  if (inm_ != nullptr)
+  if (InM* inm = module<InM>())
     for (std::size_t p = 0; p < pins.size(); ++p)
-      if (pins[p].secondaryTag == InM::kTag && pins[p].secondaryPin >= 1 && pins[p].secondaryPin <= inm_->inputs())
-        inm_->connect(ioport_, pins[p].secondaryUnit, pins[p].secondaryPin - 1U, static_cast<unsigned>(p / b.portWidth),
+      if (pins[p].secondaryTag == InM::kKind.tag && pins[p].secondaryPin >= 1 && pins[p].secondaryPin <= inm->inputs())
+        inm->connect(&part<IoPort>(), pins[p].secondaryUnit, pins[p].secondaryPin - 1U, static_cast<unsigned>(p / b.portWidth),
                       static_cast<unsigned>(p % b.portWidth));
   const auto mds = moduleDescriptors();
   idrom_ = buildIdrom(b, mds, pins);
 }
 
-namespace {
-// Makes a T into `owner` and gives back the T (the card keeps it by type).
-template <typename T, typename... A>
-T* make(std::unique_ptr<Module>& owner, A&&... args) {
-  auto made = std::make_unique<T>(std::forward<A>(args)...);
-  T* typed = made.get();
-  owner = std::move(made);
-  return typed;
-}
-}  // namespace
-
 void HostMot2Card::build(const cards::ModuleEntry& entry) {
   using cards::Part;
   const auto& b = card_->idrom;
+  // The DPLL comes first in the "d" firmwares: encoder.timer-number and
+  // stepgen.timer-number latch on its timers.
+  Dpll* dpll = module<Dpll>();
   std::unique_ptr<Module> m;
   switch (entry.part) {
-    case Part::Watchdog: watchdog_ = make<Watchdog>(m, b.clockLow, [this] { ioport_->releaseOutputs(); }); break;
-    case Part::IoPort: ioport_ = make<IoPort>(m, entry.count, b.portWidth); break;
-    case Part::MuxedQCount:
-      // The DPLL comes first in the "d" firmwares: encoder.timer-number
-      // latches the counts on its timers.
-      encoders_ = make<MuxedEncoder>(m, entry.count, b.clockLow);
-      encoders_->attachDpll(dpll_);
+    case Part::Watchdog:
+      m = std::make_unique<Watchdog>(b.clockLow, [this] { part<IoPort>().releaseOutputs(); });
       break;
-    case Part::MuxedQCountSel: make<MuxedEncoderSelect>(m); break;
-    case Part::SSerial: sserial_ = make<SmartSerial>(m, entry.count); break;
-    case Part::Led: led_ = make<Led>(m, entry.count); break;
-    case Part::Dpll: dpll_ = make<Dpll>(m, Dpll::kDefaultBase, entry.count, b.clockLow); break;
-    case Part::StepGen:
-      // The DPLL comes first in the "d" firmwares: stepgen.timer-number
-      // latches the accumulator on its timers.
-      stepgen_ = make<StepGen>(m, StepGen::kDefaultBase, entry.count, b.clockLow);
-      stepgen_->attachDpll(dpll_);
+    case Part::IoPort: m = std::make_unique<IoPort>(entry.count, b.portWidth); break;
+    case Part::MuxedQCount: {
+      auto encoders = std::make_unique<MuxedEncoder>(entry.count, b.clockLow);
+      encoders->attachDpll(dpll);
+      m = std::move(encoders);
       break;
-    case Part::PwmGen: pwmgen_ = make<PwmGen>(m, PwmGen::kDefaultBase, entry.count, b.clockHigh); break;
-    case Part::InM: inm_ = make<InM>(m, InM::kDefaultBase, 1, entry.count, b.clockLow); break;
-    case Part::Ssr: ssr_ = make<Ssr>(m, Ssr::kDefaultBase, entry.count, b.clockLow); break;
-    case Part::OutM: outm_ = make<OutM>(m, OutM::kDefaultBase, entry.count); break;
+    }
+    case Part::MuxedQCountSel: m = std::make_unique<MuxedEncoderSelect>(); break;
+    case Part::SSerial: m = std::make_unique<SmartSerial>(entry.count); break;
+    case Part::Led: m = std::make_unique<Led>(entry.count); break;
+    case Part::Dpll: m = std::make_unique<Dpll>(Dpll::kKind.base, entry.count, b.clockLow); break;
+    case Part::StepGen: {
+      auto stepgens = std::make_unique<StepGen>(StepGen::kKind.base, entry.count, b.clockLow);
+      stepgens->attachDpll(dpll);
+      m = std::move(stepgens);
+      break;
+    }
+    case Part::PwmGen: m = std::make_unique<PwmGen>(PwmGen::kKind.base, entry.count, b.clockHigh); break;
+    case Part::InM: m = std::make_unique<InM>(InM::kKind.base, 1, entry.count, b.clockLow); break;
+    case Part::Ssr: m = std::make_unique<Ssr>(Ssr::kKind.base, entry.count, b.clockLow); break;
+    case Part::OutM: m = std::make_unique<OutM>(OutM::kKind.base, entry.count); break;
   }
   // The modules whose state moves with time (the others' advance() does nothing).
-  if (entry.part == Part::Dpll || entry.part == Part::StepGen || entry.part == Part::InM) {
-    if (timedCount_ == timed_.size()) throw std::logic_error("a firmware with more timed modules than the card calls");
-    timed_[timedCount_++] = m.get();
+  switch (entry.part) {
+    case Part::Watchdog:
+    case Part::MuxedQCount:
+    case Part::SSerial:
+    case Part::Dpll:
+    case Part::StepGen:
+    case Part::InM:
+      if (timedCount_ == timed_.size()) throw std::logic_error("a firmware with more timed modules than the card calls");
+      timed_[timedCount_++] = m.get();
+      break;
+    default: break;
   }
   modules_.push_back(m.get());
   owned_.push_back(std::move(m));
@@ -188,8 +189,8 @@ std::uint32_t HostMot2Card::read32(std::uint16_t address, SimTime now) {
     return idrom_[static_cast<unsigned>(reg - idrom::kIdromAddress) / 4];
   switch (reg) {
     case idrom::kCookieAddress: return idrom::kCookie;
-    case idrom::kConfigName: return kConfigHost;
-    case idrom::kConfigName + 4: return kConfigMot2;
+    case idrom::kConfigName: return idrom::kConfigNameHost;
+    case idrom::kConfigName + 4: return idrom::kConfigNameMot2;
     case idrom::kIdromPointer: return idrom::kIdromAddress;
     default: break;
   }

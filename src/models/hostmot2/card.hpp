@@ -10,6 +10,8 @@
 #include <memory>
 #include <optional>
 #include <span>
+#include <stdexcept>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -126,10 +128,7 @@ class HostMot2Card {
     if (now < now_) now = now_;  // time never runs backwards
     now_ = now;
     // The modules whose state moves with time, in IDROM order (the others'
-    // advance() does nothing), called directly.
-    watchdog_->advance(now);
-    encoders_->advance(now);
-    sserial_->advance(now);
+    // advance() does nothing).
     for (unsigned i = 0; i < timedCount_; ++i) timed_[i]->advance(now);
     for (auto& d : sevenI77s_) {
       d->fieldIo.advance(now);
@@ -150,21 +149,23 @@ class HostMot2Card {
   // content is not read), the IDROM and the access counters stay.
   void reconfigure(SimTime now);
 
-  // --- Parts -----------------------------------------------------------------------
-  SmartSerial& smartSerial() { return *sserial_; }
-  MuxedEncoder& encoders() { return *encoders_; }
-  Watchdog& watchdog() { return *watchdog_; }
-  IoPort& ioPort() { return *ioport_; }
-  Led& led() { return *led_; }
-  // The firmware's StepGens, PWMGens and DPLL; nullptr when it has none.
-  StepGen* stepGens() { return stepgen_; }
-  PwmGen* pwmGens() { return pwmgen_; }
-  Dpll* dpll() { return dpll_; }
-  // The 7I96S's TB3 modules (InM inputs, SSR and OutM outputs); nullptr
-  // when the firmware has none.
-  InM* inm() { return inm_; }
-  Ssr* ssr() { return ssr_; }
-  OutM* outm() { return outm_; }
+  // --- Modules and daughtercards --------------------------------------------------
+  // The firmware's module of type T (a module class: its kKind's tag names
+  // it), e.g. module<StepGen>(); nullptr when the firmware has none.
+  template <typename T>
+  [[nodiscard]] T* module() const {
+    for (Module* m : modules_)
+      if (m->kind().tag == T::kKind.tag) return static_cast<T*>(m);
+    return nullptr;
+  }
+  // One every firmware here has (Watchdog, IoPort, MuxedEncoder,
+  // SmartSerial, Led): the card will not build without them.
+  template <typename T>
+  [[nodiscard]] T& part() const {
+    T* m = module<T>();
+    if (m == nullptr) throw std::logic_error("the firmware has no " + std::string(T::kKind.name));
+    return *m;
+  }
   SevenI77& daughtercard(unsigned connector) { return *sevenI77s_.at(connector); }
   [[nodiscard]] unsigned daughtercards() const { return static_cast<unsigned>(sevenI77s_.size()); }
   // The 7I76's field I/O processor on the firmwares that carry a 7I76
@@ -208,20 +209,8 @@ class HostMot2Card {
   std::vector<std::unique_ptr<SevenI77>> sevenI77s_;
   std::unique_ptr<remote::SevenI76FieldIo> sevenI76_;
   std::vector<std::unique_ptr<Module>> owned_;  // the firmware's modules
-  // The ones every firmware here has, called by their own type.
-  Watchdog* watchdog_ = nullptr;
-  IoPort* ioport_ = nullptr;
-  MuxedEncoder* encoders_ = nullptr;
-  SmartSerial* sserial_ = nullptr;
-  Led* led_ = nullptr;
-  StepGen* stepgen_ = nullptr;
-  PwmGen* pwmgen_ = nullptr;
-  Dpll* dpll_ = nullptr;
-  InM* inm_ = nullptr;
-  Ssr* ssr_ = nullptr;
-  OutM* outm_ = nullptr;
-  // The other modules whose state moves with time, IDROM order.
-  std::array<Module*, 8> timed_{};
+  // The modules whose state moves with time, IDROM order.
+  std::array<Module*, 16> timed_{};
   unsigned timedCount_ = 0;
   std::vector<Module*> modules_;  // IDROM order
   std::array<Module*, 256> byBlock_{};  // address >> 8 -> module

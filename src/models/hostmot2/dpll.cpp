@@ -13,8 +13,9 @@ std::int32_t signed24(std::uint32_t v) {
 }  // namespace
 
 Dpll::Dpll(std::uint16_t base, unsigned instances, std::uint32_t clockLow, std::uint8_t version)
-    : base_(base), clock_(clockLow), version_(version) {
-  (void)instances;  // there is only ever one (LinuxCNC hostmot2(9), num_dplls)
+    // There is only ever one (LinuxCNC hostmot2(9), num_dplls).
+    : Module(kKind, base, 1, version), clock_(clockLow) {
+  (void)instances;
   Dpll::reset();
 }
 
@@ -104,9 +105,9 @@ std::optional<std::uint64_t> Dpll::lastRisingEdge(unsigned source, SimTime now) 
   return lastAddTick_ - back;
 }
 
-std::uint32_t Dpll::read(std::uint16_t address, SimTime now) {
+std::uint32_t Dpll::readRegister(std::uint16_t address, SimTime now) {
   advance(now);
-  switch (static_cast<unsigned>(address - base_) / kRegisterStride) {
+  switch (block(address)) {
     case kBaseRate: return baseRate_;
     case kPhase: return phaseTop();
     case kControl0:
@@ -119,9 +120,9 @@ std::uint32_t Dpll::read(std::uint16_t address, SimTime now) {
   }
 }
 
-WriteResult Dpll::write(std::uint16_t address, std::uint32_t value, SimTime now) {
+WriteResult Dpll::writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) {
   advance(now);
-  switch (static_cast<unsigned>(address - base_) / kRegisterStride) {
+  switch (block(address)) {
     case kBaseRate: baseRate_ = value; break;
     case kPhase: {
       // The top 32 of the 42 bits; the 10 below stay.

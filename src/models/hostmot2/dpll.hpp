@@ -5,18 +5,18 @@
 // sample their position on a timer's rising edge when their timer-number
 // register selects it (lastRisingEdge()).
 //
-// Registers (one instance; ClockLow):
-//   0x7000 base rate   added to the accumulator every `prescale` ClockLow
+// Registers (lbpkit/wire/hostmot2_modules.hpp; one instance; ClockLow):
+//   base rate    added to the accumulator every `prescale` ClockLow
 //                      ticks (less the loop's correction)
-//   0x7100 phase       read: the accumulator's top 32 bits; write: loads them
-//   0x7200 control 0   write: 31..24 prescale, 23..0 phase error limit
+//   phase         read: the accumulator's top 32 bits; write: loads them
+//   control 0    write: 31..24 prescale, 23..0 phase error limit
 //                      (also clears the loop filter); read: 31..24
 //                      prescale, 23..0 the correction being applied
-//   0x7300 control 1   31..16 filter prescale (time constant); read 7..0:
+//   control 1    31..16 filter prescale (time constant); read 7..0:
 //                      the accumulator size, 42 (LinuxCNC's "ddsize")
-//   0x7400 timers 1/2  15..0 timer 1, 31..16 timer 2: phase offsets
-//   0x7500 timers 3/4  15..0 timer 3, 31..16 timer 4
-//   0x7600 sync        read or write: the phase error is taken now; a read
+//   timers 1/2  15..0 timer 1, 31..16 timer 2: phase offsets
+//   timers 3/4  15..0 timer 3, 31..16 timer 4
+//   sync          read or write: the phase error is taken now; a read
 //                      returns the accumulator's top 32 bits
 // Rate source 0 is the reference (rising as the accumulator wraps through
 // zero), 1..4 the timers (rising when the accumulator's top 16 bits plus
@@ -33,13 +33,10 @@ namespace hm2 {
 
 class Dpll final : public Module {
  public:
-  // IDROMConst.vhd: HM2DPLLTag (LinuxCNC HM2_GTAG_HM2DPLL, 26).
-  static constexpr std::uint8_t kTag = 0x1A;
-  static constexpr std::uint16_t kDefaultBase = 0x7000;
-  static constexpr unsigned kRegisters = 7;
-  static constexpr unsigned kAccumulatorBits = 42;  // control 1 bits 7..0
+  static constexpr const ModuleKind& kKind = map::kDpll;
+  static constexpr unsigned kAccumulatorBits = map::dpll::kAccumulatorBits;  // control 1 bits 7..0
   static constexpr unsigned kRateSources = 5;       // reference + timers 1..4
-  enum Register : unsigned { kBaseRate, kPhase, kControl0, kControl1, kTimers12, kTimers34, kSync };
+  using enum map::dpll::Register;
 
   // What an observer sees.
   struct State {
@@ -55,15 +52,8 @@ class Dpll final : public Module {
 
   Dpll(std::uint16_t base, unsigned instances, std::uint32_t clockLow, std::uint8_t version = 0);
 
-  [[nodiscard]] std::string_view name() const override { return "HM2DPLL"; }
-  [[nodiscard]] ModuleDescriptor descriptor() const override {
-    return ModuleDescriptor{kTag, version_, kClockLow, 1, base_, kRegisters, 0, 0};
-  }
-  [[nodiscard]] bool decodes(std::uint16_t a) const override {
-    return a >= base_ && a < base_ + kRegisters * kRegisterStride && (a & 0xFFU) < 4;
-  }
-  std::uint32_t read(std::uint16_t address, SimTime now) override;
-  WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) override;
+  std::uint32_t readRegister(std::uint16_t address, SimTime now) override;
+  WriteResult writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) override;
   void advance(SimTime now) override;
   void reset() override;
 
@@ -84,9 +74,7 @@ class Dpll final : public Module {
   void takePhaseError();
   void runAdds(std::uint64_t adds);
 
-  std::uint16_t base_;
   std::uint32_t clock_;
-  std::uint8_t version_;
   // Simulated state: ticks done, the accumulator, the prescaler and the filter.
   std::uint64_t tick_ = 0;
   std::uint64_t nextAddTick_ = 1;

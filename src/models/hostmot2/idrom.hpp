@@ -16,11 +16,10 @@ namespace hm2 {
 namespace idrom {
 // Offsets, cookie and layout: the wire facts the driver reads by.
 using namespace lbpkit::wire::hm2::idrom;
-// Where this card puts its IDROM, and how much room it has there.
-inline constexpr std::uint16_t kIdromAddress = 0x0400;
+// How much room the card's IDROM has.
 inline constexpr unsigned kMaxModules = 32;
 inline constexpr unsigned kMaxPins = 144;
-inline constexpr std::size_t kWords = 0x400 / 4;  // 0x0400..0x07FF
+inline constexpr std::size_t kWords = kIdromBytes / 4;
 }  // namespace idrom
 
 // One pin descriptor: primary IOPort, and the module that can drive it.

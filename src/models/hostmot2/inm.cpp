@@ -14,11 +14,9 @@ constexpr std::array<unsigned, 4> kPhase = {0, 1, 3, 2};
 }  // namespace
 
 InM::InM(std::uint16_t base, unsigned instances, unsigned inputs, std::uint32_t clockLow, std::uint8_t version)
-    : base_(base),
-      instances_(std::min(instances, kMaxInstances)),
+    : Module(kKind, base, std::min(instances, kMaxInstances), version),
       inputs_(std::clamp(inputs, 1U, kMaxInputs)),
-      clock_(clockLow),
-      version_(version) {
+      clock_(clockLow) {
   reset();
 }
 
@@ -29,11 +27,6 @@ void InM::connect(const IoPort* io, unsigned instance, unsigned input, unsigned 
   const std::uint32_t b = 1U << input;
   filtered_[instance] = (filtered_[instance] & ~b) | (raw(instance) & b);
   pending_[instance] &= ~b;
-}
-
-bool InM::decodes(std::uint16_t a) const {
-  if (a < base_ || a >= base_ + kRegisters * kRegisterStride) return false;
-  return (a & 0xFFU) < instances_ * 4;
 }
 
 std::uint32_t InM::raw(unsigned instance) const {
@@ -101,10 +94,9 @@ void InM::advance(SimTime now) {
   now_ = now;
 }
 
-std::uint32_t InM::read(std::uint16_t address, SimTime) {
-  if (!decodes(address)) return 0;
+std::uint32_t InM::readRegister(std::uint16_t address, SimTime) {
   const unsigned i = (address & 0xFFU) / 4;
-  switch (static_cast<unsigned>(address - base_) / kRegisterStride) {
+  switch (block(address)) {
     case kControl: return (control_[i] & ~kMaxBitMask) | (inputs_ - 1);
     case kFilter: return filter_[i];
     case kFiltered: return filtered_[i];
@@ -117,14 +109,13 @@ std::uint32_t InM::read(std::uint16_t address, SimTime) {
   }
 }
 
-WriteResult InM::write(std::uint16_t address, std::uint32_t value, SimTime) {
-  if (!decodes(address)) return WriteResult::Unmapped;
+WriteResult InM::writeRegister(std::uint16_t address, std::uint32_t value, SimTime) {
   const unsigned i = (address & 0xFFU) / 4;
-  switch (static_cast<unsigned>(address - base_) / kRegisterStride) {
+  switch (block(address)) {
     case kControl: control_[i] = value & ~kMaxBitMask; return WriteResult::Accepted;
     case kFilter: filter_[i] = value & mask(); return WriteResult::Accepted;
     case kMpg: mpgMode_[i] = value & 0x01010101U; return WriteResult::Accepted;
-    default: return WriteResult::ReadOnly;  // the data registers
+    default: return WriteResult::Unmapped;  // the data registers are read-only in the map
   }
 }
 

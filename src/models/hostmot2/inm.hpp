@@ -6,18 +6,18 @@
 // hm2_inm_parse_md, hm2_inm_write), hostmot2.9 "inm and inmux"; mesaflash
 // hostmot2.c (tag 0x23 "InM", pins "Input<n>").
 //
-// Registers (instance i at +4i; ClockLow):
-//   0x8500 control   4..0 MaxBit (ro): inputs scanned - 1; 5 invert every
+// Registers (lbpkit/wire/hostmot2_modules.hpp; instance i at +4i; ClockLow):
+//   control   4..0 MaxBit (ro): inputs scanned - 1; 5 invert every
 //                    input; 15..6 rate divisor; 21..16 short time, 31..22
 //                    long time, in scans. One input is sampled every
 //                    4 * (divisor + 1) ClockLow ticks, so each input every
 //                    MaxBit + 1 times that (LinuxCNC: 20 kHz per input, 5
 //                    and 500 scans, invert set "as this matches all existing
 //                    hardware")
-//   0x8600 filter    bit n: input n uses the long time (input-NN-slow)
-//   0x8700 filtered  the inputs after the debounce filter (ro)
-//   0x8800 raw       the inputs as sampled (ro)
-//   0x8900 MPG       read: four 8-bit counters, byte k counting the
+//   filter    bit n: input n uses the long time (input-NN-slow)
+//   filtered  the inputs after the debounce filter (ro)
+//   raw       the inputs as sampled (ro)
+//   MPG       read: four 8-bit counters, byte k counting the
 //                    quadrature of filtered inputs 2k (A) and 2k+1 (B);
 //                    write: bit 0 of byte k, 1 = 4X, 0 = 1X
 //
@@ -37,13 +37,11 @@ namespace hm2 {
 
 class InM final : public Module {
  public:
-  static constexpr std::uint8_t kTag = 0x23;  // hostmot2.h HM2_GTAG_INM (35); mesaflash HM2_GTAG_INM
-  static constexpr std::uint16_t kDefaultBase = 0x8500;  // inm.c register map
-  static constexpr unsigned kRegisters = 5;
+  static constexpr const ModuleKind& kKind = map::kInM;  // inm.c's register map
   static constexpr unsigned kMaxInstances = 2;
   static constexpr unsigned kMaxInputs = 32;
   static constexpr unsigned kMpgs = 4;
-  enum Register : unsigned { kControl, kFilter, kFiltered, kRaw, kMpg };
+  using enum map::inm::Register;
   static constexpr std::uint32_t kMaxBitMask = 0x1F;
   static constexpr std::uint32_t kInvert = 1U << 5;
 
@@ -64,13 +62,8 @@ class InM final : public Module {
   // Inputs left unconnected read high, as an idle input's pin does.
   void connect(const IoPort* io, unsigned instance, unsigned input, unsigned port, unsigned bit);
 
-  [[nodiscard]] std::string_view name() const override { return "InM"; }
-  [[nodiscard]] ModuleDescriptor descriptor() const override {
-    return ModuleDescriptor{kTag, version_, kClockLow, static_cast<std::uint8_t>(instances_), base_, kRegisters, 0, 0x1F};
-  }
-  [[nodiscard]] bool decodes(std::uint16_t a) const override;
-  std::uint32_t read(std::uint16_t address, SimTime now) override;
-  WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) override;
+  std::uint32_t readRegister(std::uint16_t address, SimTime now) override;
+  WriteResult writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) override;
   // Debounces what the pins show: an input whose level differs from its
   // filtered state takes it once it has kept that level for its filter
   // time (short or long scans); the MPG counters follow inputs 0..7.
@@ -84,7 +77,6 @@ class InM final : public Module {
   // (MaxBit + 1) ClockLow ticks.
   [[nodiscard]] SimTime filterTime(unsigned instance, unsigned n) const;
   [[nodiscard]] unsigned inputs() const { return inputs_; }
-  [[nodiscard]] unsigned instances() const { return instances_; }
   [[nodiscard]] State state() const;
 
  private:
@@ -96,11 +88,8 @@ class InM final : public Module {
   [[nodiscard]] std::uint32_t mask() const { return inputs_ >= 32 ? ~0U : (1U << inputs_) - 1; }
   void step(unsigned instance, unsigned input);  // input just changed its filtered state
 
-  std::uint16_t base_;
-  unsigned instances_;
   unsigned inputs_;
   std::uint32_t clock_;
-  std::uint8_t version_;
   std::array<std::array<Source, kMaxInputs>, kMaxInstances> source_{};
   std::array<std::uint32_t, kMaxInstances> control_{}, filter_{}, mpgMode_{}, filtered_{};
   // Inputs whose pin differs from their filtered state, and since when.

@@ -2,7 +2,7 @@
 
 namespace hm2 {
 
-std::uint32_t IoPort::read(std::uint16_t address, SimTime) {
+std::uint32_t IoPort::readRegister(std::uint16_t address, SimTime) {
   const unsigned port = (address & 0xFFU) / 4;
   const unsigned reg = static_cast<unsigned>((address & 0xFF00U) - kData) / kRegisterStride;
   if (port >= ports_ || reg >= 5) return 0;
@@ -12,7 +12,7 @@ std::uint32_t IoPort::read(std::uint16_t address, SimTime) {
   return v;
 }
 
-WriteResult IoPort::write(std::uint16_t address, std::uint32_t value, SimTime) {
+WriteResult IoPort::writeRegister(std::uint16_t address, std::uint32_t value, SimTime) {
   const unsigned port = (address & 0xFFU) / 4;
   const unsigned reg = static_cast<unsigned>((address & 0xFF00U) - kData) / kRegisterStride;
   if (port >= ports_ || reg >= 5) return WriteResult::Unmapped;

@@ -1,7 +1,7 @@
-// HostMot2 general purpose I/O ports (HostMot2 regmap: IOPort).
-//   0x1000 data (read: pin levels, write: output latch)   0x1100 DDR (1 = output)
-//   0x1200 alternate source (1 = the pin's module drives it)
-//   0x1300 open drain   0x1400 output invert       (port p at +4p)
+// HostMot2 general purpose I/O ports (HostMot2 regmap: IOPort). Registers
+// (lbpkit/wire/hostmot2_modules.hpp; port p at +4p): data (read: pin
+// levels, write: output latch), DDR (1 = output), alternate source (1 = the
+// pin's module drives it), open drain, output invert.
 #pragma once
 
 #include <array>
@@ -13,11 +13,12 @@ namespace hm2 {
 
 class IoPort final : public Module {
  public:
-  static constexpr std::uint16_t kData = 0x1000;
-  static constexpr std::uint16_t kDdr = 0x1100;
-  static constexpr std::uint16_t kAltSource = 0x1200;
-  static constexpr std::uint16_t kOpenDrain = 0x1300;
-  static constexpr std::uint16_t kOutputInvert = 0x1400;
+  static constexpr const ModuleKind& kKind = map::kIoPort;
+  static constexpr std::uint16_t kData = kKind.address(map::ioport::kData);
+  static constexpr std::uint16_t kDdr = kKind.address(map::ioport::kDdr);
+  static constexpr std::uint16_t kAltSource = kKind.address(map::ioport::kAltSource);
+  static constexpr std::uint16_t kOpenDrain = kKind.address(map::ioport::kOpenDrain);
+  static constexpr std::uint16_t kOutputInvert = kKind.address(map::ioport::kOutputInvert);
   static constexpr unsigned kMaxPorts = 4;
 
   // What an observer sees: per port the pin levels (as the data register
@@ -36,17 +37,10 @@ class IoPort final : public Module {
     std::array<Port, kMaxPorts> port{};
   };
 
-  IoPort(unsigned ports, unsigned width) : ports_(ports), width_(width) {}
+  IoPort(unsigned ports, unsigned width) : Module(kKind, kKind.base, ports, kKind.version), ports_(ports), width_(width) {}
 
-  [[nodiscard]] std::string_view name() const override { return "IOPort"; }
-  [[nodiscard]] ModuleDescriptor descriptor() const override {
-    return ModuleDescriptor{tag::kIoPort, 0, kClockLow, static_cast<std::uint8_t>(ports_), kData, 5, 0, 0x1F};
-  }
-  [[nodiscard]] bool decodes(std::uint16_t a) const override {
-    return a >= kData && a < kOutputInvert + kRegisterStride && (a & 0xFFU) < ports_ * 4;
-  }
-  std::uint32_t read(std::uint16_t address, SimTime now) override;
-  WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) override;
+  std::uint32_t readRegister(std::uint16_t address, SimTime now) override;
+  WriteResult writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) override;
   void reset() override;  // power-up: every register 0, every pin an input
 
   // The world drives GPIO inputs (default: pulled up).

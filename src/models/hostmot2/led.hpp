@@ -1,6 +1,6 @@
 // HostMot2 LED module (HostMot2 regmap: LED; docs/protocol-facts.md#module-tags):
-//   0x0200 the card's LEDs, one write-only register; the LEDs take its top
-//          `count` bits (CR1..CR4 on a 7I92)
+// one write-only register (lbpkit/wire/hostmot2_modules.hpp); the card's
+// LEDs take its top `count` bits (CR1..CR4 on a 7I92).
 #pragma once
 
 #include <cstdint>
@@ -11,19 +11,15 @@ namespace hm2 {
 
 class Led final : public Module {
  public:
-  static constexpr std::uint16_t kLeds = 0x0200;
+  static constexpr const ModuleKind& kKind = map::kLed;
+  static constexpr std::uint16_t kLeds = kKind.address(map::led::kLeds);
   struct State {
     unsigned count = 0;
     std::uint32_t leds = 0;  // as leds() gives them
   };
-  explicit Led(unsigned count) : count_(count) {}
-  [[nodiscard]] std::string_view name() const override { return "LED"; }
-  [[nodiscard]] ModuleDescriptor descriptor() const override {
-    return ModuleDescriptor{tag::kLed, 0, kClockLow, 1, kLeds, 1, 0, 0};
-  }
-  [[nodiscard]] bool decodes(std::uint16_t a) const override { return a == kLeds; }
-  std::uint32_t read(std::uint16_t, SimTime) override { return 0; }  // write only
-  WriteResult write(std::uint16_t, std::uint32_t value, SimTime) override {
+  explicit Led(unsigned count) : Module(kKind, kKind.base, 1, kKind.version), count_(count) {}
+  std::uint32_t readRegister(std::uint16_t, SimTime) override { return 0; }  // write only
+  WriteResult writeRegister(std::uint16_t, std::uint32_t value, SimTime) override {
     value_ = value;
     return WriteResult::Accepted;
   }

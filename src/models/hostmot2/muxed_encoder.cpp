@@ -7,6 +7,8 @@
 namespace hm2 {
 
 namespace {
+namespace reg = lbpkit::wire::qcount::reg;
+
 // Positions inside a quadrature state: the state index is floor(position).
 // static_cast<std::int64_t>(std::floor(position)), without the library call:
 // truncation, one less below zero when that truncated upwards.
@@ -34,7 +36,10 @@ double maxFilteredVelocity(double seconds) {
 MuxedEncoder::MuxedEncoder(unsigned counters, std::uint32_t clockLow) : MuxedEncoder(counters, clockLow, Variant{}) {}
 
 MuxedEncoder::MuxedEncoder(unsigned counters, std::uint32_t clockLow, const Variant& variant)
-    : variant_(variant), counters_(std::min(counters, kMaxCounters)), clockLow_(clockLow) {
+    : Module(*variant.kind, variant.base, std::min(counters, kMaxCounters), variant.version),
+      variant_(variant),
+      counters_(instances_),
+      clockLow_(clockLow) {
   MuxedEncoder::reset();
 }
 
@@ -222,15 +227,15 @@ void MuxedEncoder::stampCount(Counter& c) const {
   c.stamp = Counter::Stamp::Done;
 }
 
-std::uint32_t MuxedEncoder::read(std::uint16_t address, SimTime now) {
+std::uint32_t MuxedEncoder::readRegister(std::uint16_t address, SimTime now) {
   advance(now);
   const unsigned n = (address & 0xFFU) / 4;
   settle(n);  // a counter's registers show only it (the others wait until looked at)
   switch (block(address)) {
-    case kCount:
+    case reg::kCount:
       if (n >= counters_) return 0;
       return latching() ? latchedCount_[n] : countRegister(n);
-    case kControl: {
+    case reg::kControl: {
       if (n >= counters_) return 0;
       const auto& c = state_[n];
       const auto st = c.filtered & 3;  // Gray code: 0 = 00, 1 = A, 2 = AB, 3 = B
@@ -242,10 +247,10 @@ std::uint32_t MuxedEncoder::read(std::uint16_t address, SimTime now) {
       return (static_cast<std::uint32_t>(c.latched) << 16) | (c.ccr & 0xFFF8U) | (z ? 4U : 0U) | (b ? 2U : 0U) |
              (a ? 1U : 0U);
     }
-    case kTimestampDiv: return tsDivisor_;
-    case kTimestamp: return latching() ? latchedTimestamp_ : timestampAt(now);
-    case kRate: return rateDivisor_;
-    case kTimerSelect: return dpll_ != nullptr ? timerSelect_ : 0;
+    case reg::kTimestampDiv: return tsDivisor_;
+    case reg::kTimestamp: return latching() ? latchedTimestamp_ : timestampAt(now);
+    case reg::kRate: return rateDivisor_;
+    case reg::kTimerSelect: return dpll_ != nullptr ? timerSelect_ : 0;
     default: return 0;
   }
 }
@@ -271,34 +276,33 @@ void MuxedEncoder::latchAtTimer(SimTime now) {
   latched_ = true;
 }
 
-WriteResult MuxedEncoder::write(std::uint16_t address, std::uint32_t value, SimTime now) {
+WriteResult MuxedEncoder::writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) {
   advance(now);
   const unsigned n = (address & 0xFFU) / 4;
   // A new mux rate or timestamp divisor changes every counter from now on:
   // each is settled under the old one first.
-  if (block(address) == kRate || block(address) == kTimestampDiv)
+  if (block(address) == reg::kRate || block(address) == reg::kTimestampDiv)
     settle();
   else
     settle(n);
   switch (block(address)) {
-    case kCount:
+    case reg::kCount:
       if (n >= counters_) return WriteResult::Unmapped;
       state_[n].count = 0;  // any write clears the count
       return WriteResult::Accepted;
-    case kControl:
+    case reg::kControl:
       if (n >= counters_) return WriteResult::Unmapped;
       state_[n].ccr = value & 0xFFF8U;
       return WriteResult::Accepted;
-    case kTimestampDiv:
+    case reg::kTimestampDiv:
       for (auto& c : state_) stampCount(c);  // counts made so far are stamped under the old divisor
       tsDivisor_ = value & 0xFFFFU;
       return WriteResult::Accepted;
-    case kRate:
+    case reg::kRate:
       rateDivisor_ = value & 0xFFFU;
       setSamplePeriod();
       return WriteResult::Accepted;
-    case kTimestamp: return WriteResult::ReadOnly;  // the free-running timestamp counter
-    case kTimerSelect:
+    case reg::kTimerSelect:
       if (dpll_ == nullptr) return WriteResult::Unmapped;
       // A new selection latches from its source's next edge on.
       if ((value & 0xF000U) != timerSelect_) latched_ = false;

@@ -2,19 +2,19 @@
 // FPGA over three pin groups, multiplexed by the ENCMUX select line (manual:
 // P1 HOST INTERFACE, ENCODER INTERFACE, MAXIMUM ENCODER COUNT RATE).
 //
-// Registers (counter i at +4i):
-//   0x3500 count     read: 15..0 count, 31..16 timestamp of the last count;
+// Registers (lbpkit/wire/hostmot2_modules.hpp; counter i at +4i):
+//   count        read: 15..0 count, 31..16 timestamp of the last count;
 //                    any write clears the count
-//   0x3600 CCR       31..16 count latched on index (ro), 15 quadrature error,
+//   CCR         31..16 count latched on index (ro), 15 quadrature error,
 //                    14 A/B mask polarity, 11 filter (1 = 15 ticks, 0 = 3),
 //                    10 counter mode (up/down), 9 use index mask, 8 index mask
 //                    polarity, 7 gate index, 6 index just once, 5 clear on
 //                    index, 4 latch on index, 3 index polarity, 2..0 filtered
 //                    Z, B, A (ro)
-//   0x3700 TSDiv     timestamp counter divisor (counts every TSDiv+2 ClockLow)
-//   0x3800 TS        the 16-bit timestamp counter
-//   0x3900 rate      11..0 mux divisor: a mux tick every divisor+2 ClockLow
-//   0x3A00 timer     (single; only with an HM2DPLL in the firmware, one past
+//   TSDiv      timestamp counter divisor (counts every TSDiv+2 ClockLow)
+//   TS          the 16-bit timestamp counter
+//   rate        11..0 mux divisor: a mux tick every divisor+2 ClockLow
+//   timer      (single; only with an HM2DPLL in the firmware, one past
 //                    the IDROM's five) 15 enable, 14..12 DPLL rate source
 //                    (0 reference, 1..4 timers): on the source's rising edge
 //                    every count register and the timestamp counter are
@@ -56,21 +56,22 @@ struct EncoderSignal {
 
 class MuxedEncoder : public Module {
  public:
-  static constexpr std::uint16_t kCount = 0x3500;
-  static constexpr std::uint16_t kControl = 0x3600;
-  static constexpr std::uint16_t kTimestampDiv = 0x3700;
-  static constexpr std::uint16_t kTimestamp = 0x3800;
-  static constexpr std::uint16_t kRate = 0x3900;
-  static constexpr std::uint16_t kTimerSelect = 0x3A00;  // as the muxed counters number it: base + 5 strides
+  static constexpr const ModuleKind& kKind = map::kMuxedQCount;
+  // The muxed counters' register addresses.
+  static constexpr std::uint16_t kCount = kKind.address(map::qcount::kCount);
+  static constexpr std::uint16_t kControl = kKind.address(map::qcount::kControl);
+  static constexpr std::uint16_t kTimestampDiv = kKind.address(map::qcount::kTimestampDiv);
+  static constexpr std::uint16_t kTimestamp = kKind.address(map::qcount::kTimestamp);
+  static constexpr std::uint16_t kRate = kKind.address(map::qcount::kRate);
+  static constexpr std::uint16_t kTimerSelect = kKind.address(map::qcount::kTimerSelect);
   static constexpr std::uint32_t kTimerEnable = 1U << 15;
   static constexpr unsigned kMaxCounters = 12;
 
   // What differs between the muxed counters and the plain ones.
   struct Variant {
-    std::uint16_t base = kCount;
-    std::uint8_t tag = tag::kMuxedQCount;
-    std::uint8_t version = 3;
-    std::string_view name = "MuxedQCount";
+    const ModuleKind* kind = &kKind;
+    std::uint16_t base = kKind.base;
+    std::uint8_t version = kKind.version;
     unsigned ticksPerSample = 2;  // a counter sees its inputs every this many rate ticks
     std::uint32_t powerUpTickHz = 8'000'000;  // the firmware's rate divisor at power-up
     std::array<unsigned, 2> filterSamples{2, 8};  // samples a state must last (filter bit 0, 1)
@@ -100,19 +101,18 @@ class MuxedEncoder : public Module {
   MuxedEncoder(unsigned counters, std::uint32_t clockLow);  // the muxed counters
   MuxedEncoder(unsigned counters, std::uint32_t clockLow, const Variant& variant);
 
-  [[nodiscard]] std::string_view name() const override { return variant_.name; }
-  [[nodiscard]] ModuleDescriptor descriptor() const override {
-    return ModuleDescriptor{variant_.tag, variant_.version, kClockLow, static_cast<std::uint8_t>(counters_), variant_.base, 5, 0, 0x03};
-  }
+  // Every word of the count, CCR, TSDiv and TS blocks answers (a counter
+  // the firmware lacks reads 0 and refuses writes), the rate at its first;
+  // the timer select only with a DPLL (Presence::WithDpll).
   [[nodiscard]] bool decodes(std::uint16_t a) const override {
-    return (a >= variant_.base && a < variant_.base + (kRate - kCount) + 4) ||
-           (dpll_ != nullptr && a == variant_.base + (kTimerSelect - kCount));
+    return (a >= base_ && a < base_ + map::qcount::kRate * kRegisterStride + 4) ||
+           (dpll_ != nullptr && a == base_ + map::qcount::kTimerSelect * kRegisterStride);
   }
   // The firmware's HM2DPLL (the "d" firmwares): the timer register exists
   // and latches on its rate sources. Before the card maps its registers.
   void attachDpll(Dpll* dpll) { dpll_ = dpll; }
-  std::uint32_t read(std::uint16_t address, SimTime now) override;
-  WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) override;
+  std::uint32_t readRegister(std::uint16_t address, SimTime now) override;
+  WriteResult writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) override;
   // Cheap: it only notes the time. The counters catch up (settle) when
   // anything looks at them or changes their inputs: the card advances every
   // module at each host access, tens of times a servo cycle, and counting
@@ -205,10 +205,6 @@ class MuxedEncoder : public Module {
   static void index(Counter& c, std::int64_t countAtIndex);
   [[nodiscard]] std::uint16_t timestampAt(SimTime t) const;
   [[nodiscard]] unsigned filterSamples(const Counter& c) const { return variant_.filterSamples[(c.ccr & kFilter) ? 1 : 0]; }
-  // The register block of `address` as the muxed counters number them (kCount..kRate).
-  [[nodiscard]] std::uint16_t block(std::uint16_t address) const {
-    return static_cast<std::uint16_t>((address & 0xFF00U) - variant_.base + kCount);
-  }
 
   Variant variant_;
   unsigned counters_;

@@ -10,13 +10,10 @@ namespace hm2 {
 
 class MuxedEncoderSelect final : public Module {
  public:
-  [[nodiscard]] std::string_view name() const override { return "MuxedQCountSel"; }
-  [[nodiscard]] ModuleDescriptor descriptor() const override {
-    return ModuleDescriptor{tag::kMuxedQCountSel, 0, kClockLow, 1, 0, 0, 0, 0};
-  }
-  [[nodiscard]] bool decodes(std::uint16_t) const override { return false; }
-  std::uint32_t read(std::uint16_t, SimTime) override { return 0; }
-  WriteResult write(std::uint16_t, std::uint32_t, SimTime) override { return WriteResult::Unmapped; }
+  static constexpr const ModuleKind& kKind = map::kMuxedQCountSel;
+  MuxedEncoderSelect() : Module(kKind, kKind.base, 1, kKind.version) {}
+  std::uint32_t readRegister(std::uint16_t, SimTime) override { return 0; }
+  WriteResult writeRegister(std::uint16_t, std::uint32_t, SimTime) override { return WriteResult::Unmapped; }
   void reset() override {}
 };
 

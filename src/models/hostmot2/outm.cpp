@@ -5,16 +5,15 @@
 namespace hm2 {
 
 OutM::OutM(std::uint16_t base, unsigned instances, std::uint8_t version)
-    : base_(base), instances_(std::min(instances, kMaxInstances)), version_(version) {}
+    : Module(kKind, base, std::min(instances, kMaxInstances), version) {}
 
-std::uint32_t OutM::read(std::uint16_t address, SimTime) {
+std::uint32_t OutM::readRegister(std::uint16_t address, SimTime) {
   // The data register reads back what was written (outm.c never reads it).
-  return decodes(address) ? data_[static_cast<unsigned>(address - base_) / 4] : 0;
+  return data_[instanceOf(address)];
 }
 
-WriteResult OutM::write(std::uint16_t address, std::uint32_t value, SimTime) {
-  if (!decodes(address)) return WriteResult::Unmapped;
-  data_[static_cast<unsigned>(address - base_) / 4] = value;
+WriteResult OutM::writeRegister(std::uint16_t address, std::uint32_t value, SimTime) {
+  data_[instanceOf(address)] = value;
   return WriteResult::Accepted;
 }
 

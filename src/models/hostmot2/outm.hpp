@@ -3,10 +3,10 @@
 // 7I96S's OUT4 and OUT5 on TB3: hm2_7i96s.0.outm.00.out-04, -05).
 // docs/hostmot2-modules.md#outm; LinuxCNC outm.c (its register map comment
 // and hm2_outm_parse_md), hostmot2.9 "OutM Simple output module"; mesaflash
-// hostmot2.c (tag 0x2D "OutM", pins "Output<n>").
+// hostmot2.c ("OutM", pins "Output<n>"; its tag: the module map).
 //
-// Registers (instance i at +4i):
-//   0xB000 data   bit n drives the pin whose descriptor says output n
+// Registers (lbpkit/wire/hostmot2_modules.hpp; instance i at +4i):
+//   data   bit n drives the pin whose descriptor says output n
 //                 (secondary pin 0x81 + n); 1 = on
 // Power-up: every output off. LinuxCNC writes 0 at load and then, every
 // servo period, out-NN XOR invert-NN.
@@ -21,9 +21,7 @@ namespace hm2 {
 
 class OutM final : public Module {
  public:
-  static constexpr std::uint8_t kTag = 0x2D;  // hostmot2.h HM2_GTAG_OUTM (45); mesaflash HM2_GTAG_OUTM
-  static constexpr std::uint16_t kDefaultBase = 0xB000;  // outm.c register map
-  static constexpr unsigned kRegisters = 1;
+  static constexpr const ModuleKind& kKind = map::kOutM;  // outm.c's register map
   static constexpr unsigned kMaxInstances = 8;
 
   struct State {
@@ -33,26 +31,15 @@ class OutM final : public Module {
 
   OutM(std::uint16_t base, unsigned instances, std::uint8_t version = 0);
 
-  [[nodiscard]] std::string_view name() const override { return "OutM"; }
-  [[nodiscard]] ModuleDescriptor descriptor() const override {
-    return ModuleDescriptor{kTag, version_, kClockLow, static_cast<std::uint8_t>(instances_), base_, kRegisters, 0, 0x1};
-  }
-  [[nodiscard]] bool decodes(std::uint16_t a) const override {
-    return a >= base_ && a < base_ + instances_ * 4U;
-  }
-  std::uint32_t read(std::uint16_t address, SimTime now) override;
-  WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) override;
+  std::uint32_t readRegister(std::uint16_t address, SimTime now) override;
+  WriteResult writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) override;
   void reset() override { data_.fill(0); }
 
   // Output n of instance i: on (true) or off.
   [[nodiscard]] bool output(unsigned instance, unsigned n) const { return ((data_.at(instance) >> n) & 1U) != 0; }
-  [[nodiscard]] unsigned instances() const { return instances_; }
   [[nodiscard]] State state() const { return State{instances_, data_}; }
 
  private:
-  std::uint16_t base_;
-  unsigned instances_;
-  std::uint8_t version_;
   std::array<std::uint32_t, kMaxInstances> data_{};
 };
 

@@ -10,14 +10,7 @@ constexpr std::uint32_t kModeMask = 0x3FU;
 }  // namespace
 
 PwmGen::PwmGen(std::uint16_t base, unsigned instances, std::uint32_t clockHigh, std::uint8_t version)
-    : base_(base), instances_(std::min(instances, kMaxInstances)), clock_(clockHigh), version_(version) {}
-
-bool PwmGen::decodes(std::uint16_t a) const {
-  if (a < base_ || a >= base_ + kRegisters * kRegisterStride) return false;
-  const unsigned reg = static_cast<unsigned>(a - base_) / kRegisterStride;
-  const unsigned off = a & 0xFFU;
-  return reg >= kPwmRate ? off == 0 : off < instances_ * 4;
-}
+    : Module(kKind, base, std::min(instances, kMaxInstances), version), clock_(clockHigh) {}
 
 void PwmGen::reset() {
   // Power-up: every register 0 (value 0, 9-bit PWM/dir, rates 0: the PWM
@@ -27,12 +20,11 @@ void PwmGen::reset() {
   mode_.fill(0);
 }
 
-std::uint32_t PwmGen::read(std::uint16_t address, SimTime) {
-  if (!decodes(address)) return 0;
+std::uint32_t PwmGen::readRegister(std::uint16_t address, SimTime) {
   const unsigned n = (address & 0xFFU) / 4;
   // Only the enable register reads back in the firmware (boutreg); lbpkit
   // reads back what was written everywhere, which no driver relies on.
-  switch (static_cast<unsigned>(address - base_) / kRegisterStride) {
+  switch (block(address)) {
     case kValue: return value_[n];
     case kMode: return mode_[n];
     case kPwmRate: return pwmRate_;
@@ -42,12 +34,11 @@ std::uint32_t PwmGen::read(std::uint16_t address, SimTime) {
   }
 }
 
-WriteResult PwmGen::write(std::uint16_t address, std::uint32_t value, SimTime) {
-  if (!decodes(address)) return WriteResult::Unmapped;
+WriteResult PwmGen::writeRegister(std::uint16_t address, std::uint32_t value, SimTime) {
   const unsigned n = (address & 0xFFU) / 4;
   // A double-buffered value takes effect at the start of the next PWM cycle
   // (at most one period later); the model applies it at once.
-  switch (static_cast<unsigned>(address - base_) / kRegisterStride) {
+  switch (block(address)) {
     case kValue: value_[n] = value & (kValueMask | kDirection); break;
     case kMode: mode_[n] = value & kModeMask; break;
     case kPwmRate: pwmRate_ = value & 0xFFFFU; break;

@@ -2,15 +2,16 @@
 // (docs/hostmot2-modules.md#pwmgen; firmware pwmpdmgenh.vhd, pwmrefh.vhd,
 // hostmot2.vhd, IDROMConst.vhd; LinuxCNC pwmgen.c).
 //
-// Registers (instance i at +4i unless single; ClockHigh):
-//   0x4000 value        31 direction, 27..16 the 12-bit PWM/PDM value
-//   0x4100 mode         1..0 PWM width (9, 10, 11, 12 bits), 2 symmetrical
+// Registers (lbpkit/wire/hostmot2_modules.hpp; instance i at +4i unless
+// single; ClockHigh):
+//   value              31 direction, 27..16 the 12-bit PWM/PDM value
+//   mode               1..0 PWM width (9, 10, 11, 12 bits), 2 symmetrical
 //                       (up/down count), 4..3 output mode (0 PWM/dir, 1
 //                       dir/PWM, 2 up/down, 3 PDM/dir), 5 double buffered
-//   0x4200 PWM rate     single, 16 bits: the PWM counter counts at
+//   PWM rate        single, 16 bits: the PWM counter counts at
 //                       ClockHigh * rate / 65536
-//   0x4300 PDM rate     single, 16 bits: PDM pulses at ClockHigh * rate / 65536
-//   0x4400 enable       single: bit i enables instance i (its /enable pin,
+//   PDM rate        single, 16 bits: PDM pulses at ClockHigh * rate / 65536
+//   enable           single: bit i enables instance i (its /enable pin,
 //                       0x83, is the inverse)
 // The duty cycle is value / 2^width for PWM (1 from 2^width on) and
 // value / 4096 for PDM. The PWM and direction pins run whether or not the
@@ -26,10 +27,9 @@ namespace hm2 {
 
 class PwmGen final : public Module {
  public:
-  static constexpr std::uint16_t kDefaultBase = 0x4000;
+  static constexpr const ModuleKind& kKind = map::kPwmGen;
   static constexpr unsigned kMaxInstances = 32;  // one enable bit each
-  static constexpr unsigned kRegisters = 5;
-  enum Register : unsigned { kValue, kMode, kPwmRate, kPdmRate, kEnable };
+  using enum map::pwmgen::Register;
   enum class OutputMode : std::uint8_t { PwmDir = 0, DirPwm = 1, UpDown = 2, PdmDir = 3 };
   static constexpr std::uint32_t kDirection = 1U << 31;
   static constexpr std::uint32_t kSymmetrical = 1U << 2;
@@ -52,13 +52,8 @@ class PwmGen final : public Module {
 
   PwmGen(std::uint16_t base, unsigned instances, std::uint32_t clockHigh, std::uint8_t version = 0);
 
-  [[nodiscard]] std::string_view name() const override { return "PWM"; }
-  [[nodiscard]] ModuleDescriptor descriptor() const override {
-    return ModuleDescriptor{tag::kPwm, version_, kClockHigh, static_cast<std::uint8_t>(instances_), base_, kRegisters, 0, 0x03};
-  }
-  [[nodiscard]] bool decodes(std::uint16_t a) const override;
-  std::uint32_t read(std::uint16_t address, SimTime now) override;
-  WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) override;
+  std::uint32_t readRegister(std::uint16_t address, SimTime now) override;
+  WriteResult writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) override;
   void reset() override;  // every register 0: duty 0, disabled
 
   [[nodiscard]] Output output(unsigned n) const;
@@ -66,14 +61,10 @@ class PwmGen final : public Module {
   // The PWM repetition rate (Hz) instance n runs at: ClockHigh * rate /
   // 65536 / 2^width, halved when symmetrical; for PDM, the pulse clock.
   [[nodiscard]] double frequency(unsigned n) const;
-  [[nodiscard]] unsigned instances() const { return instances_; }
   [[nodiscard]] State state() const;
 
  private:
-  std::uint16_t base_;
-  unsigned instances_;
   std::uint32_t clock_;
-  std::uint8_t version_;
   std::uint32_t pwmRate_ = 0, pdmRate_ = 0, enable_ = 0;
   std::array<std::uint32_t, kMaxInstances> value_{};
   std::array<std::uint32_t, kMaxInstances> mode_{};

@@ -85,7 +85,7 @@ enum State : std::uint8_t {
 }  // namespace
 
 SmartSerial::SmartSerial(unsigned channels, unsigned instance)
-    : instance_(instance), channelCount_(std::min<unsigned>(channels, kMaxChannels)) {
+    : Module(kKind, kKind.base, 1, kKind.version), instance_(instance), channelCount_(std::min<unsigned>(channels, kMaxChannels)) {
   SmartSerial::reset();
 }
 
@@ -147,12 +147,10 @@ void SmartSerial::initMem() {
   }
 }
 
-ModuleDescriptor SmartSerial::descriptor() const {
-  // Version 0, 6 registers, instance stride select 1 (0x40), registers 2..5
-  // per channel: what LinuxCNC's driver checks for SmartSerial.
-  return ModuleDescriptor{tag::kSSerial, 0, kClockLow, 1, kCommand, 6, 0x10, 0x3C};
-}
-
+// The map's descriptor (version 0, 6 registers, instance stride select 1:
+// 0x40, registers 2..5 per channel) is what LinuxCNC's driver checks for
+// SmartSerial. Each instance answers in its 0x40 window: COMMAND and DATA
+// at every word of it, CS and the interfaces for its channels.
 bool SmartSerial::decodes(std::uint16_t address) const {
   if (address < kCommand || address >= kInterface0 + 3 * kRegisterStride) return false;
   if (((address & 0xFFU) / kInstanceStride1) != instance_) return false;
@@ -184,7 +182,7 @@ SmartSerial::State SmartSerial::state() const {
   return s;
 }
 
-std::uint32_t SmartSerial::read(std::uint16_t address, SimTime now) {
+std::uint32_t SmartSerial::readRegister(std::uint16_t address, SimTime now) {
   advance(now);
   const std::uint16_t block = address & 0xFF00U;
   const unsigned ch = (address & 0x3FU) / 4;
@@ -197,13 +195,13 @@ std::uint32_t SmartSerial::read(std::uint16_t address, SimTime now) {
   return channels_[ch].ifIn[static_cast<unsigned>(block - kInterface0) / kRegisterStride];
 }
 
-WriteResult SmartSerial::write(std::uint16_t address, std::uint32_t value, SimTime now) {
-  const WriteResult r = writeRegister(address, value, now);
+WriteResult SmartSerial::writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) {
+  const WriteResult r = store(address, value, now);
   wake_ = nextEvent();  // a command may have started something
   return r;
 }
 
-WriteResult SmartSerial::writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) {
+WriteResult SmartSerial::store(std::uint16_t address, std::uint32_t value, SimTime now) {
   advance(now);
   const std::uint16_t block = address & 0xFF00U;
   const unsigned ch = (address & 0x3FU) / 4;

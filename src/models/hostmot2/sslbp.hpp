@@ -2,13 +2,14 @@
 // LBP remotes (manual: REFERENCE INFORMATION, SSLBP; firmware behaviour from
 // Mesa's SSLBP source; docs/protocol-facts.md#sslbp).
 //
-// Registers (per instance, base + i*0x40; channel c at +4c):
-//   0x5A00 COMMAND  W M R D S T T T | N..N (16 bits; writes with bit 31 set are ignored)
-//   0x5B00 DATA     8 bits; what the host writes is not what it reads back.
-//                   While M is set: the 16-bit program ROM word COMMAND bits 10..0 address
-//   0x5C00 CS       per channel control (host writes: mode / setup LBP command)
-//                   and status (reads: local faults, status, COM_STATE, remote faults)
-//   0x5D00..0x5F00  interface 0..2, per channel, independent in and out data
+// Registers (lbpkit/wire/hostmot2_modules.hpp; per instance, base + i*0x40;
+// channel c at +4c):
+//   COMMAND  W M R D S T T T | N..N (16 bits; writes with bit 31 set are ignored)
+//   DATA     8 bits; what the host writes is not what it reads back.
+//            While M is set: the 16-bit program ROM word COMMAND bits 10..0 address
+//   CS       per channel control (host writes: mode / setup LBP command)
+//            and status (reads: local faults, status, COM_STATE, remote faults)
+//   interface 0..2, per channel, independent in and out data
 //
 // The firmware is modelled as SSLBP's per-channel state machine: every LBP
 // transaction takes the characters it takes on the wire at the channel's baud
@@ -46,10 +47,11 @@ inline constexpr std::uint16_t kHardwareChannels = 0x234;
 class SmartSerial final : public Module {
  public:
   static constexpr unsigned kMaxChannels = 8;
-  static constexpr std::uint16_t kCommand = 0x5A00;
-  static constexpr std::uint16_t kData = 0x5B00;
-  static constexpr std::uint16_t kCs = 0x5C00;
-  static constexpr std::uint16_t kInterface0 = 0x5D00;
+  static constexpr const ModuleKind& kKind = map::kSSerial;
+  static constexpr std::uint16_t kCommand = kKind.address(map::sserial::kCommand);
+  static constexpr std::uint16_t kData = kKind.address(map::sserial::kData);
+  static constexpr std::uint16_t kCs = kKind.address(map::sserial::kCs);
+  static constexpr std::uint16_t kInterface0 = kKind.address(map::sserial::kInterface0);
   static constexpr std::uint8_t kMajorRevision = 0x01;
   static constexpr std::uint8_t kMinorRevision = 0x2B;  // 43, the ROM Mesa ships
   static constexpr std::uint32_t kDefaultBaud = 2500000;
@@ -64,11 +66,9 @@ class SmartSerial final : public Module {
 
   explicit SmartSerial(unsigned channels, unsigned instance = 0);
 
-  [[nodiscard]] std::string_view name() const override { return "SSerial"; }
-  [[nodiscard]] ModuleDescriptor descriptor() const override;
   [[nodiscard]] bool decodes(std::uint16_t address) const override;
-  std::uint32_t read(std::uint16_t address, SimTime now) override;
-  WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) override;
+  std::uint32_t readRegister(std::uint16_t address, SimTime now) override;
+  WriteResult writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) override;
   // Inline and one comparison until something is due (wake_): the card
   // advances every module at every host access.
   void advance(SimTime now) override {
@@ -198,7 +198,7 @@ class SmartSerial final : public Module {
   };
 
   void runEvents(SimTime now);
-  WriteResult writeRegister(std::uint16_t address, std::uint32_t value, SimTime now);
+  WriteResult store(std::uint16_t address, std::uint32_t value, SimTime now);  // writeRegister's work
   // The earliest time anything is due: the running immediate command's end,
   // or a channel's next step (SimTime::max() if nothing is).
   [[nodiscard]] SimTime nextEvent() const;

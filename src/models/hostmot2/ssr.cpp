@@ -5,29 +5,22 @@
 namespace hm2 {
 
 Ssr::Ssr(std::uint16_t base, unsigned instances, std::uint32_t clockLow, std::uint8_t version)
-    : base_(base), instances_(std::min(instances, kMaxInstances)), clock_(clockLow), version_(version) {}
-
-bool Ssr::decodes(std::uint16_t a) const {
-  if (a < base_ || a >= base_ + kRegisters * kRegisterStride) return false;
-  return (a & 0xFFU) < instances_ * 4;
-}
+    : Module(kKind, base, std::min(instances, kMaxInstances), version), clock_(clockLow) {}
 
 void Ssr::reset() {
   data_.fill(0);
   rate_.fill(0);
 }
 
-std::uint32_t Ssr::read(std::uint16_t address, SimTime) {
-  if (!decodes(address)) return 0;
+std::uint32_t Ssr::readRegister(std::uint16_t address, SimTime) {
   const unsigned n = (address & 0xFFU) / 4;
   // Both registers read back what was written (ssr.c never reads them).
-  return static_cast<unsigned>(address - base_) / kRegisterStride == kData ? data_[n] : rate_[n];
+  return block(address) == kData ? data_[n] : rate_[n];
 }
 
-WriteResult Ssr::write(std::uint16_t address, std::uint32_t value, SimTime) {
-  if (!decodes(address)) return WriteResult::Unmapped;
+WriteResult Ssr::writeRegister(std::uint16_t address, std::uint32_t value, SimTime) {
   const unsigned n = (address & 0xFFU) / 4;
-  if (static_cast<unsigned>(address - base_) / kRegisterStride == kData)
+  if (block(address) == kData)
     data_[n] = value;
   else
     rate_[n] = value & (kDivisorMask | kEnable);

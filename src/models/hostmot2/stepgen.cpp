@@ -29,7 +29,7 @@ std::uint64_t addsFor(std::uint64_t accum, std::int64_t rate, std::uint64_t adds
 }  // namespace
 
 StepGen::StepGen(std::uint16_t base, unsigned instances, std::uint32_t clockLow, std::uint8_t version)
-    : base_(base), instances_(std::min(instances, kMaxInstances)), clock_(clockLow), version_(version) {
+    : Module(kKind, base, std::min(instances, kMaxInstances), version), clock_(clockLow) {
   StepGen::reset();
 }
 
@@ -38,13 +38,6 @@ std::uint32_t StepGen::modeMask() const {
   if (supportsSwap()) m |= kSwapStepDir;
   if (supportsIndex()) m |= 0xF0U;
   return m;
-}
-
-bool StepGen::decodes(std::uint16_t a) const {
-  if (a < base_ || a >= base_ + (kTimerSelect + 1) * kRegisterStride) return false;
-  const unsigned reg = static_cast<unsigned>(a - base_) / kRegisterStride;
-  const unsigned off = a & 0xFFU;
-  return reg >= kMasterRate ? off == 0 : off < instances_ * 4;
 }
 
 void StepGen::reset() {
@@ -183,10 +176,9 @@ void StepGen::advance(SimTime now) {
   runTo(to);
 }
 
-std::uint32_t StepGen::read(std::uint16_t address, SimTime now) {
+std::uint32_t StepGen::readRegister(std::uint16_t address, SimTime now) {
   advance(now);
-  if (!decodes(address)) return 0;
-  const unsigned reg = static_cast<unsigned>(address - base_) / kRegisterStride;
+  const unsigned reg = block(address);
   const Channel& c = ch_[(address & 0xFFU) / 4];
   // The firmware drives only the accumulator (and, in 0xC2, the mode) back
   // onto the bus (kubstepgenz.vhd: the other readbacks are left out for
@@ -209,10 +201,9 @@ std::uint32_t StepGen::read(std::uint16_t address, SimTime now) {
   }
 }
 
-WriteResult StepGen::write(std::uint16_t address, std::uint32_t value, SimTime now) {
+WriteResult StepGen::writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) {
   advance(now);
-  if (!decodes(address)) return WriteResult::Unmapped;
-  const unsigned reg = static_cast<unsigned>(address - base_) / kRegisterStride;
+  const unsigned reg = block(address);
   Channel& c = ch_[(address & 0xFFU) / 4];
   constexpr std::uint32_t kTimer = 0x3FFF;  // 14-bit timers (timersize)
   switch (reg) {

@@ -1,22 +1,23 @@
 // HostMot2 StepGen: step/dir pulse generators (docs/hostmot2-modules.md#stepgen;
 // firmware kubstepgenz.vhd, hostmot2.vhd, IDROMConst.vhd; LinuxCNC stepgen.c).
 //
-// Registers (instance i at +4i unless single; ClockLow):
-//   0x2000 rate          signed 32 bits, added to the 48-bit accumulator every
+// Registers (lbpkit/wire/hostmot2_modules.hpp; instance i at +4i unless
+// single; ClockLow):
+//   rate                signed 32 bits, added to the 48-bit accumulator every
 //                        ClockLow tick: steps/s = rate * ClockLow / 2^32
-//   0x2100 accumulator   read: accumulator bits 47..16 (16.16 steps, or as
+//   accumulator          read: accumulator bits 47..16 (16.16 steps, or as
 //                        latched on the DPLL timer); write: loads them, no step
-//   0x2200 mode          1..0 step type (0 step/dir, 1 up/down, 2 quadrature,
+//   mode                 1..0 step type (0 step/dir, 1 up/down, 2 quadrature,
 //                        3 table); 2 swap step and dir (versions 0x42, 0xC2);
 //                        7..4 index/probe latch control (version 0xC2)
-//   0x2300 dir setup     13..0 ClockLow ticks from a direction change to the next step
-//   0x2400 dir hold      13..0 ticks from a step to a direction change
-//   0x2500 pulse width   13..0 ticks the step output is high (plus one)
-//   0x2600 pulse idle    13..0 ticks low before the next step may start
-//   0x2700 table data    each write shifts one pattern into the step table
-//   0x2800 table length  3..0 the table's last index; a write restarts it
-//   0x2900 master rate   single: the prescaler's DDS (LinuxCNC writes 0xFFFFFFFF)
-//   0x2A00 timer select  single: 15 enable, 14..12 DPLL rate source whose
+//   dir setup            13..0 ClockLow ticks from a direction change to the next step
+//   dir hold             13..0 ticks from a step to a direction change
+//   pulse width          13..0 ticks the step output is high (plus one)
+//   pulse idle           13..0 ticks low before the next step may start
+//   table data           each write shifts one pattern into the step table
+//   table length         3..0 the table's last index; a write restarts it
+//   master rate          single: the prescaler's DDS (LinuxCNC writes 0xFFFFFFFF)
+//   timer select         single: 15 enable, 14..12 DPLL rate source whose
 //                        rising edge latches every accumulator (LinuxCNC's
 //                        stepgen.timer-number; written only when a DPLL exists)
 // A step happens when the accumulator's bit 31 carries into (or borrows
@@ -37,22 +38,10 @@ class Dpll;
 
 class StepGen final : public Module {
  public:
-  static constexpr std::uint16_t kDefaultBase = 0x2000;
+  static constexpr const ModuleKind& kKind = map::kStepGen;
   static constexpr unsigned kMaxInstances = 16;
-  static constexpr unsigned kRegisters = 10;  // as the IDROM and LinuxCNC count them
-  enum Register : unsigned {
-    kRate,
-    kAccumulator,
-    kMode,
-    kDirSetup,
-    kDirHold,
-    kPulseWidth,
-    kPulseIdle,
-    kTableData,
-    kTableLength,
-    kMasterRate,   // single
-    kTimerSelect,  // single, one past the IDROM's count
-  };
+  // The IDROM and LinuxCNC count 10; the timer select is one past them.
+  using enum map::stepgen::Register;
   static constexpr std::uint32_t kTimerEnable = 1U << 15;
   static constexpr std::uint32_t kSwapStepDir = 1U << 2;
 
@@ -79,13 +68,8 @@ class StepGen final : public Module {
 
   StepGen(std::uint16_t base, unsigned instances, std::uint32_t clockLow, std::uint8_t version = 2);
 
-  [[nodiscard]] std::string_view name() const override { return "StepGen"; }
-  [[nodiscard]] ModuleDescriptor descriptor() const override {
-    return ModuleDescriptor{tag::kStepGen, version_, kClockLow, static_cast<std::uint8_t>(instances_), base_, kRegisters, 0, 0x1FF};
-  }
-  [[nodiscard]] bool decodes(std::uint16_t a) const override;
-  std::uint32_t read(std::uint16_t address, SimTime now) override;
-  WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) override;
+  std::uint32_t readRegister(std::uint16_t address, SimTime now) override;
+  WriteResult writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) override;
   void advance(SimTime now) override;
   void reset() override;  // every register 0, no steps; the step count the machine saw stays
 
@@ -100,7 +84,6 @@ class StepGen final : public Module {
   [[nodiscard]] Pins pins(unsigned n, SimTime now);
   // The commanded rate in steps per second (rate register * ClockLow / 2^32).
   [[nodiscard]] double stepRate(unsigned n) const;
-  [[nodiscard]] unsigned instances() const { return instances_; }
   [[nodiscard]] State state(SimTime now);
 
  private:
@@ -133,10 +116,7 @@ class StepGen final : public Module {
   void runSteady(Channel& c, std::uint64_t& t, std::uint64_t to) const;
   [[nodiscard]] Pins pinsOf(const Channel& c) const;
 
-  std::uint16_t base_;
-  unsigned instances_;
   std::uint32_t clock_;
-  std::uint8_t version_;
   std::uint64_t tick_ = 0;  // edges processed
   std::uint32_t masterRate_ = 0;
   std::uint32_t timerSelect_ = 0;

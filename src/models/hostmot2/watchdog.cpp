@@ -3,7 +3,8 @@
 namespace hm2 {
 
 Watchdog::Watchdog(std::uint32_t clockLow, std::function<void()> onBite)
-    : clockLow_(clockLow), onBite_(std::move(onBite)) {}
+    : Module(kKind, kKind.base, 1, kKind.version),
+      clockLow_(clockLow), onBite_(std::move(onBite)) {}
 
 std::uint32_t Watchdog::timer(SimTime now) const {
   if (!running_) return reload_;
@@ -35,7 +36,7 @@ void Watchdog::bite(std::uint32_t timer) {
   if (onBite_) onBite_();
 }
 
-std::uint32_t Watchdog::read(std::uint16_t address, SimTime now) {
+std::uint32_t Watchdog::readRegister(std::uint16_t address, SimTime now) {
   advance(now);
   switch (address & 0xFF00U) {
     case kTimer: return timer(now);
@@ -68,7 +69,7 @@ void Watchdog::load(std::uint32_t value, SimTime now) {
     bite(value);
 }
 
-WriteResult Watchdog::write(std::uint16_t address, std::uint32_t value, SimTime now) {
+WriteResult Watchdog::writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) {
   advance(now);
   switch (address & 0xFF00U) {
     case kTimer:
@@ -81,7 +82,7 @@ WriteResult Watchdog::write(std::uint16_t address, std::uint32_t value, SimTime 
     case kReset:
       // A pet loads the timer from the value last written (wdtime), also
       // after a bite: the timer runs again (the status bit stays).
-      if ((value >> 24) == 0x5A) load(time_, now);
+      if ((value >> 24) == map::watchdog::kPetCookie) load(time_, now);
       break;
     default:
       return WriteResult::Unmapped;

@@ -1,11 +1,12 @@
 // HostMot2 watchdog (HostMot2 regmap; watchdog.vhd; docs/protocol-facts.md#hostmot2-watchdog).
-//   0x0C00 timer   32 bits, counts down at ClockLow while bit 31 is 0; a write
-//                  loads the timer and its reload value (0x80000000: disarmed
-//                  when it is not running; written while it runs, bit 31
-//                  rising bites, as watchdog.vhd's edge detector does)
-//   0x0D00 status  bit 0: bitten (read/write)
-//   0x0E00 reset   a write whose top byte is 0x5A reloads the timer with the
-//                  value last written to 0x0C00 ("pet"; after a bite too)
+// Registers (their addresses: lbpkit/wire/hostmot2_modules.hpp):
+//   timer   32 bits, counts down at ClockLow while bit 31 is 0; a write
+//           loads the timer and its reload value (bit 31 set: disarmed
+//           when it is not running; written while it runs, bit 31
+//           rising bites, as watchdog.vhd's edge detector does)
+//   status  bit 0: bitten (read/write)
+//   reset   a write whose top byte is 0x5A reloads the timer with the
+//           value last written to the timer ("pet"; after a bite too)
 // When the timer's bit 31 rises (it passes zero) the watchdog bites: the status bit is set and
 // the card's GPIO is reset (the owner is told through onBite).
 #pragma once
@@ -19,10 +20,11 @@ namespace hm2 {
 
 class Watchdog final : public Module {
  public:
-  static constexpr std::uint16_t kTimer = 0x0C00;
-  static constexpr std::uint16_t kStatus = 0x0D00;
-  static constexpr std::uint16_t kReset = 0x0E00;
-  static constexpr std::uint32_t kDisarmed = 0x80000000U;
+  static constexpr const ModuleKind& kKind = map::kWatchdog;
+  static constexpr std::uint16_t kTimer = kKind.address(map::watchdog::kTimer);
+  static constexpr std::uint16_t kStatus = kKind.address(map::watchdog::kStatus);
+  static constexpr std::uint16_t kReset = kKind.address(map::watchdog::kReset);
+  static constexpr std::uint32_t kDisarmed = map::watchdog::kDisarmed;
 
   // What an observer sees (the status bit and the timer as a read at `now`
   // would return them), without the read's side effect of advancing.
@@ -33,13 +35,12 @@ class Watchdog final : public Module {
 
   Watchdog(std::uint32_t clockLow, std::function<void()> onBite);
 
-  [[nodiscard]] std::string_view name() const override { return "WatchDog"; }
-  [[nodiscard]] ModuleDescriptor descriptor() const override {
-    return ModuleDescriptor{tag::kWatchdog, 0, kClockLow, 1, kTimer, 3, 0, 0};
-  }
+  // The timer and status registers answer at every word of their blocks
+  // (watchdog.vhd decodes them by the address's top byte), the reset
+  // register at its first.
   [[nodiscard]] bool decodes(std::uint16_t a) const override { return a >= kTimer && a < kReset + 4; }
-  std::uint32_t read(std::uint16_t address, SimTime now) override;
-  WriteResult write(std::uint16_t address, std::uint32_t value, SimTime now) override;
+  std::uint32_t readRegister(std::uint16_t address, SimTime now) override;
+  WriteResult writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) override;
   // One comparison until the timer passes zero (the card calls it at every access).
   void advance(SimTime now) override {
     if (running_ && now >= biteAt_) bite();

@@ -233,7 +233,7 @@ std::string traceJson(const TraceRing& trace, const httplib::Request& req) {
 
 using Action = void (*)(const ApiTarget&, const json&);
 
-void linkAction(const ApiTarget& t, const json& j) { applyLink(t.card.smartSerial(), j, t.card.now()); }
+void linkAction(const ApiTarget& t, const json& j) { applyLink(t.card.part<hm2::SmartSerial>(), j, t.card.now()); }
 
 void networkAction(const ApiTarget& t, const json& j) {
   if (t.udp == nullptr) throw std::invalid_argument("this sim has no network to disturb");
@@ -287,14 +287,14 @@ void encoderAction(const ApiTarget& t, const json& j) {
                                 fmt::format("from {:g} to {:g} (counts per second)", -kMaxCountsPerSecond,
                                             kMaxCountsPerSecond))
                        : 0;
-  auto& enc = t.card.encoders();
+  auto& enc = t.card.part<hm2::MuxedEncoder>();
   if (cpr) enc.setIndexPeriod(n, static_cast<std::uint32_t>(c));
   if (vel) enc.setVelocity(n, v, t.card.now());
 }
 
 void cableAction(const ApiTarget& t, const json& j) {
-  const auto ch = index(j, "channel", t.card.smartSerial().channels());
-  t.card.smartSerial().link(ch).setConnected(flag(j, "connected"));
+  const auto ch = index(j, "channel", t.card.part<hm2::SmartSerial>().channels());
+  t.card.part<hm2::SmartSerial>().link(ch).setConnected(flag(j, "connected"));
 }
 
 void outputAction(const ApiTarget& t, const json& j) {
@@ -437,7 +437,7 @@ void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner
             }));
   // The RS-422 links: GET and POST answer what GET /api/link shows.
   auto link = [t] {
-    const auto s = takeLinkSnapshots(t.card.smartSerial(), t.card.now());
+    const auto s = takeLinkSnapshots(t.card.part<hm2::SmartSerial>(), t.card.now());
     return Answer{[s] { return toJson(s).dump(); }};
   };
   http.Get("/api/link", handle([link](const json&) { return link(); }));

@@ -31,12 +31,12 @@ std::function<void(const ApiTarget&)> undoFor(const ScriptedFault& f, const ApiT
     // (A bad "channel" is refused by the entry itself, just after this.)
     const json& channel = f.body.contains("channel") ? f.body.at("channel") : json();
     if (!channel.is_number_integer() || channel.get<std::int64_t>() < 0 ||
-        channel.get<std::int64_t>() >= static_cast<std::int64_t>(t.card.smartSerial().channels()))
+        channel.get<std::int64_t>() >= static_cast<std::int64_t>(t.card.part<hm2::SmartSerial>().channels()))
       return nullptr;
     const auto ch = channel.get<unsigned>();
-    const auto& link = t.card.smartSerial().link(ch);
+    const auto& link = t.card.part<hm2::SmartSerial>().link(ch);
     return [ch, rates = link.rates(), connected = link.connected()](const ApiTarget& target) {
-      auto& l = target.card.smartSerial().link(ch);
+      auto& l = target.card.part<hm2::SmartSerial>().link(ch);
       l.setRates(rates);
       l.setConnected(connected);
       l.cut(target.card.now(), target.card.now());

@@ -185,11 +185,11 @@ SimState SimDaemon::state() {
               {}};
   for (std::size_t i = 0; i < s.server.atLeast.size(); ++i)
     s.server.atLeast[i] = latency_.countAtLeastUs(SimState::Server::kAtLeastUs[i]);
-  s.watchdog = card_.watchdog().state(now);
-  s.cardLeds = card_.led().state();
-  s.sserial = card_.smartSerial().state();
+  s.watchdog = card_.part<hm2::Watchdog>().state(now);
+  s.cardLeds = card_.part<hm2::Led>().state();
+  s.sserial = card_.part<hm2::SmartSerial>().state();
   s.accessCounters = card_.accessCounters();
-  const auto encoders = card_.encoders().state();
+  const auto encoders = card_.part<hm2::MuxedEncoder>().state();
   for (unsigned d = 0; d < card_.daughtercards(); ++d) {
     auto& b = card_.daughtercard(d);
     SimState::Daughtercard board{b.fieldIo.state(), b.analog.state(), {}};
@@ -415,7 +415,7 @@ void SimDaemon::run(const std::atomic<bool>& stop) {
   }
   auto& lbp16 = *lbp16_;
   std::uint64_t errorsSeen = 0;
-  if (options_.demo) card_.encoders().setVelocity(0, 10000, card_.now());
+  if (options_.demo) card_.part<hm2::MuxedEncoder>().setVelocity(0, 10000, card_.now());
   while (!stop.load()) {
     // The card answers at the simulated time the datagram arrived (its
     // kernel receive timestamp), caught up to it with bounded work. Normally
@@ -430,10 +430,10 @@ void SimDaemon::run(const std::atomic<bool>& stop) {
     // next cycle finds the DOIT done and the plant moved under its outputs.
     const bool served = udp_->serveOnce(std::chrono::milliseconds(1),
                                         [&](std::span<const std::uint8_t> req, std::span<std::uint8_t> reply) {
-                                          const std::uint64_t doits = card_.smartSerial().counters().doits;
+                                          const std::uint64_t doits = card_.part<hm2::SmartSerial>().counters().doits;
                                           const std::size_t n = lbp16.handle(
                                               req, reply, catchUpTo(clock_.ago(udp_->sinceReceived()), budget()));
-                                          if (card_.smartSerial().counters().doits != doits)
+                                          if (card_.part<hm2::SmartSerial>().counters().doits != doits)
                                             clock_.hostCycle(udp_->sinceReceived());
                                           if (packetTrace_) traceDatagram(req, reply.first(n));
                                           return n;

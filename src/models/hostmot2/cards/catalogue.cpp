@@ -54,11 +54,11 @@ void sevenI96SSevenI77Pins(std::span<PinDescriptor> io) {
   std::array<PinDescriptor, 17> tb3{};
   unsigned at = 0;
   for (unsigned n = 0; n < kSevenI96SInputs; ++n)
-    tb3[at++] = PinDescriptor{static_cast<std::uint8_t>(kInMInput + n), InM::kTag, 0};
+    tb3[at++] = PinDescriptor{static_cast<std::uint8_t>(kInMInput + n), InM::kKind.tag, 0};
   for (unsigned n = 0; n < kSevenI96SSsrOutputs; ++n)
-    tb3[at++] = PinDescriptor{static_cast<std::uint8_t>(kSsrOut + n), Ssr::kTag, 0};
+    tb3[at++] = PinDescriptor{static_cast<std::uint8_t>(kSsrOut + n), Ssr::kKind.tag, 0};
   for (unsigned n = kSevenI96SSsrOutputs; n < kSevenI96SSsrOutputs + kSevenI96SOutMOutputs; ++n)
-    tb3[at++] = PinDescriptor{static_cast<std::uint8_t>(kOutMOut + n), OutM::kTag, 0};
+    tb3[at++] = PinDescriptor{static_cast<std::uint8_t>(kOutMOut + n), OutM::kKind.tag, 0};
   place(io, 0, tb3);
   std::array<PinDescriptor, 17> tb{};
   for (std::uint8_t n = 0; n < 5; ++n) {
@@ -91,7 +91,7 @@ constexpr ModuleEntry kSevenI77SevenI76[] = {{P::Watchdog, 1},       {P::IoPort,
                                              {P::MuxedQCountSel, 1}, {P::SSerial, 5}, {P::StepGen, 5},
                                              {P::Led, 4}};
 // Mesa's "d" firmwares for the Efinix cards carry the HM2DPLL first (as
-// PIN_7I76E_51.vhd does; the 7I96S's readhmid lists it first at 0x7000).
+// PIN_7I76E_51.vhd does; the 7I96S's readhmid lists it first).
 constexpr ModuleEntry kSevenI77x2D[] = {{P::Dpll, 1},        {P::Watchdog, 1},       {P::IoPort, 2},
                                         {P::MuxedQCount, 12}, {P::MuxedQCountSel, 1}, {P::SSerial, 6},
                                         {P::Led, 4}};

@@ -1,10 +1,13 @@
 // HostMot2: the identification area, the IDROM and its module and pin
-// descriptors, and the module tags (docs/protocol-facts.md#hostmot2;
-// firmware: idrom.vhd, IDROMConst.vhd; LinuxCNC: hostmot2.h).
+// descriptors (docs/protocol-facts.md#hostmot2; firmware: idrom.vhd,
+// IDROMConst.vhd; LinuxCNC: hostmot2.h). The modules and their registers:
+// hostmot2_modules.hpp.
 #pragma once
 
 #include <cstdint>
 #include <string_view>
+
+#include "lbpkit/wire/hostmot2_modules.hpp"
 
 namespace lbpkit::wire::hm2 {
 
@@ -15,6 +18,12 @@ inline constexpr std::uint32_t kCookie = 0x55AACAFE;
 inline constexpr std::uint16_t kConfigName = 0x0104;  // "HOSTMOT2", two words
 inline constexpr std::uint16_t kIdromPointer = 0x010C;
 inline constexpr std::uint32_t kIdromType = 3;
+// Where lbpkit's cards put the IDROM (what kIdromPointer reads), and its size.
+inline constexpr std::uint16_t kIdromAddress = 0x0400;
+inline constexpr std::uint16_t kIdromBytes = 0x0400;
+// The configuration name's two words: "HOST", "MOT2".
+inline constexpr std::uint32_t kConfigNameHost = 0x54534F48;
+inline constexpr std::uint32_t kConfigNameMot2 = 0x32544F4D;
 
 // Byte offsets in the IDROM header.
 inline constexpr unsigned kType = 0x00;
@@ -40,41 +49,6 @@ inline constexpr unsigned kModuleDescriptorBytes = 12;  // three words
 inline constexpr unsigned kPinDescriptorBytes = 4;
 }  // namespace idrom
 
-// Module tags (GTag, IDROMConst.vhd).
-namespace tag {
-inline constexpr std::uint8_t kIrq = 0x01;
-inline constexpr std::uint8_t kWatchdog = 0x02;
-inline constexpr std::uint8_t kIoPort = 0x03;
-inline constexpr std::uint8_t kQCount = 0x04;
-inline constexpr std::uint8_t kStepGen = 0x05;
-inline constexpr std::uint8_t kPwm = 0x06;
-inline constexpr std::uint8_t kMuxedQCount = 0x0C;
-inline constexpr std::uint8_t kMuxedQCountSel = 0x0D;
-inline constexpr std::uint8_t kLed = 0x80;
-inline constexpr std::uint8_t kSSerial = 0xC1;
-}  // namespace tag
-
-// The module's name as the firmware and LinuxCNC spell it; empty if unknown.
-constexpr std::string_view moduleName(std::uint8_t t) {
-  switch (t) {
-    case tag::kIrq: return "IRQ";
-    case tag::kWatchdog: return "WatchDog";
-    case tag::kIoPort: return "IOPort";
-    case tag::kQCount: return "QCount";
-    case tag::kStepGen: return "StepGen";
-    case tag::kPwm: return "PWM";
-    case tag::kMuxedQCount: return "MuxedQCount";
-    case tag::kMuxedQCountSel: return "MuxedQCountSel";
-    case tag::kLed: return "LED";
-    case tag::kSSerial: return "SSerial";
-    default: return {};
-  }
-}
-
-// Module descriptor clock tags.
-inline constexpr std::uint8_t kClockLow = 1;
-inline constexpr std::uint8_t kClockHigh = 2;
-
 // Pin descriptor: secondary pin code (bit 7: output), secondary tag,
 // secondary unit, primary tag (always IOPort).
 namespace pin {
@@ -94,12 +68,5 @@ inline constexpr std::uint8_t kQCountIndexMask = 4;
 // MuxedQCountSel pin codes: SEL0 is 1.
 inline constexpr std::uint8_t kQCountSel0 = 1;
 }  // namespace pin
-
-// Register blocks are 0x100 bytes apart ("Addr byte << 8"); instances and
-// channels are 4 bytes apart inside a block (stride select 0) or 0x40
-// (stride select 1).
-inline constexpr std::uint16_t kRegisterStride = 0x100;
-inline constexpr std::uint16_t kInstanceStride0 = 4;
-inline constexpr std::uint16_t kInstanceStride1 = 0x40;
 
 }  // namespace lbpkit::wire::hm2

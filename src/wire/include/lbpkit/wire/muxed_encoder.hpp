@@ -1,22 +1,17 @@
-// HostMot2's muxed quadrature counter (MuxedQCount): register order and CCR
-// bits (docs/protocol-facts.md#muxed-encoders; firmware: qcounterate.vhd,
-// qcounter.vhd; LinuxCNC: hostmot2/encoder.c).
+// HostMot2's muxed quadrature counter (MuxedQCount): its CCR bits
+// (docs/protocol-facts.md#muxed-encoders; firmware: qcounterate.vhd,
+// qcounter.vhd; LinuxCNC: hostmot2/encoder.c). The registers:
+// hostmot2_modules.hpp.
 #pragma once
 
 #include <cstdint>
 
+#include "lbpkit/wire/hostmot2_modules.hpp"
+
 namespace lbpkit::wire::qcount {
 
-// Register blocks from the module's base address, in register strides;
-// counter n at +4n in each.
-namespace reg {
-inline constexpr unsigned kCount = 0;         // 15..0 count, 31..16 timestamp; a write clears
-inline constexpr unsigned kControl = 1;       // CCR
-inline constexpr unsigned kTimestampDiv = 2;  // timestamp counter: a count every TSDiv+2 ClockLow
-inline constexpr unsigned kTimestamp = 3;     // the 16-bit timestamp counter
-inline constexpr unsigned kRate = 4;          // 11..0 mux divisor: a mux tick every divisor+2 ClockLow
-inline constexpr unsigned kRegisters = 5;
-}  // namespace reg
+// The registers (counter n at +4n in each): the module map's.
+namespace reg = hm2::qcount;
 
 // Counter control register (CCR) bits.
 namespace ccr {

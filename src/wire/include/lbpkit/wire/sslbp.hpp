@@ -1,25 +1,21 @@
 // SSLBP, the SSerial module's firmware for LBP remotes: its COMMAND values,
 // CS bits and local parameter map (docs/protocol-facts.md#sslbp; manual:
 // REFERENCE INFORMATION, SSLBP; firmware: the SSLBP source).
-//
-// The module's registers, from its base, one register stride apart:
-// COMMAND, DATA, CS (channel c at +4c), interface 0, 1, 2 (channel c at +4c).
 #pragma once
 
 #include <array>
 #include <cstdint>
 #include <string_view>
 
+#include "lbpkit/wire/hostmot2_modules.hpp"
+
 namespace lbpkit::wire::sslbp {
 
-// Register blocks from the module's base address, in register strides.
+// The registers (hostmot2_modules.hpp), from the module's base in register
+// strides; CS and the interfaces per channel, kChannelStride bytes apart.
 namespace reg {
-inline constexpr unsigned kCommand = 0;
-inline constexpr unsigned kData = 1;
-inline constexpr unsigned kCs = 2;
-inline constexpr unsigned kInterface0 = 3;
-inline constexpr unsigned kInterfaces = 3;
-inline constexpr unsigned kChannelStride = 4;  // bytes between channels in a block
+using namespace hm2::sserial;
+inline constexpr unsigned kChannelStride = hm2::kInstanceStride0;
 }  // namespace reg
 
 // COMMAND register values (manual: COMMAND REGISTER): W M R D S T T T | N..N.
