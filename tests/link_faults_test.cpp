@@ -174,7 +174,7 @@ TEST(LinkFaults, BreaksExtrasAndACutEachShowTheirOwnBit) {
 class SimLink : public ::testing::Test {
  protected:
   void SetUp() override {
-    sim_ = std::make_unique<test_support::SimChild>(address_, std::vector<std::string>{}, false);
+    sim_ = std::make_unique<test_support::SimChild>(test_support::SimOptions{address_, 0, "127.0.0.1", true, {}, {}});
     api_ = sim_->apiPort();
     port_ = sim_->udpPort();
     ASSERT_GT(api_, 0);

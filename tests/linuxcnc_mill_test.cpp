@@ -43,6 +43,7 @@
 #include <vector>
 
 #include "support/process.hpp"
+#include "support/sim_child.hpp"
 
 namespace {
 
@@ -120,35 +121,6 @@ class Network {
  private:
   std::string ns_, card_, apiLink_, apiAddress_;
   bool ok_ = false;
-};
-
-// `lbpkit sim --machine mill` (or the card and machine given) on the card's
-// link, its API on the other one.
-class MillSim {
- public:
-  MillSim(const std::string& apiAddress, const fs::path& dir,
-          const std::vector<std::string>& machine = {"--machine", "mill"})
-      : address_(apiAddress) {
-    std::vector<std::string> args{"sim", "--bind", "10.10.10.10", "--api", apiAddress + ":0", "--state",
-                                  (dir / "state").string()};
-    args.insert(args.end(), machine.begin(), machine.end());
-    daemon_ = std::make_unique<test_support::Daemon>(args);
-    port_ = std::atoi(daemon_->value("control API: http://" + apiAddress + ":").c_str());
-  }
-  [[nodiscard]] bool up() const { return port_ > 0; }
-  [[nodiscard]] std::string url() const { return "http://" + address_ + ":" + std::to_string(port_); }
-  json get(const std::string& path) {
-    httplib::Client c(address_, port_);
-    c.set_read_timeout(5, 0);
-    auto r = c.Get(path.c_str());
-    return r && r->status == 200 ? json::parse(r->body, nullptr, false) : json{};
-  }
-  int stop() { return daemon_->stopWithin(5000ms); }
-
- private:
-  std::string address_;
-  int port_ = 0;
-  std::unique_ptr<test_support::Daemon> daemon_;
 };
 
 // The namespace a process is in (an inode number), or 0.
@@ -368,7 +340,7 @@ bool outputsOff(const json& state) {
   return true;
 }
 
-AfterKill killAndWatch(LinuxCncRun& run, MillSim& sim) {
+AfterKill killAndWatch(LinuxCncRun& run, test_support::SimChild& sim) {
   AfterKill k;
   k.atKill = sim.get("/api/state");
   for (const auto& a : k.atKill["machine"]["axes"])
@@ -528,7 +500,7 @@ struct Scenario {
   std::string config;
   std::string displayArguments;
   const char* last;
-  std::function<void(LinuxCncRun&, MillSim&)> atLast;
+  std::function<void(LinuxCncRun&, test_support::SimChild&)> atLast;
 };
 struct Outcome {
   std::map<std::string, json> reports;  // by step
@@ -551,9 +523,10 @@ Outcome runScenario(const Scenario& scenario) {
     ADD_FAILURE() << "could not set up the network namespace";
     return o;
   }
-  char tmpl[] = "/tmp/lbpkit-mill-sim-XXXXXX";
-  const fs::path simDir = ::mkdtemp(tmpl);
-  MillSim sim(net.apiAddress(), simDir, scenario.simArguments);
+  // The card at the INI's address on hm2_eth's port, its API on the test's
+  // own link, at the priority a user runs it; its state in a folder of its own.
+  test_support::SimChild sim(
+      test_support::SimOptions{"10.10.10.10", -1, net.apiAddress(), false, {}, scenario.simArguments});
   if (!sim.up()) {
     ADD_FAILURE() << "lbpkit sim did not start";
     return o;
@@ -561,7 +534,7 @@ Outcome runScenario(const Scenario& scenario) {
   unsigned long pidNs = 0, netNs = 0;
   {
     ServoThreadPriority priority(net.inode());
-    LinuxCncRun run(net, sim.url(), scenario.config, scenario.displayArguments);
+    LinuxCncRun run(net, sim.url(""), scenario.config, scenario.displayArguments);
     o.setUp = run.displayLines() == 1;
     EXPECT_EQ(run.displayLines(), 1) << scenario.config << "/mill.ini should have one DISPLAY line";
     const bool reached = o.setUp && run.waitForKillPoint(kRunLimit, scenario.last);
@@ -577,9 +550,7 @@ Outcome runScenario(const Scenario& scenario) {
   const auto deadline = Clock::now() + 3s;
   while (processesIn(pidNs, netNs) > 0 && Clock::now() < deadline) std::this_thread::sleep_for(50ms);
   EXPECT_EQ(processesIn(pidNs, netNs), 0) << "LinuxCNC processes outlived the kill";
-  EXPECT_EQ(sim.stop(), 0);
-  std::error_code ec;
-  fs::remove_all(simDir, ec);
+  EXPECT_EQ(sim.stopWithin(5000ms), 0);
   net.remove();
   EXPECT_TRUE(net.gone()) << "the network namespace or a veth outlived the test";
   return o;
@@ -590,7 +561,7 @@ TEST(LinuxCncMill, RunsGcodeAndRehearsesFaultsAgainstTheVirtualMill) {
   const auto started = Clock::now();
   AfterKill k;
   const Outcome o = runScenario({{"--machine", "mill", "--clock", "host=1ms"}, "mill", "", "ready_for_kill",
-                                 [&k](LinuxCncRun& run, MillSim& sim) { k = killAndWatch(run, sim); }});
+                                 [&k](LinuxCncRun& run, test_support::SimChild& sim) { k = killAndWatch(run, sim); }});
   ASSERT_TRUE(o.setUp);
   auto r = o.reports;
   const auto& mdi = o.mdi;

@@ -253,7 +253,7 @@ TEST(UdpServerFaults, ACorruptedReplyDiffersInOneByte) {
 // GET /api/network says what it did.
 TEST(SimNetwork, TheApiSetsTheNetworkAndCountsWhatItDid) {
   const std::string address = "127.94." + std::to_string(::getpid() % 250) + ".1";
-  test_support::SimChild sim(test_support::SimOptions{address, -1, false, false, {}, {}});
+  test_support::SimChild sim(test_support::SimOptions{address, -1, "127.0.0.1", false, {}, {}});
   const int api = sim.apiPort();
   const int port = lbpkit::wire::lbp16::kPort;
   ASSERT_GT(api, 0);

@@ -46,7 +46,7 @@ class StepperAnd7I76Api : public testing::Test {
  protected:
   void SetUp() override {
     sim_ = std::make_unique<test_support::SimChild>(
-        test_support::SimOptions{"127.0.0.1", 0, true, true, {}, {"--card", "7I92T", "--machine", kMachine}});
+        test_support::SimOptions{"127.0.0.1", 0, {}, true, {}, {"--card", "7I92T", "--machine", kMachine}});
     udp_ = sim_->udpPort();
     api_ = sim_->apiPort();
     ASSERT_GT(udp_, 0);

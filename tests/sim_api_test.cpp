@@ -195,7 +195,7 @@ class Sim : public test_support::SimChild {
 
 // `lbpkit sim` on the port hm2_eth and mesaflash use (27181), on an address
 // of this test's own, its API on 127.0.0.1.
-test_support::SimOptions onLbp16Port(int n) { return {loopback(n), -1, false, true, {}, {}}; }
+test_support::SimOptions onLbp16Port(int n) { return {loopback(n), -1, "127.0.0.1", true, {}, {}}; }
 
 TEST(Lbp16, GarbageFromAnotherPortDoesNotStopService) {
   test_support::SimChild sim(onLbp16Port(19));

@@ -65,7 +65,7 @@ int runPins(const PinsOptions& o) {
     out["params"] = nlohmann::json::array();
     for (const auto& i : items) {
       nlohmann::json j{{"name", i.name}, {"type", lbpkit::linuxcnc::typeName(i.type)}, {"dir", lbpkit::linuxcnc::dirName(i.dir)},
-                       {"origin", i.origin}};
+                       {"origin", i.origin.text}};
       if (!i.alsoNamed.empty()) j["also_named"] = i.alsoNamed;
       out[i.kind == lbpkit::linuxcnc::Kind::Pin ? "pins" : "params"].push_back(j);
     }

@@ -13,23 +13,15 @@
 
 #include "lbpkit/wire/lbp.hpp"
 #include "lbpkit/wire/crc8.hpp"
+#include "lbpkit/wire/serial_speed.hpp"
 #include "lbpkit/error.hpp"
 
 namespace lbpkit {
 
 namespace {
 speed_t speedFor(unsigned baud) {
-  switch (baud) {
-    case 9600: return B9600;
-    case 19200: return B19200;
-    case 38400: return B38400;
-    case 57600: return B57600;
-    case 115200: return B115200;
-    case 230400: return B230400;
-    case 460800: return B460800;
-    case 921600: return B921600;
-    default: throw Error(fmt::format("{} baud is not a rate this serial port can be set to", baud));
-  }
+  if (const auto speed = wire::termiosSpeed(baud)) return static_cast<speed_t>(*speed);
+  throw Error(fmt::format("{} baud is not a rate this serial port can be set to", baud));
 }
 }  // namespace
 

@@ -74,8 +74,7 @@ inline void reapOrphans() {
 class Sim : public test_support::SimChild {
  public:
   explicit Sim(const std::string& address, std::vector<std::string> extra = {})
-      : SimChild(test_support::SimOptions{address, -1, false, false, {}, std::move(extra)}) {}
-  [[nodiscard]] bool up() const { return apiPort() > 0; }
+      : SimChild(test_support::SimOptions{address, -1, "127.0.0.1", false, {}, std::move(extra)}) {}
   // POST: the JSON answer, whatever its status.
   json post(const std::string& path, const json& body) { return SimChild::post(path, body).body; }
 };

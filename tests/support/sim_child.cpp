@@ -11,9 +11,8 @@ SimChild::SimChild(SimOptions options) : options_(std::move(options)) {
   state_ = options_.state.empty() ? folder_ / "sim.eeprom" : options_.state;
   const std::string bind =
       options_.port < 0 ? options_.address : options_.address + ":" + std::to_string(options_.port);
-  apiAddress_ = options_.apiOnOwnAddress ? options_.address : "127.0.0.1";
-  std::vector<std::string> args = {"sim", "--bind", bind, "--api", options_.apiOnOwnAddress ? options_.address + ":0" : "0",
-                                   "--state", state_};
+  apiAddress_ = options_.apiAddress.empty() ? options_.address : options_.apiAddress;
+  std::vector<std::string> args = {"sim", "--bind", bind, "--api", apiAddress_ + ":0", "--state", state_};
   if (options_.noRealtime) args.emplace_back("--no-realtime");
   args.insert(args.end(), options_.extra.begin(), options_.extra.end());
   daemon_ = std::make_unique<Daemon>(args);

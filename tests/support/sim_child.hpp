@@ -22,9 +22,8 @@ struct SimOptions {
   // default (27181, the port hm2_eth and mesaflash use).
   std::string address = "127.0.0.1";
   int port = 0;
-  // The control API: on the card's own address (a free port), or else on
-  // 127.0.0.1 (`--api 0`).
-  bool apiOnOwnAddress = true;
+  // The control API's address (on a free port); empty: the card's own.
+  std::string apiAddress;
   // --no-realtime: the card thread at normal priority (a test beside
   // others); false for the real clients, which meet the sim a user runs.
   bool noRealtime = true;
@@ -42,10 +41,9 @@ struct HttpReply {
 class SimChild {
  public:
   explicit SimChild(SimOptions options);
-  // On `address` (LBP16 on a free port), the API on the same address or on
-  // 127.0.0.1, with `extra` options.
-  explicit SimChild(const std::string& address, std::vector<std::string> extra = {}, bool apiOnOwnAddress = true)
-      : SimChild(SimOptions{address, 0, apiOnOwnAddress, true, {}, std::move(extra)}) {}
+  // On `address` (LBP16 and the API on free ports), with `extra` options.
+  explicit SimChild(const std::string& address, std::vector<std::string> extra = {})
+      : SimChild(SimOptions{address, 0, {}, true, {}, std::move(extra)}) {}
   ~SimChild();
   SimChild(const SimChild&) = delete;
   SimChild& operator=(const SimChild&) = delete;

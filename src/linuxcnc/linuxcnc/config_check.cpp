@@ -336,17 +336,17 @@ void evaluate(Reader& r, const std::vector<const Board*>& boards, const std::map
       if (find(b.items, ref.name + ".time")) continue;
       std::string functions;
       for (const auto& i : b.items)
-        if (i.origin.rfind("function ", 0) == 0 && i.kind == Kind::Pin) functions += " " + i.origin.substr(9);
+        if (i.origin.kind == Origin::Kind::Function && i.kind == Kind::Pin) functions += " " + i.origin.name;
       r.error(ref.at, ref.name,
               fmt::format("no function {}: {} exports{}", ref.name, prefix, functions),
               [&] {
                 std::string best;
                 std::size_t d = std::string::npos;
                 for (const auto& i : b.items)
-                  if (i.origin.rfind("function ", 0) == 0 && i.kind == Kind::Pin &&
-                      wire::editDistance(ref.name, i.origin.substr(9)) < d) {
-                    d = wire::editDistance(ref.name, i.origin.substr(9));
-                    best = i.origin.substr(9);
+                  if (i.origin.kind == Origin::Kind::Function && i.kind == Kind::Pin &&
+                      wire::editDistance(ref.name, i.origin.name) < d) {
+                    d = wire::editDistance(ref.name, i.origin.name);
+                    best = i.origin.name;
                   }
                 return best;
               }());
@@ -367,14 +367,12 @@ void evaluate(Reader& r, const std::vector<const Board*>& boards, const std::map
         const unsigned port = static_cast<unsigned>(std::stoul(m[2]));
         const unsigned channel = static_cast<unsigned>(std::stoul(m[3]));
         // Which remote answers on that channel (from the items' origins).
-        std::string onChannel;
-        for (const auto& i : b.items) {
-          const auto tail = fmt::format("on smart-serial port {} channel {} ", port, channel);
-          if (i.origin.find(tail) != std::string::npos) {
-            onChannel = i.origin;
+        const Origin* onChannel = nullptr;
+        for (const auto& i : b.items)
+          if (i.origin.kind == Origin::Kind::Remote && i.origin.port == port && i.origin.channel == channel) {
+            onChannel = &i.origin;
             break;
           }
-        }
         std::string wrongMode;
         for (const auto& [digit, items] : b.itemsInMode)
           if (digit != config.mode(port, channel) && find(items, ref.name)) wrongMode += digit;
@@ -383,28 +381,27 @@ void evaluate(Reader& r, const std::vector<const Board*>& boards, const std::map
         } else if (config.mode(port, channel) == 'x') {
           reason = fmt::format("smart-serial port {} channel {} is left out: 'x' in {}", port, channel,
                                sserialSummary(config));
-        } else if (onChannel.empty()) {
+        } else if (onChannel == nullptr) {
           std::string where;
           std::set<std::string> seen;
-          for (const auto& i : b.items) {
-            const auto at = i.origin.find(" on smart-serial port ");
-            if (at != std::string::npos && seen.insert(i.origin).second) where += (where.empty() ? "" : "; ") + i.origin;
-          }
+          for (const auto& i : b.items)
+            if (i.origin.kind == Origin::Kind::Remote && seen.insert(i.origin.text).second)
+              where += (where.empty() ? "" : "; ") + i.origin.text;
           reason = fmt::format("no remote answers on smart-serial port {} channel {} ({})", port, channel,
                                where.empty() ? "no remote found at all" : "found: " + where);
-        } else if (onChannel.rfind(upper(m[1]) + " ", 0) != 0) {
+        } else if (onChannel->name != upper(m[1])) {
           reason = fmt::format("the remote on smart-serial port {} channel {} is {}: no {}", port, channel,
-                               onChannel.substr(0, onChannel.find(' ')), std::string(m[1]));
+                               onChannel->name, std::string(m[1]));
         } else if (!wrongMode.empty()) {
           std::string modes;
           for (char c : wrongMode) modes += (modes.empty() ? "" : ", ") + std::string(1, c);
           reason = fmt::format("wrong mode: {} exists only in mode {} of the {} on port {} channel {}, and {} runs it "
                                "in mode {}",
-                               m[4].str(), modes, onChannel.substr(0, onChannel.find(' ')), port, channel,
+                               m[4].str(), modes, onChannel->name, port, channel,
                                sserialSummary(config), config.mode(port, channel));
         } else {
-          reason = fmt::format("the {} on port {} channel {} has no {} in mode {}",
-                               onChannel.substr(0, onChannel.find(' ')), port, channel, m[4].str(),
+          reason = fmt::format("the {} on port {} channel {} has no {} in mode {}", onChannel->name, port, channel,
+                               m[4].str(),
                                config.mode(port, channel));
         }
       } else if (std::regex_match(ref.name, m, encoder)) {
@@ -426,7 +423,7 @@ void evaluate(Reader& r, const std::vector<const Board*>& boards, const std::map
         const auto in = fmt::format("{}.gpio.{:03d}.in", prefix, std::stoul(m[1]));
         const auto* p = find(b.items, in);
         reason = p ? fmt::format("IO pin {} is not a plain GPIO ({}): only its .in and .in_not exist", m[1].str(),
-                                 p->origin.substr(p->origin.find(": ") + 2))
+                                 p->origin.name)
                    : fmt::format("no IO pin {} on {}", m[1].str(), prefix);
       } else {
         reason = fmt::format("{} creates no {} of that name", prefix,

@@ -20,6 +20,29 @@ namespace pinbits = wire::hm2::pin;
 // Dir (table mode) stay GPIO unless stepgen_width= says otherwise.
 constexpr int kDefaultStepgenWidth = 2;
 
+Origin Origin::function(std::string name) {
+  Origin o("function " + name);
+  o.kind = Kind::Function;
+  o.name = std::move(name);
+  return o;
+}
+
+Origin Origin::remote(std::string text, std::string name, unsigned port, unsigned channel) {
+  Origin o(std::move(text));
+  o.kind = Kind::Remote;
+  o.name = std::move(name);
+  o.port = port;
+  o.channel = channel;
+  return o;
+}
+
+Origin Origin::ioPin(std::string text, std::string function) {
+  Origin o(std::move(text));
+  o.kind = Kind::IoPin;
+  o.name = std::move(function);
+  return o;
+}
+
 std::string kindName(Kind k) { return k == Kind::Pin ? "pin" : "param"; }
 std::string typeName(Type t) {
   switch (t) {
@@ -51,10 +74,10 @@ const char* const kCountKeys[] = {"num_encoders", "num_resolvers", "num_pwmgens"
 
 class Builder {
  public:
-  void pin(std::string name, Type t, Dir d, const std::string& origin) {
+  void pin(std::string name, Type t, Dir d, const Origin& origin) {
     items_.push_back({std::move(name), Kind::Pin, t, d, {}, origin});
   }
-  void param(std::string name, Type t, Dir d, const std::string& origin, std::string also = {}) {
+  void param(std::string name, Type t, Dir d, const Origin& origin, std::string also = {}) {
     items_.push_back({std::move(name), Kind::Param, t, d, std::move(also), origin});
   }
   std::vector<Item> take() {
@@ -69,7 +92,7 @@ class Builder {
 // A function exported with hal_export_funct: HAL adds its time pin and tmax
 // parameters.
 void function(Builder& b, const std::string& name) {
-  const auto origin = "function " + name;
+  const auto origin = Origin::function(name);
   b.pin(name + ".time", Type::S32, Dir::Out, origin);
   b.param(name + ".tmax", Type::S32, Dir::RW, origin);
   b.param(name + ".tmax-increased", Type::Bit, Dir::RO, origin);
@@ -124,7 +147,9 @@ std::optional<std::string> generalName(std::uint8_t t) {
 }
 
 void remoteItems(Builder& b, const std::string& base, const Remote& r) {
-  const auto origin = fmt::format("{} on smart-serial port {} channel {} (mode {})", r.name, r.port, r.channel, r.mode);
+  const auto origin = Origin::remote(
+      fmt::format("{} on smart-serial port {} channel {} (mode {})", r.name, r.port, r.channel, r.mode), r.name, r.port,
+      r.channel);
   for (const auto& e : r.description.processData) {
     const auto name = base + "." + wire::asciiLower(e.name);
     const Dir d = e.direction == Direction::Input ? Dir::Out : e.direction == Direction::Output ? Dir::In : Dir::IO;
@@ -593,8 +618,9 @@ std::vector<Item> hostmot2Items(const CardInfo& card, const Hm2Config& config, c
   for (std::size_t i = 0; i < card.pins.size(); ++i) {
     const auto& pin = card.pins[i];
     const auto g = fmt::format("{}.gpio.{:03d}", p, i);
-    const auto origin = fmt::format("IO pin {} (connector {} pin {}): {}", i, pin.connector, pin.bit,
-                                    gtag[i] == tag::kIoPort ? std::string("GPIO") : pin.function());
+    const std::string does = gtag[i] == tag::kIoPort ? std::string("GPIO") : pin.function();
+    const auto origin =
+        Origin::ioPin(fmt::format("IO pin {} (connector {} pin {}): {}", i, pin.connector, pin.bit, does), does);
     b.pin(g + ".in", Type::Bit, Dir::Out, origin);
     b.pin(g + ".in_not", Type::Bit, Dir::Out, origin);
     if (gtag[i] == tag::kIoPort) {

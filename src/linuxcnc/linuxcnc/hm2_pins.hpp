@@ -26,6 +26,26 @@ std::string kindName(Kind k);
 std::string typeName(Type t);
 std::string dirName(Dir d);  // as halcmd shows it: IN OUT I/O RO RW
 
+// What an item belongs to: a message for people ("7I77 on smart-serial port
+// 0 channel 0 (mode 0)", "encoder 3", "IO pin 17 (connector 0 pin 17):
+// GPIO"), and the same as data for the checks that ask.
+struct Origin {
+  enum class Kind : std::uint8_t { Module, Function, Remote, IoPin };
+  Kind kind = Kind::Module;
+  std::string text;
+  // Function: the function's name; Remote: the remote's ("7I77"); IoPin:
+  // what the pin does ("GPIO", or its module function).
+  std::string name;
+  unsigned port = 0, channel = 0;  // Remote: where it answers
+  Origin() = default;
+  // A module's items: the message is all there is to it.
+  Origin(std::string message) : text(std::move(message)) {}  // NOLINT(google-explicit-constructor)
+  Origin(const char* message) : text(message) {}             // NOLINT(google-explicit-constructor)
+  static Origin function(std::string name);
+  static Origin remote(std::string text, std::string name, unsigned port, unsigned channel);
+  static Origin ioPin(std::string text, std::string function);
+};
+
 struct Item {
   std::string name;
   Kind kind = Kind::Pin;
@@ -34,9 +54,7 @@ struct Item {
   // A parameter LinuxCNC names twice (hal_param_alias): halcmd shows `name`,
   // setp also takes this one (the gpio.NNN name of a module's output pin).
   std::string alsoNamed;
-  // What it belongs to, for messages: "7I77 on channel 0 (mode 0: io)",
-  // "encoder 3", "IO pin 17 (P1-01)".
-  std::string origin;
+  Origin origin;
 };
 
 // The hostmot2 driver's config= modparam (hostmot2(9)): the module counts

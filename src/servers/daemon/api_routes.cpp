@@ -1,32 +1,16 @@
 #include "daemon/api_routes.hpp"
 #include "daemon/api_http.hpp"
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <netinet/tcp.h>
-#include <poll.h>
-#include <sys/eventfd.h>
-#include <sys/socket.h>
-#include <unistd.h>
 #include <httplib.h>
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <atomic>
-#include <cctype>
-#include <cerrno>
 #include <chrono>
 #include <cmath>
-#include <condition_variable>
-#include <cstring>
-#include <deque>
 #include <limits>
-#include <mutex>
 #include <nlohmann/json.hpp>
-#include <set>
 #include <stdexcept>
 #include <string_view>
-#include <thread>
 #include <vector>
 
 #include "daemon/link_api.hpp"

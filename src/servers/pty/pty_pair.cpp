@@ -8,31 +8,17 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "lbpkit/wire/serial_speed.hpp"
+
 namespace net {
 
 std::runtime_error systemError(const std::string& what) { return std::runtime_error(what + ": " + std::strerror(errno)); }
 
 namespace {
 
+// A pty takes any rate; one termios cannot name reads back as 115200.
 speed_t speedFor(std::uint32_t baud) {
-  switch (baud) {
-    case 9600: return B9600;
-    case 19200: return B19200;
-    case 38400: return B38400;
-    case 57600: return B57600;
-    case 115200: return B115200;
-    case 230400: return B230400;
-    case 460800: return B460800;
-    case 500000: return B500000;
-    case 921600: return B921600;
-    case 1000000: return B1000000;
-    case 1500000: return B1500000;
-    case 2000000: return B2000000;
-    case 2500000: return B2500000;
-    case 3000000: return B3000000;
-    case 4000000: return B4000000;
-    default: return B115200;
-  }
+  return static_cast<speed_t>(lbpkit::wire::termiosSpeed(baud).value_or(B115200));
 }
 
 }  // namespace
