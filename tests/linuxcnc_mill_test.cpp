@@ -42,6 +42,7 @@
 #include <thread>
 #include <vector>
 
+#include "linuxcnc/network_namespace.hpp"
 #include "support/process.hpp"
 #include "support/sim_child.hpp"
 
@@ -77,50 +78,31 @@ class Network {
  public:
   Network() {
     const auto id = std::to_string(::getpid() % 100000);
-    ns_ = "lbpkit-mill-" + id;
-    card_ = "lbm" + id + "c";
-    apiLink_ = "lbm" + id + "a";
-    apiAddress_ = "10.214." + std::to_string(::getpid() % 250) + ".1";
-    const std::string host = "10.214." + std::to_string(::getpid() % 250) + ".2";
-    const std::string in = "ip -n " + ns_ + " ";
-    ok_ = shell("ip netns add " + ns_) == 0;
-    ok_ = ok_ && shell("ip link add " + card_ + " type veth peer name " + card_ + "h") == 0 &&
-          shell("ip link set " + card_ + "h netns " + ns_) == 0 &&
-          shell("ip addr add 10.10.10.10/32 dev " + card_) == 0 && shell("ip link set " + card_ + " up") == 0 &&
-          shell("ip route add 10.10.10.2/32 dev " + card_ + " src 10.10.10.10") == 0 &&
-          shell(in + "addr add 10.10.10.2/24 dev " + card_ + "h") == 0 && shell(in + "link set " + card_ + "h up") == 0;
-    ok_ = ok_ && shell("ip link add " + apiLink_ + " type veth peer name " + apiLink_ + "h") == 0 &&
-          shell("ip link set " + apiLink_ + "h netns " + ns_) == 0 &&
-          shell("ip addr add " + apiAddress_ + "/30 dev " + apiLink_) == 0 &&
-          shell("ip link set " + apiLink_ + " up") == 0 &&
-          shell(in + "addr add " + host + "/30 dev " + apiLink_ + "h") == 0 &&
-          shell(in + "link set " + apiLink_ + "h up") == 0 && shell(in + "link set lo up") == 0;
+    const auto api = "10.214." + std::to_string(::getpid() % 250) + ".";
+    apiAddress_ = api + "1";
+    try {
+      ns_ = std::make_unique<lbpkit::linuxcnc::NetworkNamespace>(
+          "lbpkit-mill-" + id,
+          std::vector<lbpkit::linuxcnc::VethLink>{{"lbm" + id + "c", "10.10.10.10/32", "10.10.10.2/24", "10.10.10.2/32"},
+                                                  {"lbm" + id + "a", apiAddress_ + "/30", api + "2/30", {}}});
+    } catch (const std::exception& e) {
+      problem_ = e.what();
+    }
   }
-  ~Network() { remove(); }
   void remove() {
-    shell("ip link del " + card_);
-    shell("ip link del " + apiLink_);
-    shell("ip netns del " + ns_);
+    if (ns_) ns_->remove();
   }
-  Network(const Network&) = delete;
-  Network& operator=(const Network&) = delete;
 
-  [[nodiscard]] bool ok() const { return ok_; }
-  [[nodiscard]] const std::string& ns() const { return ns_; }
+  [[nodiscard]] bool ok() const { return ns_ != nullptr; }
+  [[nodiscard]] const std::string& problem() const { return problem_; }
+  [[nodiscard]] const std::string& ns() const { return ns_->name(); }
   [[nodiscard]] const std::string& apiAddress() const { return apiAddress_; }
-  // The namespace's inode (what /proc/PID/ns/net of its processes shows).
-  [[nodiscard]] unsigned long inode() const {
-    struct stat st {};
-    return ::stat(("/run/netns/" + ns_).c_str(), &st) == 0 ? static_cast<unsigned long>(st.st_ino) : 0;
-  }
-  [[nodiscard]] bool gone() const {
-    return !fs::exists("/run/netns/" + ns_) && !fs::exists("/sys/class/net/" + card_) &&
-           !fs::exists("/sys/class/net/" + apiLink_);
-  }
+  [[nodiscard]] unsigned long inode() const { return ns_->inode(); }
+  [[nodiscard]] bool gone() const { return ns_->gone(); }
 
  private:
-  std::string ns_, card_, apiLink_, apiAddress_;
-  bool ok_ = false;
+  std::unique_ptr<lbpkit::linuxcnc::NetworkNamespace> ns_;
+  std::string apiAddress_, problem_;
 };
 
 // The namespace a process is in (an inode number), or 0.
@@ -520,7 +502,7 @@ Outcome runScenario(const Scenario& scenario) {
   Outcome o;
   Network net;
   if (!net.ok()) {
-    ADD_FAILURE() << "could not set up the network namespace";
+    ADD_FAILURE() << net.problem();
     return o;
   }
   // The card at the INI's address on hm2_eth's port, its API on the test's

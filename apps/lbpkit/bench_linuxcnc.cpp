@@ -27,6 +27,7 @@
 #include "lbpkit/error.hpp"
 #include "lbpkit/lbp16_transport.hpp"
 #include "lbpkit/sserial.hpp"
+#include "linuxcnc/network_namespace.hpp"
 
 namespace bench {
 namespace {
@@ -46,23 +47,12 @@ class LinuxCncLink {
  public:
   LinuxCncLink() {
     const auto id = std::to_string(::getpid() % 100000);
-    ns_ = "lbpkit-bench-" + id;
-    vethCard_ = "lbb" + id + "c";
-    vethHost_ = "lbb" + id + "h";
     const auto net = fmt::format("10.212.{}.", ::getpid() % 250);
     cardIp_ = net + "1";
     // Not in the scratch folder: rtapi_app runs as RTAPI_UID and makes its socket here.
     fifo_ = (std::filesystem::temp_directory_path() / ("lbpkit-bench-rtapi-" + id)).string();
-    const auto r = sh("ip netns add " + ns_ + " && ip link add " + vethCard_ + " type veth peer name " + vethHost_ +
-                      " && ip link set " + vethHost_ + " netns " + ns_ + " && ip addr add " + cardIp_ + "/24 dev " +
-                      vethCard_ + " && ip link set " + vethCard_ + " up && ip -n " + ns_ + " addr add " + net +
-                      "2/24 dev " + vethHost_ + " && ip -n " + ns_ + " link set " + vethHost_ + " up && ip -n " + ns_ +
-                      " link set lo up");
-    created_ = true;  // whatever part of it exists goes in the destructor
-    if (r.exit != 0) {
-      cleanUp();
-      throw lbpkit::Error("cannot set up the network namespace and veth pair: " + r.out);
-    }
+    ns_.emplace("lbpkit-bench-" + id,
+                std::vector<lbpkit::linuxcnc::VethLink>{{"lbb" + id, cardIp_ + "/24", net + "2/24", {}}});
   }
   ~LinuxCncLink() { cleanUp(); }
   LinuxCncLink(const LinuxCncLink&) = delete;
@@ -71,7 +61,7 @@ class LinuxCncLink {
   // A HAL command in the namespace. rtapi_app, started by the first one,
   // inherits its priority: the normal one.
   Shell hal(const std::string& command) {
-    return sh("ip netns exec " + ns_ + " env RTAPI_UID=65534 RTAPI_FIFO_PATH=" + fifo_ + " timeout 60 " + command);
+    return sh(ns_->exec() + lbpkit::linuxcnc::rtapiEnvironment(fifo_) + "timeout 60 " + command);
   }
   std::string getp(const std::string& pin) {
     auto v = hal("halcmd getp " + pin).out;
@@ -81,11 +71,11 @@ class LinuxCncLink {
   // Unloads everything; rtapi_app exits.
   void unload() { hal("halrun -U"); }
   [[nodiscard]] const std::string& cardIp() const { return cardIp_; }
-  [[nodiscard]] const std::string& ns() const { return ns_; }
+  [[nodiscard]] const std::string& ns() const { return ns_->name(); }
   // The scheduling policy of rtapi_app's threads (the best of them).
   std::string rtapiScheduling() {
     std::string best = "not running";
-    for (const auto& pidText : split(sh("ip netns pids " + ns_).out)) {
+    for (const auto& pidText : split(sh("ip netns pids " + ns_->name()).out)) {
       const int pid = std::atoi(pidText.c_str());
       std::ifstream comm(fmt::format("/proc/{}/comm", pid));
       std::string name;
@@ -110,20 +100,18 @@ class LinuxCncLink {
     return out;
   }
   void cleanUp() {
-    if (!created_) return;
-    created_ = false;
+    if (!ns_) return;
     unload();
     // Whatever still runs in the namespace was started by this bench
     // (rtapi_app, halcmd): by its PID.
-    for (const auto& pid : split(sh("ip netns pids " + ns_).out)) ::kill(std::atoi(pid.c_str()), SIGKILL);
-    sh("ip link del " + vethCard_);
-    sh("ip netns del " + ns_);
+    for (const auto& pid : split(sh("ip netns pids " + ns_->name()).out)) ::kill(std::atoi(pid.c_str()), SIGKILL);
+    ns_.reset();
     std::error_code ec;
     std::filesystem::remove(fifo_, ec);
   }
 
-  std::string ns_, vethCard_, vethHost_, cardIp_, fifo_;
-  bool created_ = false;
+  std::optional<lbpkit::linuxcnc::NetworkNamespace> ns_;
+  std::string cardIp_, fifo_;
 };
 
 double number(const json& j, const char* key) { return j.contains(key) && j[key].is_number() ? j[key].get<double>() : NAN; }

@@ -25,7 +25,7 @@ namespace {
 TEST_F(LinuxCnc, Hm2EthRunsTheVirtual7i77) {
   startSim();
   // The MAC the card reports is its veth's: hm2_eth pins an ARP entry to it.
-  std::ifstream macFile("/sys/class/net/" + vethCard_ + "/address");
+  std::ifstream macFile("/sys/class/net/" + cardLink_ + "/address");
   std::string mac;
   macFile >> mac;
   EXPECT_EQ(sim_->get()["card"]["mac"], mac);

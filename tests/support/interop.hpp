@@ -24,6 +24,7 @@
 #include <utility>
 #include <vector>
 
+#include "linuxcnc/network_namespace.hpp"
 #include "support/process.hpp"
 #include "support/sim_child.hpp"
 #include "support/wait.hpp"
@@ -118,23 +119,19 @@ class LinuxCnc : public ::testing::Test {
     if (!have("halcmd") || !have("ip")) GTEST_SKIP() << "linuxcnc-uspace or iproute2 is not installed (scripts/test installs them)";
     ::prctl(PR_SET_CHILD_SUBREAPER, 1);  // rtapi_app outlives halcmd: reap it ourselves
     const auto id = std::to_string(::getpid() % 100000);
-    ns_ = "lbpkit-" + id;
-    vethCard_ = "lbk" + id + "c";
-    vethHost_ = "lbk" + id + "h";
     const auto net = "10.211." + std::to_string(::getpid() % 250) + ".";
     cardIp_ = net + "1";
-    hostIp_ = net + "2";
     fifo_ = "/tmp/lbpkit-rtapi-" + id;
-    const auto r = sh("ip netns add " + ns_ + " && ip link add " + vethCard_ + " type veth peer name " + vethHost_ +
-                      " && ip link set " + vethHost_ + " netns " + ns_ + " && ip addr add " + cardIp_ + "/24 dev " +
-                      vethCard_ + " && ip link set " + vethCard_ + " up && ip -n " + ns_ + " addr add " + hostIp_ +
-                      "/24 dev " + vethHost_ + " && ip -n " + ns_ + " link set " + vethHost_ + " up && ip -n " + ns_ +
-                      " link set lo up");
-    ASSERT_EQ(r.exit, 0) << r.out;
-    created_ = true;
+    cardLink_ = "lbk" + id;
+    try {
+      ns_ = std::make_unique<lbpkit::linuxcnc::NetworkNamespace>(
+          "lbpkit-" + id, std::vector<lbpkit::linuxcnc::VethLink>{{cardLink_, cardIp_ + "/24", net + "2/24", {}}});
+    } catch (const std::exception& e) {
+      FAIL() << e.what();
+    }
   }
   void TearDown() override {
-    if (!created_) return;
+    if (!ns_) return;
     // A failed run says how late the sim was (its own figures, from each
     // datagram's kernel receive time) and how it was scheduled, beside what
     // hm2_eth counted: whose lateness it was.
@@ -143,8 +140,7 @@ class LinuxCnc : public ::testing::Test {
                   getp("hm2_7i92.0.packet-error-total").c_str(), getp("hm2_7i92.0.io_error").c_str());
     hal("halrun -U");
     sim_.reset();
-    sh("ip link del " + vethCard_);
-    sh("ip netns del " + ns_);
+    ns_.reset();
     std::filesystem::remove(fifo_);
     std::this_thread::sleep_for(100ms);
     reapOrphans();
@@ -159,8 +155,7 @@ class LinuxCnc : public ::testing::Test {
   // The polls pass `nice` instead: they yield to the sim and to LinuxCNC.
   Shell hal(const std::string& command, const char* nice = "") {
     const std::string priority = *nice != '\0' ? std::string(nice) : std::string("chrt -f 1 ");
-    return sh(priority + "ip netns exec " + ns_ + " env RTAPI_UID=" + std::to_string(65534) +
-              " RTAPI_FIFO_PATH=" + fifo_ + " timeout 60 " + command);
+    return sh(priority + ns_->exec() + lbpkit::linuxcnc::rtapiEnvironment(fifo_) + "timeout 60 " + command);
   }
   // The polls (halcmd through ip netns exec, every 25 ms) at nice 10: they
   // yield the CPU to the sim, which must answer within 0.8 ms, and to
@@ -222,8 +217,8 @@ class LinuxCnc : public ::testing::Test {
     ASSERT_TRUE(sim_->up());
   }
 
-  std::string ns_, vethCard_, vethHost_, cardIp_, hostIp_, fifo_;
-  bool created_ = false;
+  std::unique_ptr<lbpkit::linuxcnc::NetworkNamespace> ns_;
+  std::string cardIp_, cardLink_, fifo_;  // cardLink_: the veth on the sim's side
   std::unique_ptr<Sim> sim_;
 };
 

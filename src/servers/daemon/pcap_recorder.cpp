@@ -40,7 +40,11 @@ PcapRecorder::PcapRecorder(std::string path, Link link, Report warn, std::size_t
     throw std::runtime_error(fmt::format("--trace {}: {}", path_, why));
   }
   pcap_dump_flush(dumper_);  // the file header, so even an idle run leaves a valid capture
-  thread_ = std::make_unique<DrainThread>(std::chrono::milliseconds(100), [this] { drain(); });
+  // A hundred times a second: a host polling as fast as the card answers
+  // (lbpkit's 10 us poll over loopback) makes some 75,000 packets a second,
+  // which fill the 4096 slots in about 55 ms: at ten drains a second the
+  // end of a whole `lbpkit discover` would not fit.
+  thread_ = std::make_unique<DrainThread>(std::chrono::milliseconds(10), [this] { drain(); });
 }
 
 PcapRecorder::~PcapRecorder() {

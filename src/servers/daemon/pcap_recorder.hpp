@@ -5,7 +5,7 @@
 //
 // The card thread only copies into a preallocated ring (packet_ring.hpp):
 // no allocation, no system call but the clock, no waiting. A thread of its
-// own (drain_thread.hpp) writes the file a few times a second.
+// own (drain_thread.hpp) writes the file a hundred times a second.
 #pragma once
 
 #include <cstdint>
