@@ -40,9 +40,9 @@ std::vector<std::uint8_t> readRequest() {
 
 void BM_Lbp16ReadRequest(benchmark::State& state) {
   hm2::HostMot2Card card;
-  net::Lbp16Card lbp16(card, {});
+  servers::Lbp16Card lbp16(card, {});
   const auto request = readRequest();
-  std::uint8_t reply[net::Lbp16Card::kMaxDatagram];
+  std::uint8_t reply[servers::Lbp16Card::kMaxDatagram];
   hm2::SimTime now{0};
   for (auto _ : state) {
     now += hm2::SimTime{1'000'000};  // one servo period per datagram

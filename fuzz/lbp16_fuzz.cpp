@@ -11,7 +11,7 @@
 namespace {
 struct World {
   hm2::HostMot2Card card;
-  net::Lbp16Card lbp16{card, net::Lbp16Card::Identity{}};
+  servers::Lbp16Card lbp16{card, servers::Lbp16Card::Identity{}};
   hm2::SimTime now{0};
 };
 World& world() {
@@ -22,7 +22,7 @@ World& world() {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   auto& w = world();
-  std::uint8_t reply[net::Lbp16Card::kMaxDatagram];
+  std::uint8_t reply[servers::Lbp16Card::kMaxDatagram];
   w.now += hm2::SimTime{50'000};
   const std::size_t n = w.lbp16.handle(std::span<const std::uint8_t>(data, size), reply, w.now);
   if (n > sizeof reply) std::abort();

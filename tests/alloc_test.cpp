@@ -111,7 +111,7 @@ TEST(RealTime, TheMachineAndItsTraceDoNotAllocate) {
   auto& t = rc.t;
   auto& ss = rc.ss;
   machine::Machine m(machine::mill(), t.card(), hm2::SimTime{t.now()});
-  net::TraceRing ring(m.traceColumns(), 100);
+  servers::TraceRing ring(m.traceColumns(), 100);
   std::vector<double> row(ring.width());
   ss.setRaw(ss.find(1, "analogena"), 1);
   ss.setRaw(ss.find(1, "spinena"), 1);
@@ -138,7 +138,7 @@ TEST(RealTime, TheMachineAndItsTraceDoNotAllocate) {
 
 TEST(RealTime, TheLbp16DatagramPathDoesNotAllocate) {
   hm2::HostMot2Card card;
-  net::Lbp16Card lbp16(card, {});
+  servers::Lbp16Card lbp16(card, {});
   // hm2_eth-like traffic: a write datagram (outputs, DOIT, watchdog pet,
   // counter) and a read request (status, encoders, SSerial, counters).
   const std::uint8_t write[] = {0x81, 0xC2, 0x00, 0x5A, 0x01, 0x09, 0x00, 0x00,  // SSerial START 0x903
@@ -149,7 +149,7 @@ TEST(RealTime, TheLbp16DatagramPathDoesNotAllocate) {
                                0x86, 0x42, 0x00, 0x35, 0x86, 0x42, 0x00, 0x36, 0x81, 0x42, 0x00, 0x5A,
                                0x81, 0x42, 0x00, 0x5B, 0x81, 0x42, 0x00, 0x5C, 0x81, 0x42, 0x00, 0x5D,
                                0x01, 0x59, 0x08, 0x00, 0x84, 0x51, 0x10, 0x00};
-  std::uint8_t reply[net::Lbp16Card::kMaxDatagram];
+  std::uint8_t reply[servers::Lbp16Card::kMaxDatagram];
   hm2::SimTime now{0};
   lbp16.handle(write, reply, now);
   now += 50ms;  // START done, chattering

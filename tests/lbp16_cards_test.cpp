@@ -13,13 +13,13 @@
 namespace {
 
 using Bytes = std::vector<std::uint8_t>;
-using net::lbp16::Command;
+using servers::lbp16::Command;
 
 struct Face {
   hm2::HostMot2Card card;
-  net::Lbp16Card lbp16;
+  servers::Lbp16Card lbp16;
   hm2::SimTime now{0};
-  explicit Face(const char* name) : card(options(name)), lbp16(card, net::Lbp16Card::Identity{}) {}
+  explicit Face(const char* name) : card(options(name)), lbp16(card, servers::Lbp16Card::Identity{}) {}
   static hm2::HostMot2Card::Options options(const char* name) {
     hm2::HostMot2Card::Options o;
     o.card = hm2::cards::find(name);
@@ -36,7 +36,7 @@ struct Face {
     put16(d, value);
   }
   Bytes send(const Bytes& d) {
-    std::array<std::uint8_t, net::Lbp16Card::kMaxDatagram> reply{};
+    std::array<std::uint8_t, servers::Lbp16Card::kMaxDatagram> reply{};
     now += hm2::SimTime{100'000};
     const auto n = lbp16.handle(d, reply, now);
     return Bytes(reply.begin(), reply.begin() + static_cast<std::ptrdiff_t>(n));

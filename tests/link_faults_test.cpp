@@ -261,9 +261,9 @@ TEST_F(SimLink, TheCliSetsAndShowsALink) {
 
 TEST(LinkFaultScript, ALinkEntryTakesForAndEndsAsItWasBefore) {
   hm2::HostMot2Card card;
-  net::SimClock clock(1.0, true);
-  const net::ApiTarget t{card, clock, {}, nullptr, {}, nullptr, nullptr};
-  net::FaultScript script({{lbp::SimTime{10ms}, "link", json{{"channel", 0}, {"bit_error_rate", 1e-3}, {"seed", 3}},
+  servers::SimClock clock(1.0, true);
+  const servers::ApiTarget t{card, clock, {}, nullptr, {}, nullptr, nullptr};
+  servers::FaultScript script({{lbp::SimTime{10ms}, "link", json{{"channel", 0}, {"bit_error_rate", 1e-3}, {"seed", 3}},
                             lbp::SimTime{5ms}, "f.toml:1:1"},
                            {lbp::SimTime{20ms}, "link", json{{"channel", 1}, {"cut_ms", 100}}, lbp::SimTime{1ms},
                             "f.toml:7:1"}},
@@ -284,7 +284,7 @@ TEST(LinkFaultScript, ALinkEntryTakesForAndEndsAsItWasBefore) {
   EXPECT_TRUE(card.part<hm2::SmartSerial>().link(1).connectedAt(card.now())) << "plugged back when the entry ended";
 
   // A mistake in an entry is an error before the sim starts.
-  EXPECT_THROW(net::FaultScript({{lbp::SimTime{1ms}, "link", json{{"channel", 0}, {"bit_error_rate", -1}},
+  EXPECT_THROW(servers::FaultScript({{lbp::SimTime{1ms}, "link", json{{"channel", 0}, {"bit_error_rate", -1}},
                                   std::nullopt, "f.toml:1:1"}},
                                 hm2::HostMot2Card::Options{}, std::nullopt),
                std::invalid_argument);

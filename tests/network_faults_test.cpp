@@ -33,7 +33,7 @@ namespace {
 
 using namespace std::chrono_literals;
 using nlohmann::json;
-using net::NetworkFaults;
+using servers::NetworkFaults;
 using Kind = NetworkFaults::Kind;
 
 TEST(NetworkFaults, AGoodNetworkPassesEverythingUntouched) {
@@ -52,7 +52,7 @@ TEST(NetworkFaults, AGoodNetworkPassesEverythingUntouched) {
 
 TEST(NetworkFaults, DropEveryNthLosesExactlyThoseInThatDirectionOnly) {
   NetworkFaults f;
-  net::NetworkFaultSettings s;
+  servers::NetworkFaultSettings s;
   s.reply.dropEvery = 4;
   f.set(s);
   const auto now = NetworkFaults::Clock::now();
@@ -70,7 +70,7 @@ TEST(NetworkFaults, DropEveryNthLosesExactlyThoseInThatDirectionOnly) {
 }
 
 TEST(NetworkFaults, TheSameSeedLosesTheSameDatagrams) {
-  net::NetworkFaultSettings s;
+  servers::NetworkFaultSettings s;
   s.request.drop = 0.3;
   s.request.corrupt = 0.2;
   s.request.jitterUs = 500;
@@ -93,7 +93,7 @@ TEST(NetworkFaults, TheSameSeedLosesTheSameDatagrams) {
   EXPECT_NEAR(lost, 300, 75);
   s.seed = 43;
   b.set(s);
-  a.set(net::NetworkFaultSettings{s.request, s.reply, 42});
+  a.set(servers::NetworkFaultSettings{s.request, s.reply, 42});
   int differ = 0;
   for (int i = 0; i < 100; ++i) differ += a.decide(Kind::Request, 64, now).lost != b.decide(Kind::Request, 64, now).lost;
   EXPECT_GT(differ, 0);
@@ -118,7 +118,7 @@ TEST(NetworkApi, ABadFieldChangesNothingAndSaysWhich) {
   const auto now = NetworkFaults::Clock::now();
   auto refused = [&](const json& body) {
     try {
-      net::applyNetwork(f, body, now);
+      servers::applyNetwork(f, body, now);
     } catch (const std::invalid_argument& e) {
       return std::string(e.what());
     }
@@ -129,13 +129,13 @@ TEST(NetworkApi, ABadFieldChangesNothingAndSaysWhich) {
   EXPECT_NE(refused({{"drop", 1.5}}).find("from 0 to 1"), std::string::npos);
   EXPECT_NE(refused({{"direction", "up"}}).find("\"direction\""), std::string::npos);
   EXPECT_NE(refused({{"delay_ms", 5}}).find("unknown key \"delay_ms\""), std::string::npos);
-  net::applyNetwork(f, {{"direction", "reply"}, {"drop", 0.25}, {"delay_us", 900}}, now);
+  servers::applyNetwork(f, {{"direction", "reply"}, {"drop", 0.25}, {"delay_us", 900}}, now);
   EXPECT_EQ(f.settings().reply.drop, 0.25);
   EXPECT_EQ(f.settings().reply.delayUs, 900U);
   EXPECT_EQ(f.settings().request.drop, 0.0);
-  net::applyNetwork(f, {{"silent_ms", 100}}, now);
+  servers::applyNetwork(f, {{"silent_ms", 100}}, now);
   EXPECT_EQ(f.silentFor(now), 100ms);
-  net::applyNetwork(f, {{"clear", true}}, now);
+  servers::applyNetwork(f, {{"clear", true}}, now);
   EXPECT_FALSE(f.active(now));
 }
 
@@ -145,7 +145,7 @@ class EchoServer {
  public:
   // The faults are set before the serving thread starts: from then on only
   // that thread touches them (as in the sim, where API jobs run on it).
-  explicit EchoServer(const net::NetworkFaultSettings& faults) : server_("127.0.0.1", 0) {
+  explicit EchoServer(const servers::NetworkFaultSettings& faults) : server_("127.0.0.1", 0) {
     server_.faults().set(faults);
     thread_ = std::thread([this] {
       while (!stop_.load())
@@ -162,7 +162,7 @@ class EchoServer {
   [[nodiscard]] std::uint16_t port() const { return server_.port(); }
 
  private:
-  net::UdpServer server_;
+  servers::UdpServer server_;
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };
@@ -194,7 +194,7 @@ class Client {
 };
 
 TEST(UdpServerFaults, RepliesAreDelayedDuplicatedAndReorderedOnARealSocket) {
-  net::NetworkFaultSettings s;
+  servers::NetworkFaultSettings s;
   s.reply.delayUs = 30'000;
   EchoServer echo(s);
   Client c(echo.port());
@@ -207,7 +207,7 @@ TEST(UdpServerFaults, RepliesAreDelayedDuplicatedAndReorderedOnARealSocket) {
 }
 
 TEST(UdpServerFaults, ADuplicatedReplyArrivesTwiceAndALostOneNever) {
-  net::NetworkFaultSettings s;
+  servers::NetworkFaultSettings s;
   s.reply.duplicate = 1;
   s.request.dropEvery = 2;  // the second request is lost
   EchoServer echo(s);
@@ -222,7 +222,7 @@ TEST(UdpServerFaults, ADuplicatedReplyArrivesTwiceAndALostOneNever) {
 }
 
 TEST(UdpServerFaults, AReorderedReplyComesAfterTheNextOne) {
-  net::NetworkFaultSettings s;
+  servers::NetworkFaultSettings s;
   s.reply.dropEvery = 0;
   s.reply.reorder = 1;  // every reply waits for the next: each overtakes the one before
   EchoServer echo(s);
@@ -236,7 +236,7 @@ TEST(UdpServerFaults, AReorderedReplyComesAfterTheNextOne) {
 }
 
 TEST(UdpServerFaults, ACorruptedReplyDiffersInOneByte) {
-  net::NetworkFaultSettings s;
+  servers::NetworkFaultSettings s;
   s.reply.corrupt = 1;
   EchoServer echo(s);
   Client c(echo.port());
@@ -357,11 +357,11 @@ TEST(FaultScriptFile, AMistakeNamesTheFileTheLineAndTheKey) {
 }
 
 TEST(FaultScript, EveryEntryIsTriedBeforeTheSimStarts) {
-  std::vector<net::ScriptedFault> entries{
+  std::vector<servers::ScriptedFault> entries{
       {lbp::SimTime{1ms}, "cable", json{{"channel", 1}, {"connected", false}}, std::nullopt, "f.toml:1:1"},
       {lbp::SimTime{2ms}, "network", json{{"delay_ms", 5}}, std::nullopt, "f.toml:6:1"}};
   try {
-    net::FaultScript script(entries, hm2::HostMot2Card::Options{}, std::nullopt);
+    servers::FaultScript script(entries, hm2::HostMot2Card::Options{}, std::nullopt);
     ADD_FAILURE() << "a script with an unknown key was taken";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("f.toml:6:1: fault \"network\": unknown key \"delay_ms\""),
@@ -370,16 +370,16 @@ TEST(FaultScript, EveryEntryIsTriedBeforeTheSimStarts) {
   }
   entries[1].body = json{{"delay_us", 5}};
   entries.push_back({lbp::SimTime{3ms}, "machine", json{{"action", "estop"}, {"pressed", true}}, std::nullopt, "f.toml:9:1"});
-  EXPECT_THROW(net::FaultScript(entries, hm2::HostMot2Card::Options{}, std::nullopt), std::invalid_argument)
+  EXPECT_THROW(servers::FaultScript(entries, hm2::HostMot2Card::Options{}, std::nullopt), std::invalid_argument)
       << "no machine to press the E-stop of";
 }
 
 TEST(FaultScript, EntriesAndTheirEndsHappenAtTheirSimulatedTimes) {
   hm2::HostMot2Card card;
-  net::SimClock clock(1.0, true);
-  net::UdpServer udp("127.0.0.1", 0);
-  const net::ApiTarget t{card, clock, {}, nullptr, {}, nullptr, &udp};
-  net::FaultScript script({{lbp::SimTime{10ms}, "cable", json{{"channel", 1}, {"connected", false}},
+  servers::SimClock clock(1.0, true);
+  servers::UdpServer udp("127.0.0.1", 0);
+  const servers::ApiTarget t{card, clock, {}, nullptr, {}, nullptr, &udp};
+  servers::FaultScript script({{lbp::SimTime{10ms}, "cable", json{{"channel", 1}, {"connected", false}},
                             lbp::SimTime{5ms}, "f.toml:1:1"},
                            {lbp::SimTime{12ms}, "network", json{{"drop", 1}}, lbp::SimTime{1ms}, "f.toml:6:1"},
                            {lbp::SimTime{20ms}, "overtemp", json{{"chip", 1}, {"hot", true}}, std::nullopt,

@@ -149,7 +149,7 @@ TEST_F(SslbpExternal, RelaxedTimeoutAndLateAndDamagedReplies) {
 // on how fast the machine is.
 struct PtyServed {
   hm2::HostMot2Card& card;
-  net::PtyChannel& channel;
+  servers::PtyChannel& channel;
   remote::FieldIoProcessor& io;
   CardHost& h;
   int fd;
@@ -182,7 +182,7 @@ struct PtyServed {
 TEST(PtyChannel, RemoteOnThePtyAnswersSetupStartAndCommands) {
   hm2::HostMot2Card card;
   CardHost h{card};
-  net::PtyChannel channel(card, kExpansion);
+  servers::PtyChannel channel(card, kExpansion);
   EXPECT_TRUE(card.part<hm2::SmartSerial>().link(kExpansion).external());
   const int fd = ::open(channel.path().c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
   ASSERT_GE(fd, 0) << channel.path();
@@ -213,7 +213,7 @@ TEST(PtyChannel, RemoteOnThePtyAnswersSetupStartAndCommands) {
 TEST(PtyChannel, NobodyOnThePtyStartFailsAfterTheRelaxedTimeout) {
   hm2::HostMot2Card card;
   CardHost h{card};
-  net::PtyChannel channel(card, kExpansion);
+  servers::PtyChannel channel(card, kExpansion);
   h.command(cmd::kStop);
   h.write(CardHost::cs(kExpansion), 0);
   SimTime took{};
@@ -229,18 +229,18 @@ TEST(PtyChannel, NobodyOnThePtyStartFailsAfterTheRelaxedTimeout) {
 TEST(PtyChannel, RefusesAChannelWithA7I77ProcessorOrNone) {
   hm2::HostMot2Card card;
   try {
-    net::PtyChannel channel(card, 0);
+    servers::PtyChannel channel(card, 0);
     ADD_FAILURE() << "channel 0 taken";
   } catch (const std::invalid_argument& e) {
     EXPECT_STREQ(e.what(), "channel 0 carries the 7I77's field I/O processor");
   }
   try {
-    net::PtyChannel channel(card, 1);
+    servers::PtyChannel channel(card, 1);
     ADD_FAILURE() << "channel 1 taken";
   } catch (const std::invalid_argument& e) {
     EXPECT_STREQ(e.what(), "channel 1 carries the 7I77's analog processor");
   }
-  EXPECT_THROW(net::PtyChannel(card, 6), std::invalid_argument);
+  EXPECT_THROW(servers::PtyChannel(card, 6), std::invalid_argument);
   EXPECT_FALSE(card.part<hm2::SmartSerial>().link(0).external());
 }
 

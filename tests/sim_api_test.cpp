@@ -44,10 +44,10 @@ namespace {
 // time, at the clock's speed, and not at all while paused.
 TEST(SimClock, AgoIsTheSimulatedTimeOfAWallClockMomentPast) {
   using namespace std::chrono_literals;
-  net::SimClock paused(1.0, true);
+  servers::SimClock paused(1.0, true);
   paused.advanceBy(5ms);
   EXPECT_EQ(paused.ago(3ms), paused.now());  // paused time does not move
-  net::SimClock doubled(2.0, false);
+  servers::SimClock doubled(2.0, false);
   doubled.advanceBy(100ms);  // simulated time well past 0
   const auto now = doubled.now();
   const auto back = doubled.ago(10ms);

@@ -11,7 +11,7 @@
 namespace {
 
 using namespace std::chrono_literals;
-using net::SimClock;
+using servers::SimClock;
 using lbp::SimTime;
 
 // The wall clock these tests read: set by hand.
@@ -25,7 +25,7 @@ class HostClockTest : public ::testing::Test {
 };
 
 TEST_F(HostClockTest, EachHostCycleMovesTimeOnePeriodWhateverTheWallClockDid) {
-  SimClock c(net::HostClock{1ms, 20ms}, false, &testWall);
+  SimClock c(servers::HostClock{1ms, 20ms}, false, &testWall);
   EXPECT_EQ(c.source(), SimClock::Source::Host);
   EXPECT_EQ(c.period(), SimTime{1ms});
   c.hostCycle();
@@ -49,7 +49,7 @@ TEST_F(HostClockTest, EachHostCycleMovesTimeOnePeriodWhateverTheWallClockDid) {
 }
 
 TEST_F(HostClockTest, ASilentHostHandsTimeBackToTheWallClockFromItsLastCycle) {
-  SimClock c(net::HostClock{1ms, 20ms}, false, &testWall);
+  SimClock c(servers::HostClock{1ms, 20ms}, false, &testWall);
   c.hostCycle();
   const SimTime atCycle = c.now();  // one period after the cycle
   pass(20ms);
@@ -73,7 +73,7 @@ TEST_F(HostClockTest, ADoItTakenLateIsTakenAtWhenItCame) {
   // The card thread got to a DoIt 24 ms after it came, 1 ms after the last
   // cycle (the kernel held the sim back): the host was on time, and the
   // cycle is the host's, one period on.
-  SimClock c(net::HostClock{1ms, 20ms}, false, &testWall);
+  SimClock c(servers::HostClock{1ms, 20ms}, false, &testWall);
   c.hostCycle();
   const SimTime t = c.now();
   pass(25ms);
@@ -87,7 +87,7 @@ TEST_F(HostClockTest, ADoItTakenLateIsTakenAtWhenItCame) {
 TEST_F(HostClockTest, BeforeTheFirstCycleTimeFollowsTheWallClock) {
   // hm2_eth's and setsserial's set-up come before any cycle: their
   // smart-serial commands need time to pass.
-  SimClock c(net::HostClock{1ms, 20ms}, false, &testWall);
+  SimClock c(servers::HostClock{1ms, 20ms}, false, &testWall);
   EXPECT_EQ(c.now(), SimTime{0});
   pass(5ms);
   EXPECT_EQ(c.now(), SimTime{0}) << "within the bound of the start";
@@ -97,7 +97,7 @@ TEST_F(HostClockTest, BeforeTheFirstCycleTimeFollowsTheWallClock) {
 }
 
 TEST_F(HostClockTest, ThePeriodIsLearnedFromTheFirstCyclesSpacing) {
-  SimClock c(net::HostClock{SimTime{0}, 20ms}, false, &testWall);
+  SimClock c(servers::HostClock{SimTime{0}, 20ms}, false, &testWall);
   c.hostCycle();  // the first: its spacing from set-up says nothing
   // 32 spacings near 1 ms, seven of them late or catching up (under a
   // fourth off by more than a fifth): the median, rounded to 10 us.
@@ -115,7 +115,7 @@ TEST_F(HostClockTest, ThePeriodIsLearnedFromTheFirstCyclesSpacing) {
 
 TEST_F(HostClockTest, SpacingsThatAreNoServoPeriodTeachNothing) {
   // Half the cycles 1 ms apart, half 5 ms: no period; nor 50 us, nor 20 ms.
-  SimClock c(net::HostClock{SimTime{0}, 100ms}, false, &testWall);
+  SimClock c(servers::HostClock{SimTime{0}, 100ms}, false, &testWall);
   c.hostCycle();
   for (std::size_t i = 0; i < SimClock::kLearnCycles; ++i) {
     pass(i % 2 ? 1ms : 5ms);
@@ -138,7 +138,7 @@ TEST_F(HostClockTest, SpacingsThatAreNoServoPeriodTeachNothing) {
 }
 
 TEST_F(HostClockTest, PausedTimeStandsAndStepsByHand) {
-  SimClock c(net::HostClock{1ms, 20ms}, true, &testWall);
+  SimClock c(servers::HostClock{1ms, 20ms}, true, &testWall);
   c.hostCycle();
   EXPECT_EQ(c.now(), SimTime{0}) << "a cycle while paused moves nothing";
   EXPECT_EQ(c.hostCycles(), 0U);

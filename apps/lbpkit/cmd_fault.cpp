@@ -79,10 +79,10 @@ void addFaultCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "fault",
       "Set a fault on a running `lbpkit sim` (or show it, without fields): the control API's POST /api/KIND");
-  // The kinds are the control API's own POST routes (net::actionKinds()).
+  // The kinds are the control API's own POST routes (servers::actionKinds()).
   cmd->add_option("kind", o->kind, "input, field, encoder, cable, output, overtemp, time, network, link or machine")
       ->required()
-      ->check(CLI::IsMember(net::actionKinds()));
+      ->check(CLI::IsMember(servers::actionKinds()));
   cmd->add_option("fields", o->fields, "KEY=VALUE ... (for example drop=0.01 direction=reply, or silent_ms=200)");
   cmd->add_option("--api", o->api, "[ADDR:]PORT of the sim's control API (127.0.0.1:27182)");
   cmd->add_option("--api-token", o->apiToken, "The sim's API token, when it was started with one");

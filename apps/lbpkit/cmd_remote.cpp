@@ -73,10 +73,10 @@ int runRemote(const RemoteOptions& o) {
     f.setupMode = o.setup;
     device = std::make_unique<remote::FieldIoProcessor>(f);
   }
-  net::PtyRemote pty(*device);
-  std::unique_ptr<net::PcapRecorder> trace;
+  servers::PtyRemote pty(*device);
+  std::unique_ptr<servers::PcapRecorder> trace;
   if (!o.trace.empty()) {
-    trace = std::make_unique<net::PcapRecorder>(o.trace, net::PcapRecorder::Link::LbpStream, [](const std::string& text) {
+    trace = std::make_unique<servers::PcapRecorder>(o.trace, servers::PcapRecorder::Link::LbpStream, [](const std::string& text) {
       std::fputs(fmt::format("lbpkit remote: warning: {}\n", text).c_str(), stderr);
     });
     pty.setTrace(trace.get());

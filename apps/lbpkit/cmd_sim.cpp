@@ -97,9 +97,9 @@ std::string hm2EthConfig(const hm2::HostMot2Card::Options& o) {
 // --clock wall|host[=PERIOD]: PERIOD as LinuxCNC's SERVO_PERIOD gives it
 // (nanoseconds) or with a unit (1ms, 500us, 1000000ns); without it, the
 // period is learned from the host's first cycles.
-std::optional<net::HostClock> clockOption(const std::string& text) {
+std::optional<servers::HostClock> clockOption(const std::string& text) {
   if (text == "wall") return std::nullopt;
-  net::HostClock host;
+  servers::HostClock host;
   if (text == "host") return host;
   const std::string bad = fmt::format(
       "--clock \"{}\": give wall (the default), host, or host=PERIOD with PERIOD the host's servo period from 100us "
@@ -158,7 +158,7 @@ std::filesystem::path defaultStatePath(const std::string& host, int port) {
   const auto file = dir / name;
   // Earlier versions kept every sim's EEPROM in sim-7i77.eeprom: the sim on
   // the default address takes it over, so its saved parameters survive.
-  if (host == "127.0.0.1" && port == net::lbp16::kPort) {
+  if (host == "127.0.0.1" && port == servers::lbp16::kPort) {
     for (const char* suffix : {"", ".analog", ".2", ".analog.2"}) {  // both processors of both connectors
       const auto legacy = (dir / "sim-7i77.eeprom").string() + suffix;
       const auto now = file.string() + suffix;
@@ -171,8 +171,8 @@ std::filesystem::path defaultStatePath(const std::string& host, int port) {
 }
 
 int runSim(const SimCommandOptions& o) {
-  net::SimOptions s;
-  const auto [bindHost, bindPort] = hostPort(o.bind, net::lbp16::kPort, "--bind");
+  servers::SimOptions s;
+  const auto [bindHost, bindPort] = hostPort(o.bind, servers::lbp16::kPort, "--bind");
   s.bindAddress = bindHost;
   s.port = static_cast<std::uint16_t>(bindPort);
   if (o.noApi) {
@@ -219,8 +219,8 @@ int runSim(const SimCommandOptions& o) {
   // Simulated time is 64-bit nanoseconds: at 10000x it lasts 10 days.
   if (!(o.speed > 0) || !std::isfinite(o.speed) || o.speed > 10000)
     throw lbpkit::Error("--speed must be above 0 and at most 10000 (simulated seconds per wall-clock second)");
-  static const std::map<std::string, net::LogLevel> kLevels = {
-      {"error", net::LogLevel::Error}, {"warn", net::LogLevel::Warn}, {"info", net::LogLevel::Info}, {"debug", net::LogLevel::Debug}};
+  static const std::map<std::string, servers::LogLevel> kLevels = {
+      {"error", servers::LogLevel::Error}, {"warn", servers::LogLevel::Warn}, {"info", servers::LogLevel::Info}, {"debug", servers::LogLevel::Debug}};
   if (!kLevels.count(o.logLevel)) throw lbpkit::Error("--log-level: error, warn, info or debug");
   s.logLevel = kLevels.at(o.logLevel);
   // A --state FILE is taken as given: a missing directory is the user's
@@ -250,7 +250,7 @@ int runSim(const SimCommandOptions& o) {
   // What the EEPROM files say (models cannot log): every refused write is
   // logged, and so is a file that cannot be used.
   const auto owner = fmt::format("lbpkit sim on {}:{}{}", bindHost, bindPort, bindPort == 0 ? " (any free port)" : "");
-  const bool warn = s.logLevel >= net::LogLevel::Warn;
+  const bool warn = s.logLevel >= servers::LogLevel::Warn;
   std::vector<std::filesystem::path> files;
   auto watch = [&](auto& processor, std::string what) {
     files.push_back(processor.nvFile);
@@ -284,12 +284,12 @@ int runSim(const SimCommandOptions& o) {
   s.flashFile = state.string() + ".flash";
   {
     std::vector<std::uint8_t> probe(2 * 1024 * 1024);
-    const auto loaded = net::loadFlashFile(s.flashFile, probe);
-    if (loaded.status == net::FlashFileLoad::Status::Refused) throw lbpkit::Error(loaded.message);
-    if (loaded.status == net::FlashFileLoad::Status::Corrupt && warn)
+    const auto loaded = servers::loadFlashFile(s.flashFile, probe);
+    if (loaded.status == servers::FlashFileLoad::Status::Refused) throw lbpkit::Error(loaded.message);
+    if (loaded.status == servers::FlashFileLoad::Status::Corrupt && warn)
       fmt::print(stderr, "lbpkit sim: warning: {}\n", loaded.message);
   }
-  net::SimDaemon daemon(s);
+  servers::SimDaemon daemon(s);
   app::installSignalHandlers();
   fmt::print("{}", daemon.banner());
   // 0.0.0.0 is where the sim listens, not an address a host can reach.

@@ -29,9 +29,9 @@ std::string tempFile(const std::string& name) {
 TEST(PacketTrace, RecordingDoesNotAllocateAndLibpcapReadsItBack) {
   const auto path = tempFile("lbpkit-recorder");
   {
-    net::PcapRecorder rec(path, net::PcapRecorder::Link::Ipv4Udp, {}, 8192);
+    servers::PcapRecorder rec(path, servers::PcapRecorder::Link::Ipv4Udp, {}, 8192);
     const std::vector<std::uint8_t> request = {0x01, 0x42, 0x00, 0x01};  // read hm2 0x0100, one word
-    const net::PcapRecorder::Endpoint host{0x7F000001, 40000}, card{0x7F001203, 27181};
+    const servers::PcapRecorder::Endpoint host{0x7F000001, 40000}, card{0x7F001203, 27181};
     const auto before = tAllocations;
     for (int i = 0; i < 2000; ++i) {  // 4000 packets: within the ring, whatever the writer does
       rec.udp(1'000'000'000LL + i * 1000, host, card, request);
@@ -68,7 +68,7 @@ TEST(PacketTrace, RecordingDoesNotAllocateAndLibpcapReadsItBack) {
 }
 
 TEST(PacketTrace, AFullRingDropsAndCountsNeverWaits) {
-  net::PacketRing ring(4);
+  servers::PacketRing ring(4);
   for (int i = 0; i < 4; ++i) {
     auto* s = ring.claim();
     ASSERT_NE(s, nullptr);
@@ -78,14 +78,14 @@ TEST(PacketTrace, AFullRingDropsAndCountsNeverWaits) {
   EXPECT_EQ(ring.claim(), nullptr);
   EXPECT_EQ(ring.dropped(), 1U);
   std::vector<std::int64_t> seen;
-  ring.drain([&](const net::PacketRing::Slot& s) { seen.push_back(s.ns); });
+  ring.drain([&](const servers::PacketRing::Slot& s) { seen.push_back(s.ns); });
   EXPECT_EQ(seen, (std::vector<std::int64_t>{0, 1, 2, 3}));
   EXPECT_NE(ring.claim(), nullptr);  // room again
 }
 
 TEST(PacketTrace, AFileThatCannotBeMadeIsNamed) {
   try {
-    net::PcapRecorder rec("/nonexistent-dir/x.pcap", net::PcapRecorder::Link::LbpStream, {});
+    servers::PcapRecorder rec("/nonexistent-dir/x.pcap", servers::PcapRecorder::Link::LbpStream, {});
     FAIL() << "no error";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("--trace /nonexistent-dir/x.pcap"), std::string::npos) << e.what();

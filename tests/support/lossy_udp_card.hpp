@@ -68,8 +68,8 @@ class LossyUdpCard {
 
   const std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
   hm2::HostMot2Card card_;
-  net::Lbp16Card lbp16_{card_, net::Lbp16Card::Identity{}};
-  net::UdpServer server_;
+  servers::Lbp16Card lbp16_{card_, servers::Lbp16Card::Identity{}};
+  servers::UdpServer server_;
   std::atomic<bool> stop_{false};
   std::atomic<unsigned> drop_{0}, late_{0}, dropped_{0}, delayed_{0};
   std::atomic<long> delay_{0};

@@ -7,11 +7,11 @@
 
 #include "daemon/api_routes.hpp"
 
-namespace net {
+namespace servers {
 
 // Adds to `http` the checks every request passes first (Host, Origin, the
 // token, for an API on `port`) and every route of ApiTarget's.
 void addApiRoutes(httplib::Server& http, const ApiOptions& options, int port, const ApiTarget& target,
                   const CardThreadRunner& run);
 
-}  // namespace net
+}  // namespace servers

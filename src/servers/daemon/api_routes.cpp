@@ -20,7 +20,7 @@
 #include "daemon/web_view.hpp"
 #include "lbpkit/wire/names.hpp"
 
-namespace net {
+namespace servers {
 
 using nlohmann::json;
 
@@ -520,4 +520,4 @@ void addApiRoutes(httplib::Server& http, const ApiOptions& options, int port, co
   addRoutes(http, target, run);
 }
 
-}  // namespace net
+}  // namespace servers

@@ -23,7 +23,7 @@
 #include "hostmot2/card.hpp"
 #include "machine/machine.hpp"
 
-namespace net {
+namespace servers {
 
 // Where and how the API serves, who may use it, and its limits. The limits
 // keep it answering whatever clients do: slow or idle connections wait in
@@ -101,4 +101,4 @@ class ControlApi {
   int port_ = -1;
 };
 
-}  // namespace net
+}  // namespace servers

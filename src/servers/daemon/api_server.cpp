@@ -33,7 +33,7 @@
 #include "daemon/web_view.hpp"
 #include "lbpkit/wire/names.hpp"
 
-namespace net {
+namespace servers {
 
 using nlohmann::json;
 
@@ -489,5 +489,5 @@ ControlApi::~ControlApi() {
     if (w.joinable()) w.join();
 }
 
-}  // namespace net
+}  // namespace servers
 

@@ -2,7 +2,7 @@
 
 #include <utility>
 
-namespace net {
+namespace servers {
 
 DrainThread::DrainThread(std::chrono::milliseconds period, std::function<void()> drain)
     : period_(period), drain_(std::move(drain)) {
@@ -29,4 +29,4 @@ void DrainThread::run() {
   }
 }
 
-}  // namespace net
+}  // namespace servers

@@ -11,7 +11,7 @@
 #include <mutex>
 #include <thread>
 
-namespace net {
+namespace servers {
 
 class DrainThread {
  public:
@@ -33,4 +33,4 @@ class DrainThread {
   std::thread thread_;
 };
 
-}  // namespace net
+}  // namespace servers

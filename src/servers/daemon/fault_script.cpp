@@ -8,7 +8,7 @@
 #include "daemon/network_api.hpp"
 #include "daemon/sim_clock.hpp"
 
-namespace net {
+namespace servers {
 
 using nlohmann::json;
 
@@ -125,4 +125,4 @@ void FaultScript::run(lbp::SimTime now, const ApiTarget& target, const std::func
   findNext();
 }
 
-}  // namespace net
+}  // namespace servers

@@ -19,7 +19,7 @@
 #include "lbp/sim_time.hpp"
 #include "machine/machine.hpp"
 
-namespace net {
+namespace servers {
 
 struct ScriptedFault {
   lbp::SimTime at{};
@@ -60,4 +60,4 @@ class FaultScript {
   lbp::SimTime next_ = lbp::SimTime::max();
 };
 
-}  // namespace net
+}  // namespace servers

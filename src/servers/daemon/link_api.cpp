@@ -8,7 +8,7 @@
 
 #include "daemon/request_fields.hpp"
 
-namespace net {
+namespace servers {
 
 using nlohmann::json;
 
@@ -118,4 +118,4 @@ json toJson(const LinkSnapshots& s) {
   return {{"channels", chans}};
 }
 
-}  // namespace net
+}  // namespace servers

@@ -13,7 +13,7 @@
 
 #include "hostmot2/sslbp.hpp"
 
-namespace net {
+namespace servers {
 
 // What GET /api/link shows of one channel, taken on the card thread.
 struct LinkSnapshot {
@@ -48,4 +48,4 @@ LinkSnapshots takeLinkSnapshots(hm2::SmartSerial& sserial, lbp::SimTime now);
 void applyLink(hm2::SmartSerial& sserial, const nlohmann::json& body, lbp::SimTime now);
 nlohmann::json toJson(const LinkSnapshots& s);
 
-}  // namespace net
+}  // namespace servers

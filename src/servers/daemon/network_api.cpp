@@ -6,7 +6,7 @@
 
 #include "daemon/request_fields.hpp"
 
-namespace net {
+namespace servers {
 
 using nlohmann::json;
 
@@ -76,4 +76,4 @@ json toJson(const NetworkSnapshot& s) {
           {"held", s.held}};
 }
 
-}  // namespace net
+}  // namespace servers

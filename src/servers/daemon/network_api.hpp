@@ -8,7 +8,7 @@
 
 #include "lbp16/network_faults.hpp"
 
-namespace net {
+namespace servers {
 
 // What GET /api/network shows, taken on the card thread.
 struct NetworkSnapshot {
@@ -31,4 +31,4 @@ struct NetworkSnapshot {
 void applyNetwork(NetworkFaults& faults, const nlohmann::json& body, NetworkFaults::Clock::time_point now);
 nlohmann::json toJson(const NetworkSnapshot& s);
 
-}  // namespace net
+}  // namespace servers

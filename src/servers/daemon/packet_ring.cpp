@@ -2,7 +2,7 @@
 
 #include <stdexcept>
 
-namespace net {
+namespace servers {
 
 PacketRing::PacketRing(std::size_t slots) : capacity_(slots) {
   if (capacity_ == 0) throw std::invalid_argument("a packet ring needs room for packets");
@@ -20,4 +20,4 @@ PacketRing::Slot* PacketRing::claim() {
 
 void PacketRing::commit() { head_.store(head_.load(std::memory_order_relaxed) + 1, std::memory_order_release); }
 
-}  // namespace net
+}  // namespace servers

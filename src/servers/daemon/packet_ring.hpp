@@ -13,7 +13,7 @@
 #include <memory>
 #include <span>
 
-namespace net {
+namespace servers {
 
 class PacketRing {
  public:
@@ -58,4 +58,4 @@ class PacketRing {
   std::atomic<std::uint64_t> dropped_{0};
 };
 
-}  // namespace net
+}  // namespace servers

@@ -12,7 +12,7 @@
 
 #include "lbpkit/wire/capture.hpp"
 
-namespace net {
+namespace servers {
 
 namespace {
 namespace capture = lbpkit::wire::capture;
@@ -126,4 +126,4 @@ void PcapRecorder::drain() {
   droppedSaid_ = lost;
 }
 
-}  // namespace net
+}  // namespace servers

@@ -20,7 +20,7 @@
 struct pcap;
 struct pcap_dumper;
 
-namespace net {
+namespace servers {
 
 class PcapRecorder {
  public:
@@ -69,4 +69,4 @@ class PcapRecorder {
   std::unique_ptr<DrainThread> thread_;  // last: it calls drain() until it goes
 };
 
-}  // namespace net
+}  // namespace servers

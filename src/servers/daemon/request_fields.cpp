@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <vector>
 
-namespace net::fields {
+namespace servers::fields {
 
 bool flag(const json& j, const char* key) {
   if (!j.contains(key)) throw std::invalid_argument(fmt::format("missing \"{}\"", key));
@@ -56,4 +56,4 @@ void onlyKnown(const json& j, std::initializer_list<std::string_view> known) {
   }
 }
 
-}  // namespace net::fields
+}  // namespace servers::fields

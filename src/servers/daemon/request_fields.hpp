@@ -11,7 +11,7 @@
 #include <string>
 #include <string_view>
 
-namespace net::fields {
+namespace servers::fields {
 
 using nlohmann::json;
 
@@ -35,4 +35,4 @@ std::string listed(const Names& names) {
   return out.empty() ? "none" : out;
 }
 
-}  // namespace net::fields
+}  // namespace servers::fields

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cstdint>
 
-namespace net {
+namespace servers {
 
 SimClock::SimClock(double speed, bool paused, WallNow wall)
     : wallNow_(wall), wallBase_(wallNow_()), speed_(speed), paused_(paused) {}
@@ -100,4 +100,4 @@ void SimClock::advanceBy(lbp::SimTime t) {
   wallBase_ = wallNow_();
 }
 
-}  // namespace net
+}  // namespace servers

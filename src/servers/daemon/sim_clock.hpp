@@ -28,7 +28,7 @@
 
 #include "lbp/sim_time.hpp"
 
-namespace net {
+namespace servers {
 
 // `--clock host[=PERIOD]`.
 struct HostClock {
@@ -149,4 +149,4 @@ class SimClock {
   std::size_t learned_ = 0;
 };
 
-}  // namespace net
+}  // namespace servers

@@ -16,7 +16,7 @@
 #include "daemon/state_json.hpp"
 #include "lbp16/udp_server.hpp"
 
-namespace net {
+namespace servers {
 
 SimDaemon::SimDaemon(SimOptions options)
     : options_(std::move(options)),
@@ -209,11 +209,11 @@ SimState SimDaemon::state() {
 
 Answer SimDaemon::machineAnswer() {
   catchUp(clock_.paused() ? std::chrono::microseconds(200'000) : SimClock::kBudget);
-  return [s = machine_->state()] { return net::toJson(s).dump(); };
+  return [s = machine_->state()] { return servers::toJson(s).dump(); };
 }
 
 Answer SimDaemon::stateAnswer() {
-  return [s = state()] { return net::stateJson(s); };
+  return [s = state()] { return servers::stateJson(s); };
 }
 
 std::string SimDaemon::banner() const {
@@ -499,4 +499,4 @@ void SimDaemon::run(const std::atomic<bool>& stop) {
   for (auto& task : last) task();
 }
 
-}  // namespace net
+}  // namespace servers

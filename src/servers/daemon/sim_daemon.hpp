@@ -35,7 +35,7 @@
 #include "machine/machine.hpp"
 #include "pty/pty_channel.hpp"
 
-namespace net {
+namespace servers {
 
 enum class LogLevel { Error, Warn, Info, Debug };
 
@@ -184,4 +184,4 @@ class SimDaemon {
   int apiPort_ = -1;
 };
 
-}  // namespace net
+}  // namespace servers

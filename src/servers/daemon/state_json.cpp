@@ -6,7 +6,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-namespace net {
+namespace servers {
 
 using nlohmann::json;
 
@@ -317,4 +317,4 @@ json toJson(const SimState& s) {
 
 std::string stateJson(const SimState& s) { return toJson(s).dump(); }
 
-}  // namespace net
+}  // namespace servers

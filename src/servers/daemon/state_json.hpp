@@ -26,7 +26,7 @@
 #include "remote/field_io.hpp"
 #include "remote/seven_i76.hpp"
 
-namespace net {
+namespace servers {
 
 // Everything GET /api/state shows, taken at one simulated instant.
 struct SimState {
@@ -131,4 +131,4 @@ nlohmann::json toJson(const machine::Switches::State& s);
 nlohmann::json toJson(const SimState& s);
 std::string stateJson(const SimState& s);
 
-}  // namespace net
+}  // namespace servers

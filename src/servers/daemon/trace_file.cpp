@@ -11,7 +11,7 @@
 #include <utility>
 #include <vector>
 
-namespace net {
+namespace servers {
 
 TraceFile::TraceFile(const TraceRing& ring, std::string path, Report warn)
     : ring_(ring), path_(std::move(path)), warn_(std::move(warn)) {
@@ -65,4 +65,4 @@ void TraceFile::drain() {
   }
 }
 
-}  // namespace net
+}  // namespace servers

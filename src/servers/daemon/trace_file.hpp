@@ -13,7 +13,7 @@
 #include "daemon/drain_thread.hpp"
 #include "daemon/trace_ring.hpp"
 
-namespace net {
+namespace servers {
 
 class TraceFile {
  public:
@@ -43,4 +43,4 @@ class TraceFile {
   std::unique_ptr<DrainThread> thread_;  // last: it calls drain() until it goes
 };
 
-}  // namespace net
+}  // namespace servers

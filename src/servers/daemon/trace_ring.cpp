@@ -4,7 +4,7 @@
 #include <stdexcept>
 #include <utility>
 
-namespace net {
+namespace servers {
 
 TraceRing::TraceRing(std::vector<std::string> columns, std::size_t capacity)
     : columns_(std::move(columns)), capacity_(capacity) {
@@ -54,4 +54,4 @@ std::uint64_t TraceRing::firstAfter(double t) const {
   return lo;
 }
 
-}  // namespace net
+}  // namespace servers

@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-namespace net {
+namespace servers {
 
 class TraceRing {
  public:
@@ -50,4 +50,4 @@ class TraceRing {
   std::atomic<std::uint64_t> pushed_{0};   // rows it has finished
 };
 
-}  // namespace net
+}  // namespace servers

@@ -12,7 +12,7 @@
 #include "web/event_stream.hpp"
 #include "web/web_assets.hpp"
 
-namespace net {
+namespace servers {
 
 namespace {
 
@@ -80,4 +80,4 @@ void WebView::addRoutes(httplib::Server& http, std::function<void()> takeOver) {
   });
 }
 
-}  // namespace net
+}  // namespace servers

@@ -23,7 +23,7 @@ namespace web {
 class EventStream;
 }
 
-namespace net {
+namespace servers {
 
 class WebView {
  public:
@@ -46,4 +46,4 @@ class WebView {
   std::unique_ptr<web::EventStream> stream_;
 };
 
-}  // namespace net
+}  // namespace servers

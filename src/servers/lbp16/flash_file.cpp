@@ -10,7 +10,7 @@
 
 #include "remote/nv_store.hpp"
 
-namespace net {
+namespace servers {
 
 namespace {
 constexpr std::array<char, 8> kMagic = {'L', 'B', 'F', 'L', 'A', 'S', 'H', '1'};
@@ -183,4 +183,4 @@ void FlashSaver::run() {
   if (changes_ != saved_) saveLocked(l);
 }
 
-}  // namespace net
+}  // namespace servers

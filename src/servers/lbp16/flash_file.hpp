@@ -22,7 +22,7 @@
 #include <thread>
 #include <vector>
 
-namespace net {
+namespace servers {
 
 struct FlashFileLoad {
   enum class Status {
@@ -79,4 +79,4 @@ class FlashSaver {
   std::thread thread_;
 };
 
-}  // namespace net
+}  // namespace servers

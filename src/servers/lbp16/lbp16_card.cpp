@@ -4,7 +4,7 @@
 #include <cstring>
 #include <stdexcept>
 
-namespace net {
+namespace servers {
 
 namespace {
 constexpr std::uint8_t k16 = 2, k32 = 4;  // the access widths the spaces take (no space takes bytes)
@@ -400,4 +400,4 @@ std::size_t Lbp16Card::handle(std::span<const std::uint8_t> request, std::span<s
   return out;
 }
 
-}  // namespace net
+}  // namespace servers

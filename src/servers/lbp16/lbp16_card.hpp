@@ -38,7 +38,7 @@
 #include "lbp16/flash_file.hpp"
 #include "lbpkit/wire/lbp16.hpp"
 
-namespace net {
+namespace servers {
 
 namespace lbp16 = lbpkit::wire::lbp16;
 
@@ -172,4 +172,4 @@ class Lbp16Card {
   std::unique_ptr<FlashSaver> saver_;
 };
 
-}  // namespace net
+}  // namespace servers

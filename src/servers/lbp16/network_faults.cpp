@@ -1,6 +1,6 @@
 #include "lbp16/network_faults.hpp"
 
-namespace net {
+namespace servers {
 
 void NetworkFaults::set(const NetworkFaultSettings& s) {
   settings_ = s;
@@ -46,4 +46,4 @@ NetworkFaults::Fate NetworkFaults::decide(Kind kind, std::size_t size, Clock::ti
   return f;
 }
 
-}  // namespace net
+}  // namespace servers

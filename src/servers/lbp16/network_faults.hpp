@@ -18,7 +18,7 @@
 #include <cstdint>
 #include <random>
 
-namespace net {
+namespace servers {
 
 struct NetworkFaultSettings {
   // One direction of the wire: requests (host -> card) or replies.
@@ -107,4 +107,4 @@ class NetworkFaults {
   std::uniform_real_distribution<double> uniform_{0.0, 1.0};
 };
 
-}  // namespace net
+}  // namespace servers

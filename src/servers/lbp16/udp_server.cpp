@@ -13,7 +13,7 @@
 #include <fstream>
 #include <stdexcept>
 
-namespace net {
+namespace servers {
 
 UdpServer::UdpServer(const std::string& address, std::uint16_t port) : address_(address) {
   sockaddr_in sa{};
@@ -194,4 +194,4 @@ bool interfaceMac(const std::string& ipv4, std::array<std::uint8_t, 6>& mac, std
   return found;
 }
 
-}  // namespace net
+}  // namespace servers

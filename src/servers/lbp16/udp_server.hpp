@@ -13,7 +13,7 @@
 
 #include "lbp16/network_faults.hpp"
 
-namespace net {
+namespace servers {
 
 class UdpServer {
  public:
@@ -139,4 +139,4 @@ class UdpServer {
 // The MAC address of the interface that has `ipv4` (none for loopback).
 bool interfaceMac(const std::string& ipv4, std::array<std::uint8_t, 6>& mac, std::string& interface);
 
-}  // namespace net
+}  // namespace servers

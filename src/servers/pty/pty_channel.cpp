@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-namespace net {
+namespace servers {
 
 namespace {
 
@@ -51,4 +51,4 @@ void PtyChannel::pump(hm2::HostMot2Card& card, lbp::SimTime now) {
   link.consumeOutbox(static_cast<std::size_t>(w));
 }
 
-}  // namespace net
+}  // namespace servers

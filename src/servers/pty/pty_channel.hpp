@@ -17,7 +17,7 @@
 #include "hostmot2/card.hpp"
 #include "pty/pty_pair.hpp"
 
-namespace net {
+namespace servers {
 
 class PtyChannel {
  public:
@@ -46,4 +46,4 @@ class PtyChannel {
   std::uint64_t fromRemote_ = 0;
 };
 
-}  // namespace net
+}  // namespace servers

@@ -10,7 +10,7 @@
 
 #include "lbpkit/wire/serial_speed.hpp"
 
-namespace net {
+namespace servers {
 
 std::runtime_error systemError(const std::string& what) { return std::runtime_error(what + ": " + std::strerror(errno)); }
 
@@ -54,4 +54,4 @@ PtyPair::~PtyPair() {
   if (master_ >= 0) ::close(master_);
 }
 
-}  // namespace net
+}  // namespace servers

@@ -9,7 +9,7 @@
 
 #include <stdexcept>
 
-namespace net {
+namespace servers {
 
 // A system call's failure: `what`, and errno's text.
 std::runtime_error systemError(const std::string& what);
@@ -34,4 +34,4 @@ class PtyPair {
   std::string path_;
 };
 
-}  // namespace net
+}  // namespace servers

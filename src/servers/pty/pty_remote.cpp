@@ -13,7 +13,7 @@
 #include "daemon/pcap_recorder.hpp"
 #include "pty/pty_pair.hpp"
 
-namespace net {
+namespace servers {
 
 
 // The line is raw 8N1 at 115200, the setup-mode rate Mesa's tools use.
@@ -85,4 +85,4 @@ void PtyRemote::run(const std::atomic<bool>& stop) {
   }
 }
 
-}  // namespace net
+}  // namespace servers

@@ -24,7 +24,7 @@
 #include "pty/pty_pair.hpp"
 #include "remote/remote_device.hpp"
 
-namespace net {
+namespace servers {
 
 class PcapRecorder;
 
@@ -66,4 +66,4 @@ class PtyRemote {
   void send(std::span<const std::uint8_t> reply);
 };
 
-}  // namespace net
+}  // namespace servers
