@@ -67,6 +67,12 @@ std::string difference(const std::set<std::string>& a, const std::set<std::strin
   return out;
 }
 
+// What LinuxCNC made that lbpkit pins did not predict, and the other way.
+std::string mismatch(const std::set<std::string>& predicted, const std::set<std::string>& actual) {
+  return "LinuxCNC created, lbpkit pins did not list:\n" + difference(actual, predicted) +
+         "lbpkit pins listed, LinuxCNC did not create:\n" + difference(predicted, actual);
+}
+
 // A sim configuration with two 7I77s, and its removal (the second
 // connector's EEPROM files, FILE.2 and FILE.analog.2, are in the sim's own
 // folder and go with it).
@@ -116,9 +122,7 @@ TEST_F(LinuxCnc, PinsListsExactlyWhatHm2EthCreatesInEveryModeWithOneAndTwo7I77s)
     ASSERT_EQ(r.exit, 0) << r.out;
     const auto actual = halcmdItems(hal("halcmd show pin").out, hal("halcmd show param").out);
     EXPECT_GT(actual.size(), 300U);
-    EXPECT_EQ(predicted, actual) << "LinuxCNC created, lbpkit pins did not list:\n"
-                                 << difference(actual, predicted) << "lbpkit pins listed, LinuxCNC did not create:\n"
-                                 << difference(predicted, actual);
+    EXPECT_EQ(predicted, actual) << mismatch(predicted, actual);
     hal("halrun -U");
     sim_.reset();
   }
@@ -354,9 +358,7 @@ TEST_F(LinuxCnc, PinsListsExactlyWhatHm2EthCreatesOnEveryCardOfTheCatalogue) {
     ASSERT_EQ(r.exit, 0) << r.out;
     const auto actual = halcmdItems(hal("halcmd show pin").out, hal("halcmd show param").out, c.board);
     EXPECT_GT(actual.size(), 200U);
-    EXPECT_EQ(predicted, actual) << "LinuxCNC created, lbpkit pins did not list:\n"
-                                 << difference(actual, predicted) << "lbpkit pins listed, LinuxCNC did not create:\n"
-                                 << difference(predicted, actual);
+    EXPECT_EQ(predicted, actual) << mismatch(predicted, actual);
     hal("halrun -U");
     sim_.reset();
   }
