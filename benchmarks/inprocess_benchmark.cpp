@@ -1,8 +1,7 @@
-// The in-process mill as a whole (inprocess_mill.hpp) and
-// each of its hot paths, so a regression in one shows. The goal is 2000 x
-// real time on one core (0.5 us of CPU per simulated millisecond); the
-// counter x_real_time is simulated seconds per CPU second.
-// lbpkit_inprocess_profile runs the same scenario for callgrind.
+// The in-process mill's hot paths, so a regression in one shows; the
+// scenario as a whole is BM_MillClosedLoop (machine_benchmark.cpp). The
+// goal is 2000 x real time on one core (0.5 us of CPU per simulated
+// millisecond).
 #include <benchmark/benchmark.h>
 
 #include <array>
@@ -10,7 +9,6 @@
 #include <cmath>
 
 #include "hostmot2/muxed_encoder.hpp"
-#include "inprocess_mill.hpp"
 #include "machine/axis.hpp"
 #include "machine/quadrature_encoder.hpp"
 #include "machine/servo_amplifier.hpp"
@@ -23,22 +21,6 @@ using hm2::SimTime;
 constexpr std::uint32_t kClockLow = 100'000'000;  // a 7I92's ClockLow
 constexpr SimTime kPlantStep = 50us;              // the machines' default step
 
-void simulatedRate(benchmark::State& state, double simulatedSeconds) {
-  state.counters["x_real_time"] = benchmark::Counter(simulatedSeconds, benchmark::Counter::kIsRate);
-  state.counters["cpu_us_per_sim_ms"] =
-      benchmark::Counter(simulatedSeconds, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
-}
-
-// The whole scenario, one 1 kHz period per iteration.
-void BM_InProcessMill(benchmark::State& state) {
-  lbpkit_bench::InProcessMill mill{std::chrono::microseconds(state.range(0))};
-  const double begin = mill.simulatedSeconds();
-  for (auto _ : state) mill.cycle();
-  if (!mill.status().ok) state.SkipWithError("a cycle failed");
-  simulatedRate(state, mill.simulatedSeconds() - begin);
-}
-// The plant's step in microseconds: 50 (the default), 100.
-BENCHMARK(BM_InProcessMill)->Arg(50)->Arg(100)->Unit(benchmark::kMicrosecond);
 
 // The host's cycle through the card alone is BM_FullCycle (host_benchmark.cpp);
 // the plant's parts are the three below. (Timing the scenario's halves

@@ -1,4 +1,5 @@
-// Runs the in-process scenario (inprocess_mill.hpp) for a fixed
+// Runs the in-process scenario (lbpkit::MillClosedLoop,
+// src/adapters/sim_card/mill_closed_loop.hpp) for a fixed
 // number of 1 kHz cycles, for a profiler: instruction counts under
 // callgrind are the same every run, wall time on a shared machine is not.
 //
@@ -16,12 +17,12 @@
 #include <cstring>
 #include <ctime>
 
-#include "inprocess_mill.hpp"
+#include "sim_card/mill_closed_loop.hpp"
 
 namespace lbpkit_bench {
 
 // Out of line, so that callgrind can collect exactly this.
-[[gnu::noinline]] void runCycles(InProcessMill& mill, std::uint64_t cycles) {
+[[gnu::noinline]] void runCycles(lbpkit::MillClosedLoop& mill, std::uint64_t cycles) {
   for (std::uint64_t i = 0; i < cycles; ++i) mill.cycle();
 }
 
@@ -39,7 +40,7 @@ struct Hash {
   }
 };
 
-std::uint64_t checkedRun(lbpkit_bench::InProcessMill& mill, std::uint64_t cycles) {
+std::uint64_t checkedRun(lbpkit::MillClosedLoop& mill, std::uint64_t cycles) {
   Hash hash;
   for (std::uint64_t i = 0; i < cycles; ++i) {
     mill.cycle();
@@ -77,7 +78,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: lbpkit_inprocess_profile [CYCLES (5000)] [PLANT_STEP_US (50)] [check]\n");
     return 2;
   }
-  lbpkit_bench::InProcessMill mill{std::chrono::microseconds(stepUs)};
+  lbpkit::MillClosedLoop mill{std::chrono::microseconds(stepUs)};
   const double t0 = cpuSeconds();
   std::uint64_t hash = 0;
   if (check)

@@ -1,7 +1,7 @@
 // `lbpkit bench --only inprocess`: the host library over the in-process card
 // (lbpkit::SimTransport), host cycle at 1 kHz, for N simulated seconds: the
 // board alone, and the board with the mill machine behind it (a P position
-// loop on every axis, six encoders read, the spindle running), side by side.
+// loop on every axis, all six encoders turning, the spindle running), side by side.
 // The board alone is BM_FullCycle's loop; the mill is lbpkit::MillClosedLoop,
 // as BM_MillClosedLoop runs it; timed on this thread's CPU clock.
 #include <fmt/core.h>
@@ -94,7 +94,7 @@ nlohmann::json boardAlone(double seconds) {
 
 nlohmann::json boardWithMill(double seconds) {
   lbpkit::MillClosedLoop mill;
-  return timed("board + mill", "the same, the mill behind it: 3 axes in a P loop, 6 encoders, spindle", seconds,
+  return timed("board + mill", "the same, the mill behind it: 5 axes in a P loop, all 6 encoders turning, spindle", seconds,
                mill.transport(), [&](std::uint64_t) { (void)mill.cycle(); });
 }
 

@@ -79,9 +79,11 @@ HostMot2Card::HostMot2Card(Options options)
       for (unsigned off = 0; off < 256; off += 4)
         if (m->decodes(static_cast<std::uint16_t>(block << 8 | off))) byBlock_[block] = m;
   for (unsigned block = 0; block < 256; ++block)
-    if (Module* m = byBlock_[block])
+    if (Module* m = byBlock_[block]) {
       for (unsigned off = 0; off < 256; off += 4)
         if (m->decodes(static_cast<std::uint16_t>(block << 8 | off))) decoded_[block] |= std::uint64_t{1} << (off / 4);
+      blockAccess_[block] = m->accessAt(static_cast<std::uint16_t>(block << 8));
+    }
 
   const auto& b = card_->idrom;
   std::vector<PinDescriptor> pins(static_cast<std::size_t>(b.ioPorts) * b.portWidth);  // GPIO unless the firmware says
@@ -194,7 +196,8 @@ std::uint32_t HostMot2Card::read32(std::uint16_t address, SimTime now) {
     case idrom::kIdromPointer: return idrom::kIdromAddress;
     default: break;
   }
-  if (Module* m = moduleAt(reg)) return m->read(reg, now_);
+  // What Module::read does, with the map's answers looked up once per block.
+  if (Module* m = moduleAt(reg)) return blockAccess_[reg >> 8] == map::Access::WriteOnly ? 0 : m->readRegister(reg, now_);
   noteAccess(AccessKind::UnmappedRead, address, 0);
   return 0;
 }
@@ -203,7 +206,8 @@ void HostMot2Card::write32(std::uint16_t address, std::uint32_t value, SimTime n
   advance(now);
   const auto reg = static_cast<std::uint16_t>(address & 0xFFFCU);
   if (Module* m = moduleAt(reg)) {
-    const WriteResult r = m->write(reg, value, now_);
+    const WriteResult r = blockAccess_[reg >> 8] == map::Access::ReadOnly ? WriteResult::ReadOnly
+                                                                           : m->writeRegister(reg, value, now_);
     if (r != WriteResult::Accepted) [[unlikely]]
       noteAccess(refusal(r), address, value);
     return;

@@ -215,8 +215,10 @@ class HostMot2Card {
   std::vector<Module*> modules_;  // IDROM order
   std::array<Module*, 256> byBlock_{};  // address >> 8 -> module
   // Which registers byBlock_'s module decodes: bit (address & 0xFF) / 4 of
-  // decoded_[address >> 8] (the modules' decodes(), asked once).
+  // decoded_[address >> 8] (the modules' decodes(), asked once), and what
+  // the map says of each block's register (read-only, write-only).
   std::array<std::uint64_t, 256> decoded_{};
+  std::array<map::Access, 256> blockAccess_{};
   std::array<std::uint32_t, idrom::kWords> idrom_{};
   AccessCounters access_;
   std::array<AccessEvent, RecentAccesses::kCapacity> recent_{};  // a ring

@@ -112,6 +112,9 @@ class Module {
   virtual void reset() = 0;
 
  protected:
+  // The card's per-access path calls these itself, having decided what the
+  // map answers once per register block when it was built.
+  friend class HostMot2Card;
   // What the model does for an access the map lets through.
   virtual std::uint32_t readRegister(std::uint16_t address, SimTime now) = 0;
   virtual WriteResult writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) = 0;
