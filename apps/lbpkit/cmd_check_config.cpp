@@ -110,9 +110,7 @@ std::vector<lbpkit::linuxcnc::Board> model(const CheckOptions& o, const lbpkit::
 }
 
 int runCheck(const CheckOptions& o) {
-  const auto result = lbpkit::linuxcnc::checkConfig(
-      o.file, [&o](const lbpkit::linuxcnc::Board& loaded, const lbpkit::linuxcnc::Hm2Config& config, unsigned sevenI77s,
-                   std::string& whyNot) { return model(o, loaded, config, sevenI77s, whyNot); });
+  const auto result = lbpkit::linuxcnc::checkConfig(o.file, app::catalogueBoardModel(o.card, o.pinout));
   unsigned errors = 0, warnings = 0;
   for (const auto& f : result.findings) (f.severity == "error" ? errors : warnings)++;
   if (o.json) {
@@ -175,3 +173,11 @@ void addCheckConfigCommand(CLI::App& app) {
     app::gRun = [o] { return runCheck(*o); };
   });
 }
+
+namespace app {
+lbpkit::linuxcnc::BoardModel catalogueBoardModel(std::string card, std::string pinout) {
+  return [o = CheckOptions{{}, false, std::move(card), std::move(pinout)}](
+             const lbpkit::linuxcnc::Board& loaded, const lbpkit::linuxcnc::Hm2Config& config, unsigned sevenI77s,
+             std::string& whyNot) { return model(o, loaded, config, sevenI77s, whyNot); };
+}
+}  // namespace app

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "lbpkit/hostmot2.hpp"
+#include "linuxcnc/config_check.hpp"
 #include "sim_card/sim_transport.hpp"
 #include "lbpkit/sserial.hpp"
 #include "lbpkit/transport.hpp"
@@ -50,6 +51,11 @@ struct ApiAddress {
 // Throws lbpkit::Error naming what is wrong with `text`.
 ApiAddress parseApiAddress(const std::string& text, const std::string& host);
 
+// What a board a configuration loads may be, from the card catalogue (as
+// lbpkit check-config models it; cmd_check_config.cpp): `card` and
+// `pinout` narrow it down when not empty.
+lbpkit::linuxcnc::BoardModel catalogueBoardModel(std::string card, std::string pinout);
+
 }  // namespace app
 
 void addRemoteCommand(CLI::App& app);
@@ -62,3 +68,4 @@ void addFaultCommand(CLI::App& app);
 void addPinsCommand(CLI::App& app);
 void addCheckConfigCommand(CLI::App& app);
 void addBenchCommand(CLI::App& app);
+void addLinuxCncCommand(CLI::App& app);  // cmd_linuxcnc.cpp

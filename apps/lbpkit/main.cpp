@@ -31,6 +31,7 @@ int main(int argc, char** argv) {
   addCheckConfigCommand(app);
   addBenchCommand(app);
   addDecodeCommand(app);
+  addLinuxCncCommand(app);
   CLI11_PARSE(app, argc, argv);
   try {
     return app::gRun ? app::gRun() : 0;

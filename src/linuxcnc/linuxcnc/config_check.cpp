@@ -74,6 +74,7 @@ struct DriverLine {
   std::string module;
   std::string config;
   Where at;
+  std::string boardIp;
 };
 
 struct Reader {
@@ -173,12 +174,16 @@ struct Reader {
     if (t.empty()) return;
     const auto& cmd = t[0];
     if (cmd == "loadrt" && t.size() >= 2 && t[1].rfind("hm2_", 0) == 0) {
-      DriverLine d{t[1], {}, w};
+      DriverLine d{t[1], {}, w, {}};
       for (std::size_t i = 2; i < t.size(); ++i)
-        if (t[i].rfind("config=", 0) == 0) d.config = t[i].substr(7);
+        if (t[i].rfind("config=", 0) == 0)
+          d.config = t[i].substr(7);
+        else if (t[i].rfind("board_ip=", 0) == 0)
+          d.boardIp = t[i].substr(9);
       // One config per board, comma-separated (a module array parameter):
       // the first board's.
       if (const auto comma = d.config.find(','); comma != std::string::npos) d.config.resize(comma);
+      if (const auto comma = d.boardIp.find(','); comma != std::string::npos) d.boardIp.resize(comma);
       drivers.push_back(d);
     } else if (cmd == "net" && t.size() >= 2) {
       const auto& sig = t[1];
@@ -597,6 +602,7 @@ CheckResult checkConfig(const std::filesystem::path& file, const BoardModel& mod
     b.prefix = prefix;
     b.driver = d->module;
     b.config = d->config;
+    b.boardIp = d->boardIp;
     b.file = d->at.file;
     b.line = d->at.line;
     std::string why;

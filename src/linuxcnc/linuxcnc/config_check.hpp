@@ -30,6 +30,7 @@ struct Board {
   std::string prefix;  // "hm2_7i92.0"
   std::string driver;  // "hm2_eth", "hm2_pci"
   std::string config;  // the config= string
+  std::string boardIp;  // hm2_eth's board_ip= (the first board's), as written
   std::string file;
   unsigned line = 0;
   std::string model;        // "7I92T (7I77+7I76 firmware)"

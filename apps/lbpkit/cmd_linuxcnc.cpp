@@ -1,0 +1,310 @@
+// lbpkit linuxcnc CONFIG.ini: a user's own LinuxCNC configuration against
+// `lbpkit sim`, in one command (docs/linuxcnc.md#your-configuration-in-one-command).
+//
+// Debian 12's hm2_eth cannot use a board on loopback, so LinuxCNC runs in a
+// network namespace of its own (lbpkit_linuxcnc's NetworkNamespace) joined
+// by a veth pair to this PC's, where the sim answers at the configuration's
+// own board_ip. LinuxCNC runs in PID and IPC namespaces as well, so that
+// whatever it starts (rtapi_app, the display, halcmd) and its shared memory
+// end with it; as the user who
+// ran sudo (SUDO_UID), with that user's DISPLAY, or as nobody (RTAPI_UID)
+// when root ran it. On every way out (LinuxCNC closed or killed, the sim
+// gone, Ctrl-C) everything started is stopped and the namespace removed.
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <fmt/core.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "common.hpp"
+#include "hostmot2/cards/catalogue.hpp"
+#include "lbpkit/error.hpp"
+#include "linuxcnc/config_check.hpp"
+#include "linuxcnc/network_namespace.hpp"
+
+namespace app {
+extern std::function<int()> gRun;
+}
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+struct LinuxCncOptions {
+  std::string ini;
+  std::string machine = "mill";
+  std::string card;
+  std::vector<std::string> simArguments;  // after --
+};
+
+// A child process: argv run with stdout and stderr into `out` (a pipe's
+// write end) or inherited (-1). In a process group of its own, so that a
+// terminal's Ctrl-C reaches only lbpkit, which stops it in order.
+pid_t spawn(const std::vector<std::string>& argv, int out) {
+  const pid_t pid = ::fork();
+  if (pid < 0) throw lbpkit::Error(fmt::format("cannot start {}: fork failed", argv.front()));
+  if (pid == 0) {
+    ::setpgid(0, 0);
+    ::prctl(PR_SET_PDEATHSIG, SIGTERM);  // lbpkit killed outright: its children go too
+    if (out >= 0) {
+      ::dup2(out, 1);
+      ::dup2(out, 2);
+    }
+    std::vector<char*> args;
+    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    ::execvp(args[0], args.data());
+    ::_exit(127);
+  }
+  ::setpgid(pid, pid);
+  return pid;
+}
+
+// Stops a child (SIGTERM, then SIGKILL after `grace`) and reaps it: its
+// exit status, or -1.
+int stop(pid_t pid, std::chrono::milliseconds grace) {
+  if (pid <= 0) return -1;
+  ::kill(pid, SIGTERM);
+  const auto deadline = std::chrono::steady_clock::now() + grace;
+  int status = 0;
+  while (::waitpid(pid, &status, WNOHANG) == 0) {
+    if (std::chrono::steady_clock::now() > deadline) {
+      ::kill(-pid, SIGKILL);
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      break;
+    }
+    std::this_thread::sleep_for(20ms);
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// The PID namespace a process is in (an inode number), or 0.
+unsigned long pidNamespace(const std::string& pid) {
+  struct stat st {};
+  return ::stat(("/proc/" + pid + "/ns/pid").c_str(), &st) == 0 ? static_cast<unsigned long>(st.st_ino) : 0;
+}
+
+// Stops LinuxCNC as closing its display does: SIGTERM to every process of
+// its PID namespace (the display, whose end the linuxcnc script waits for,
+// the task, the servers, rtapi_app) and to the script (unshare's child,
+// PID 1 there), whose trap then unloads HAL. If it has not ended in 10 s,
+// SIGKILL to unshare, whose --kill-child takes the namespace with it.
+int stopLinuxCnc(pid_t unshare) {
+  std::ifstream children(fmt::format("/proc/{}/task/{}/children", unshare, unshare));
+  pid_t script = 0;
+  children >> script;
+  if (const unsigned long ns = script > 0 ? pidNamespace(std::to_string(script)) : 0; ns != 0) {
+    std::error_code ec;
+    for (const auto& p : fs::directory_iterator("/proc", ec)) {
+      const auto name = p.path().filename().string();
+      if (name.find_first_not_of("0123456789") == std::string::npos && pidNamespace(name) == ns)
+        ::kill(static_cast<pid_t>(std::stoi(name)), SIGTERM);
+    }
+  }
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  int status = 0;
+  while (::waitpid(unshare, &status, WNOHANG) == 0) {
+    if (std::chrono::steady_clock::now() > deadline || script <= 0) {
+      ::kill(unshare, SIGKILL);
+      ::waitpid(unshare, &status, 0);
+      break;
+    }
+    std::this_thread::sleep_for(20ms);
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// The card a board's HAL name is (hm2_7i92.0 -> 7I92), or empty.
+std::string cardOfBoard(const std::string& prefix) {
+  const auto kind = prefix.substr(4, prefix.find('.') - 4);  // "hm2_7i92.0" -> "7i92"
+  for (const auto& card : hm2::cards::all())
+    if (card.halName == kind) return std::string(card.name);
+  return {};
+}
+
+// An address in the card's /24 for LinuxCNC's side: .2, or .3 if the card is .2.
+std::string peerOf(const std::string& cardIp) {
+  const auto dot = cardIp.rfind('.');
+  return cardIp.substr(0, dot + 1) + (cardIp.substr(dot + 1) == "2" ? "3" : "2");
+}
+
+int runLinuxCnc(const LinuxCncOptions& o) {
+  if (::geteuid() != 0)
+    throw lbpkit::Error("lbpkit linuxcnc needs root (a network namespace and a veth pair): run it with sudo");
+  const fs::path ini = fs::absolute(o.ini);
+  if (!fs::is_regular_file(ini)) throw lbpkit::Error(fmt::format("{}: no such configuration file", o.ini));
+  for (const char* tool : {"linuxcnc", "ip", "unshare", "setpriv"})
+    if (std::system(fmt::format("command -v {} >/dev/null 2>&1", tool).c_str()) != 0)
+      throw lbpkit::Error(fmt::format("{} is not installed (linuxcnc-uspace, iproute2, util-linux)", tool));
+
+  // What the configuration loads, checked as lbpkit check-config checks it:
+  // LinuxCNC would refuse a configuration with errors.
+  const auto result = lbpkit::linuxcnc::checkConfig(ini, app::catalogueBoardModel(o.card, {}));
+  unsigned errors = 0;
+  for (const auto& f : result.findings)
+    if (f.severity == "error") {
+      ++errors;
+      fmt::print(stderr, "{}:{}: error: {}\n", f.file, f.line, f.reason);
+    }
+  if (errors > 0)
+    throw lbpkit::Error(fmt::format("{}: {} error{} that LinuxCNC would refuse (lbpkit check-config {} says more)",
+                                    o.ini, errors, errors == 1 ? "" : "s", o.ini));
+  const lbpkit::linuxcnc::Board* board = nullptr;
+  for (const auto& b : result.boards)
+    if (b.driver == "hm2_eth") board = &b;
+  if (board == nullptr) {
+    for (const auto& b : result.boards)
+      if (b.driver == "hm2_pci")
+        throw lbpkit::Error(fmt::format("{}:{}: {} is a PCI card (hm2_pci); lbpkit linuxcnc runs configurations "
+                                        "whose card is on Ethernet (hm2_eth)",
+                                        b.file, b.line, b.prefix));
+    throw lbpkit::Error(fmt::format("{}: loads no Mesa Ethernet card (loadrt hm2_eth)", o.ini));
+  }
+  if (board->boardIp.empty())
+    throw lbpkit::Error(fmt::format("{}:{}: loadrt hm2_eth has no board_ip=", board->file, board->line));
+  const std::string card = o.card.empty() ? cardOfBoard(board->prefix) : o.card;
+
+  const auto id = std::to_string(::getpid() % 100000);
+  const std::string fifo = fmt::format("/tmp/lbpkit-linuxcnc-{}-rtapi", id);
+  app::installSignalHandlers();
+
+  lbpkit::linuxcnc::NetworkNamespace ns(
+      "lbpkit-linuxcnc-" + id,
+      {{"lbl" + id, board->boardIp + "/32", peerOf(board->boardIp) + "/24", peerOf(board->boardIp) + "/32"}});
+
+  // The sim on the configuration's board_ip, hm2_eth's port, its API and web
+  // view on this PC's loopback.
+  int pipeFds[2];
+  if (::pipe2(pipeFds, O_CLOEXEC) != 0) throw lbpkit::Error("cannot make a pipe for the sim's output");
+  std::vector<std::string> simArgv = {"/proc/self/exe", "sim", "--bind", board->boardIp, "--api", "127.0.0.1:0"};
+  if (!card.empty()) simArgv.insert(simArgv.end(), {"--card", card});
+  if (!o.machine.empty()) simArgv.insert(simArgv.end(), {"--machine", o.machine});
+  simArgv.insert(simArgv.end(), o.simArguments.begin(), o.simArguments.end());
+  pid_t sim = spawn(simArgv, pipeFds[1]);
+  ::close(pipeFds[1]);
+  const int simOut = pipeFds[0];
+  std::string simText;
+  pid_t lcnc = -1;
+  int exitCode = 0;
+  auto readSim = [&](int timeoutMs) {
+    pollfd p{simOut, POLLIN, 0};
+    if (::poll(&p, 1, timeoutMs) <= 0) return false;
+    char buf[4096];
+    const auto n = ::read(simOut, buf, sizeof buf);
+    if (n <= 0) return false;
+    const std::string chunk(buf, static_cast<std::size_t>(n));
+    simText += chunk;
+    fmt::print("{}", chunk);
+    std::fflush(stdout);
+    return true;
+  };
+  const auto cleanUp = [&] {
+    if (lcnc > 0) stopLinuxCnc(lcnc);
+    lcnc = -1;
+    if (sim > 0) stop(sim, 10s);
+    sim = -1;
+    while (readSim(0)) {
+    }
+    ::close(simOut);
+    ns.remove();
+    std::error_code ec;
+    fs::remove(fifo, ec);
+  };
+  try {
+    const auto deadline = std::chrono::steady_clock::now() + 15s;
+    while (simText.find("web view: ") == std::string::npos || simText.find('\n', simText.find("web view: ")) == std::string::npos) {
+      if (app::gStop || std::chrono::steady_clock::now() > deadline || ::waitpid(sim, nullptr, WNOHANG) == sim) {
+        sim = -1;
+        throw lbpkit::Error("lbpkit sim did not start (its output is above)");
+      }
+      readSim(100);
+    }
+
+    // LinuxCNC in the namespace, and in PID and IPC namespaces of its own:
+    // whatever it starts ends with it, and its HAL's shared memory goes with
+    // it however it ends (a killed LinuxCNC leaves System V segments behind
+    // that the next start trips over).
+    std::vector<std::string> argv = {"ip", "netns", "exec", ns.name(), "unshare", "--pid", "--fork",
+                                     "--kill-child=SIGKILL", "--mount-proc", "--ipc"};
+    const char* sudoUid = std::getenv("SUDO_UID");
+    const char* sudoGid = std::getenv("SUDO_GID");
+    if (sudoUid != nullptr && sudoGid != nullptr && std::string(sudoUid) != "0")
+      argv.insert(argv.end(), {"setpriv", std::string("--reuid=") + sudoUid, std::string("--regid=") + sudoGid,
+                               "--init-groups", "env", "RTAPI_FIFO_PATH=" + fifo});
+    else
+      argv.insert(argv.end(), {"env", "RTAPI_UID=65534", "RTAPI_FIFO_PATH=" + fifo});
+    argv.insert(argv.end(), {"linuxcnc", ini.string()});
+    fmt::print("lbpkit linuxcnc: LinuxCNC ({}) in network namespace {}, the card {} at {}; Ctrl-C stops both\n",
+               ini.string(), ns.name(), card.empty() ? board->prefix : card, board->boardIp);
+    std::fflush(stdout);
+    lcnc = spawn(argv, -1);
+
+    while (true) {
+      if (app::gStop) {
+        fmt::print("lbpkit linuxcnc: stopping LinuxCNC and the sim\n");
+        exitCode = 130;
+        break;
+      }
+      int status = 0;
+      if (::waitpid(lcnc, &status, WNOHANG) == lcnc) {
+        lcnc = -1;
+        exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : 1;
+        fmt::print("lbpkit linuxcnc: LinuxCNC {} ({}); stopping the sim\n", WIFEXITED(status) ? "ended" : "was killed",
+                   WIFEXITED(status) ? fmt::format("exit status {}", WEXITSTATUS(status))
+                                     : fmt::format("signal {}", WTERMSIG(status)));
+        break;
+      }
+      if (::waitpid(sim, &status, WNOHANG) == sim) {
+        sim = -1;
+        fmt::print(stderr, "lbpkit linuxcnc: lbpkit sim ended ({}); stopping LinuxCNC\n",
+                   WIFEXITED(status) ? fmt::format("exit status {}", WEXITSTATUS(status))
+                                     : fmt::format("signal {}", WTERMSIG(status)));
+        exitCode = 1;
+        break;
+      }
+      readSim(100);
+    }
+  } catch (...) {
+    cleanUp();
+    throw;
+  }
+  cleanUp();
+  fmt::print("lbpkit linuxcnc: stopped; the network namespace is removed\n");
+  return exitCode;
+}
+
+}  // namespace
+
+void addLinuxCncCommand(CLI::App& app) {
+  auto o = std::make_shared<LinuxCncOptions>();
+  auto* cmd = app.add_subcommand(
+      "linuxcnc",
+      "Run a LinuxCNC configuration against lbpkit sim (as root): the sim at the configuration's board_ip, LinuxCNC "
+      "in a network namespace of its own with its own display; everything stops with it or with Ctrl-C");
+  cmd->add_option("config", o->ini, "The configuration's INI file")->required();
+  cmd->add_option("--machine", o->machine,
+                  "The machine behind the 7I77: mill, lathe, gantry or a machine file (lbpkit sim --machine)")
+      ->capture_default_str();
+  cmd->add_option("--card", o->card, "Which Mesa card (default: the one the configuration loads)");
+  cmd->add_option("sim-options", o->simArguments, "After --: more options for lbpkit sim (--clock, --record, ...)");
+  cmd->callback([o] { app::gRun = [o] { return runLinuxCnc(*o); }; });
+}

@@ -1,0 +1,177 @@
+// `lbpkit linuxcnc CONFIG.ini` on the example mill (examples/linuxcnc/mill),
+// its display a script that only waits: LinuxCNC comes up against the sim at
+// the configuration's board_ip (its servo thread's DOITs reach the sim), and
+// every way out (Ctrl-C, LinuxCNC killed, the sim killed) leaves no network
+// namespace, no veth and no process behind. Needs root and linuxcnc-uspace
+// (scripts/test installs it).
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+#include <httplib.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "support/interop.hpp"
+#include "support/temp_dir.hpp"
+#include "support/wait.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+using interop::have;
+using interop::sh;
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// The processes of LinuxCNC and of a sim on the example's board_ip (the
+// brackets keep the pattern from matching the shell that runs pgrep).
+int leftovers() {
+  const auto r = sh("pgrep -c -f 'rtapi_ap[p]|milltas[k]|linuxcncsv[r]|sim --bind 10[.]10[.]10[.]10'");
+  return std::atoi(r.out.c_str());
+}
+
+// The sim's SSLBP DOIT count, from its control API at `url`; 0 without an answer.
+unsigned long doits(const std::string& url) {
+  std::smatch m;
+  if (!std::regex_match(url, m, std::regex(R"(http://([0-9.]+):(\d+))"))) return 0;
+  httplib::Client c(m[1].str(), std::stoi(m[2]));
+  c.set_read_timeout(2, 0);
+  const auto r = c.Get("/api/state");
+  if (!r || r->status != 200) return 0;
+  const auto j = nlohmann::json::parse(r->body, nullptr, false);
+  const auto& n = j["sserial"]["doits"];
+  return n.is_number() ? n.get<unsigned long>() : 0;
+}
+
+class LinuxCncCommand : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (::geteuid() != 0) GTEST_SKIP() << "lbpkit linuxcnc needs root";
+    if (!have("linuxcnc") || !have("ip")) GTEST_SKIP() << "linuxcnc-uspace or iproute2 is not installed";
+    ASSERT_EQ(leftovers(), 0) << "LinuxCNC or a sim on 10.10.10.10 is already running";
+    shmBefore_ = sh("ipcs -m | grep -c -E '^0x'").out;
+    // The example configuration, its display a script that waits (LinuxCNC
+    // runs `DISPLAY -ini FILE`); readable by rtapi_app's user (nobody).
+    fs::permissions(dir_.path(), fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                                     fs::perms::others_read | fs::perms::others_exec);
+    config_ = dir_.path() / "mill";
+    fs::copy(fs::path(LBPKIT_SOURCE_DIR) / "examples/linuxcnc/mill", config_, fs::copy_options::recursive);
+    const auto display = dir_.path() / "waiting_display";
+    std::ofstream(display) << "#!/bin/sh\nexec sleep 600\n";
+    fs::permissions(display, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                                 fs::perms::others_read | fs::perms::others_exec);
+    const auto ini = slurp(config_ / "mill.ini");
+    std::ofstream(config_ / "mill.ini")
+        << std::regex_replace(ini, std::regex(R"(^DISPLAY = .*$)", std::regex::multiline), "DISPLAY = " + display.string());
+  }
+
+  // lbpkit linuxcnc started, its output in a file; true once LinuxCNC's
+  // servo thread runs the card (the sim has counted DOITs).
+  bool start() {
+    log_ = dir_.path() / "linuxcnc.log";
+    pid_ = ::fork();
+    id_ = std::to_string(pid_ % 100000);
+    if (pid_ == 0) {
+      const int fd = ::open(log_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      ::dup2(fd, 1);
+      ::dup2(fd, 2);
+      const std::string ini = (config_ / "mill.ini").string();
+      const std::string state = (dir_.path() / "sim.eeprom").string();
+      ::execl(LBPKIT_BINARY, LBPKIT_BINARY, "linuxcnc", ini.c_str(), "--machine", "mill", "--", "--state", state.c_str(),
+              static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    std::string url;
+    const bool up = test_support::waitFor(
+        [&] {
+          std::smatch m;
+          const auto text = slurp(log_);
+          if (std::regex_search(text, m, std::regex(R"(web view: (http://127\.0\.0\.1:\d+)/)"))) url = m[1];
+          // Past hm2_eth's discovery (about 1300 DOITs): its servo thread runs.
+          return !url.empty() && doits(url) > 3000;
+        },
+        60s, 200ms);
+    return up;
+  }
+  // Waits for lbpkit linuxcnc to end: its exit status, -2 if it did not in 30 s.
+  int end() {
+    int status = 0;
+    const bool ended = test_support::waitFor([&] { return ::waitpid(pid_, &status, WNOHANG) == pid_; }, 30s, 50ms);
+    if (!ended) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+      return -2;
+    }
+    pid_ = -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+  void expectNothingLeft() {
+    // HAL's shared memory went with LinuxCNC's IPC namespace.
+    EXPECT_EQ(sh("ipcs -m | grep -c -E '^0x'").out, shmBefore_) << sh("ipcs -m").out;
+    EXPECT_FALSE(fs::exists("/run/netns/lbpkit-linuxcnc-" + id_)) << slurp(log_);
+    EXPECT_FALSE(fs::exists("/sys/class/net/lbl" + id_));
+    EXPECT_TRUE(test_support::waitFor([] { return leftovers() == 0; }, 5s)) << sh("ps -ef").out;
+  }
+  void TearDown() override {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGINT);
+      end();
+    }
+  }
+
+  test_support::TempDir dir_;
+  fs::path config_, log_;
+  pid_t pid_ = -1;
+  std::string id_;  // what lbpkit linuxcnc names its namespace and link after
+  std::string shmBefore_;  // System V shared memory segments before the test
+};
+
+TEST_F(LinuxCncCommand, CtrlCStopsLinuxCncAndTheSimAndRemovesTheNamespace) {
+  ASSERT_TRUE(start()) << slurp(log_);
+  ::kill(pid_, SIGINT);
+  EXPECT_EQ(end(), 130) << slurp(log_);
+  expectNothingLeft();
+  EXPECT_NE(slurp(log_).find("the network namespace is removed"), std::string::npos) << slurp(log_);
+}
+
+TEST_F(LinuxCncCommand, AKilledLinuxCncStopsTheSim) {
+  ASSERT_TRUE(start()) << slurp(log_);
+  // Everything of LinuxCNC's, in its namespace, killed at once.
+  auto pids = sh("ip netns pids lbpkit-linuxcnc-" + id_).out;
+  std::replace(pids.begin(), pids.end(), '\n', ' ');
+  ASSERT_NE(pids.find_first_not_of(' '), std::string::npos);
+  sh("kill -9 " + pids);
+  EXPECT_NE(end(), -2) << slurp(log_);
+  expectNothingLeft();
+  EXPECT_NE(slurp(log_).find("LinuxCNC was killed"), std::string::npos) << slurp(log_);
+}
+
+TEST_F(LinuxCncCommand, AKilledSimStopsLinuxCnc) {
+  ASSERT_TRUE(start()) << slurp(log_);
+  sh("pkill -9 -P " + std::to_string(pid_) + " -f 'sim --bind 10[.]10[.]10[.]10'");
+  EXPECT_EQ(end(), 1) << slurp(log_);
+  expectNothingLeft();
+  EXPECT_NE(slurp(log_).find("lbpkit sim ended"), std::string::npos) << slurp(log_);
+}
+
+}  // namespace
