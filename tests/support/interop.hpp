@@ -101,15 +101,18 @@ inline std::string loopback() { return "127.77." + std::to_string(::getpid() % 2
 // (RUN_SERIAL), so nothing else takes the CPU from it. `hal` runs halcmd in
 // the test's namespace.
 // hm2_eth counts a reply that has not come 80 % of a servo period after its
-// read as a packet error, and ten in a row set io_error. On this kernel
-// LinuxCNC's servo thread is not real-time, and one held back past that
-// moment finds its deadline gone before it looks for the reply the card
-// sent in microseconds: errors of LinuxCNC's own scheduling. The tests of
-// names, values and watchdogs let it wait 20 ms (packet-read-timeout, in
-// nanoseconds: hm2_eth(9)), as a configuration for such a machine would;
-// the measurements below keep hm2_eth's own timeout and print what it counts.
-inline std::string patientReadTimeout(const std::string& board) {
-  return "setp " + board + ".packet-read-timeout 20000000\n";
+// read as a packet error, and ten in a row set io_error; the HostMot2
+// watchdog bites when no write has come for 5 ms (hostmot2(9): timeout_ns).
+// On this kernel LinuxCNC's servo thread is not real-time, and one held back
+// past those moments finds its deadline gone before it looks for the reply
+// the card sent in microseconds, or finds the watchdog bitten though the card
+// did what it should: LinuxCNC's own scheduling. The tests of names, values
+// and watchdogs let it wait 20 ms for a reply (packet-read-timeout, in
+// nanoseconds: hm2_eth(9)) and give the watchdog 200 ms, as a configuration
+// for such a machine would; the measurements keep hm2_eth's own timeout and
+// print what it counts.
+inline std::string patientDeadlines(const std::string& board) {
+  return "setp " + board + ".packet-read-timeout 20000000\n" + "setp " + board + ".watchdog.timeout_ns 200000000\n";
 }
 
 class LinuxCnc : public ::testing::Test {
@@ -166,12 +169,12 @@ class LinuxCnc : public ::testing::Test {
     return v;
   }
   // Loads hostmot2 and hm2_eth with `config`, `board`'s read and write in a
-  // 1 kHz servo thread, hm2_eth waiting up to patientReadTimeout for each
+  // 1 kHz servo thread, hm2_eth waiting up to patientDeadlines for each
   // reply.
   Shell loadBoard(const std::string& board, const std::string& config) {
     const auto file = fifo_ + ".hal";
     std::ofstream(file) << "loadrt hostmot2\nloadrt hm2_eth board_ip=" << cardIp_ << " config=\"" << config << "\"\n"
-                        << patientReadTimeout(board) << "loadrt threads name1=servo period1=1000000\n"
+                        << patientDeadlines(board) << "loadrt threads name1=servo period1=1000000\n"
                         << "addf " << board << ".read servo\naddf " << board << ".write servo\nstart\n";
     auto r = hal("halcmd -f " + file);
     std::filesystem::remove(file);
@@ -191,14 +194,14 @@ class LinuxCnc : public ::testing::Test {
     return own;
   }
   // Loads hostmot2 + hm2_eth with the servo thread running; `patient`:
-  // hm2_eth waits up to patientReadTimeout for each reply (else its own
+  // hm2_eth waits up to patientDeadlines for each reply (else its own
   // 80 % of the period, which the measurements count against).
   Shell load(const std::string& sserialPort, bool patient = true) {
     const auto file = fifo_ + ".hal";
     std::ofstream(file) << "loadrt hostmot2\n"
                         << "loadrt hm2_eth board_ip=" << cardIp_ << " config=\"num_encoders=6 sserial_port_0="
                         << sserialPort << "\"\n"
-                        << (patient ? patientReadTimeout("hm2_7i92.0") : "") << "loadrt threads name1=servo period1=1000000\n"
+                        << (patient ? patientDeadlines("hm2_7i92.0") : "") << "loadrt threads name1=servo period1=1000000\n"
                         << "addf hm2_7i92.0.read servo\naddf hm2_7i92.0.write servo\nstart\n";
     auto r = hal("halcmd -f " + file);
     std::filesystem::remove(file);
