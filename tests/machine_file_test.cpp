@@ -73,6 +73,31 @@ TEST_F(MachineFile, ExamplesAreTheBuiltIns) {
   EXPECT_FALSE(machine::mill() == machine::gantry());
 }
 
+// `reversed`: the motor turns the other way for a positive input, what a
+// configuration with a negative OUTPUT_SCALE drives; off by default.
+TEST_F(MachineFile, AReversedDriveCommandsTheOtherWay) {
+  const auto d = config::loadMachine(write(R"(
+[[axis]]
+name = "x"
+  [[axis.drive]]
+  analog_output = 0
+  [axis.drive.amplifier]
+  gain = 4.0
+  reversed = true
+[[axis]]
+name = "y"
+  [[axis.drive]]
+  analog_output = 1
+)"));
+  ASSERT_TRUE(d.axes[0].drives[0].amplifier.reversed);
+  EXPECT_FALSE(d.axes[1].drives[0].amplifier.reversed);
+  EXPECT_EQ(machine::ServoAmplifier(d.axes[0].drives[0].amplifier).command(2.0), -8.0);
+  EXPECT_EQ(machine::ServoAmplifier(d.axes[1].drives[0].amplifier).command(2.0), 10.0);
+  EXPECT_NE(error("[[axis]]\nname = \"x\"\n  [[axis.drive]]\n  analog_output = 0\n  [axis.drive.amplifier]\n"
+                  "  reversed = 1\n"),
+            "");
+}
+
 TEST_F(MachineFile, AFewKeysTakeTheDocumentedDefaults) {
   const auto& path = write(R"(
 [[axis]]

@@ -137,6 +137,27 @@ TEST(MachineStepper, ReversingBringsZBack) {
   EXPECT_EQ(r.m.state().axes[kZ].velocity, 0.0);
 }
 
+// A motor wired the other way (reversed): each forward step moves Z down,
+// what a configuration with a negative SCALE drives; the hard stop still
+// ends it where the mechanics end.
+TEST(MachineStepper, AReversedMotorMovesTheOtherWay) {
+  auto d = stepperMill();
+  d.axes[kZ].stepper->reversed = true;
+  Rig r(std::move(d));
+  const double z0 = r.z();
+  r.setStepRate(40'000.0);
+  r.run(100);
+  const std::int64_t up = r.steps();
+  ASSERT_GT(up, 3990);
+  EXPECT_EQ(r.z(), z0 - static_cast<double>(up) / kStepsPerMm);
+  EXPECT_NEAR(r.m.state().axes[kZ].commandVelocity, -50.0, 0.01);
+  EXPECT_EQ(r.m.followingError(kZ), 0.0);
+  // 75 mm down to the hard stop 5 mm under the travel (-150): 80 mm.
+  r.run(1700);
+  EXPECT_NEAR(r.z(), -155.0, 1.0 / kStepsPerMm);
+  EXPECT_GT(r.m.state().axes[kZ].stepper->lostSteps, 0);
+}
+
 TEST(MachineStepper, StepsFasterThanThePullOutRateAreLost) {
   Rig below(stepperMill(20'000.0));
   // Just under the pull-out rate: every step followed, however the steps

@@ -177,7 +177,7 @@ class MachineReader {
     AmplifierParameters a;
     r_.onlyKeys(t, prefix,
                 {"mode", "gain", "limit", "deadband_volts", "offset_volts", "peak_torque", "bandwidth_hz",
-                 "enable_polarity"});
+                 "enable_polarity", "reversed"});
     a.mode = r_.text(t, prefix, "mode", "velocity", {"velocity", "torque"}) == "velocity" ? AmplifierMode::Velocity
                                                                                          : AmplifierMode::Torque;
     a.gain = r_.positive(t, prefix, "gain", a.gain, 1e4, a.mode == AmplifierMode::Velocity ? "rev/s per V" : "Nm per V");
@@ -195,6 +195,7 @@ class MachineReader {
               fmt::format("{} Hz is too fast for the plant's {} us step (step_us): at most {} Hz", a.bandwidthHz,
                           stepUs_, maxBandwidth));
     a.enablePolarity = polarity(t, prefix, a.enablePolarity);
+    a.reversed = r_.boolean(t, prefix, "reversed", a.reversed);
     return a;
   }
 
@@ -267,7 +268,7 @@ class MachineReader {
   // and the axis' screw and gearing, as a stepper's data sheet gives them.
   StepperParameters stepper(const toml::table& t, const std::string& prefix, const AxisDescription& a) {
     StepperParameters s;
-    r_.onlyKeys(t, prefix, {"stepgen", "steps_per_unit", "full_steps", "microsteps", "max_step_rate"});
+    r_.onlyKeys(t, prefix, {"stepgen", "steps_per_unit", "full_steps", "microsteps", "max_step_rate", "reversed"});
     (void)r_.required(t, prefix, "stepgen");
     s.stepGen = index(t, prefix, "stepgen", 0, kStepGens);
     stepGens_.claim(s.stepGen, "axis " + a.name, at(t, "stepgen"), prefix + "stepgen");
@@ -288,6 +289,7 @@ class MachineReader {
     }
     // Absent: the motor follows every rate.
     s.maxStepRate = r_.positive(t, prefix, "max_step_rate", s.maxStepRate, 1e7, "steps/s");
+    s.reversed = r_.boolean(t, prefix, "reversed", s.reversed);
     return s;
   }
 

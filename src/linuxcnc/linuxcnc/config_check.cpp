@@ -7,7 +7,6 @@
 
 #include <algorithm>
 #include <cctype>
-#include <fstream>
 #include <optional>
 #include <regex>
 #include <set>
@@ -17,204 +16,14 @@ namespace lbpkit::linuxcnc {
 
 namespace {
 
-struct IniEntry {
-  std::string value;
-  unsigned line = 0;
-};
-using Ini = std::map<std::string, std::multimap<std::string, IniEntry>>;
-
-std::string trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r\n");
-  if (b == std::string::npos) return {};
-  return s.substr(b, s.find_last_not_of(" \t\r\n") - b + 1);
-}
-
-Ini readIni(const std::filesystem::path& path) {
-  Ini ini;
-  std::ifstream in(path);
-  std::string line, section;
-  unsigned n = 0;
-  while (std::getline(in, line)) {
-    ++n;
-    const auto t = trim(line);
-    if (t.empty() || t[0] == '#' || t[0] == ';') continue;
-    if (t[0] == '[') {
-      section = t.substr(1, t.find(']') - 1);
-      continue;
-    }
-    const auto eq = t.find('=');
-    if (eq == std::string::npos) continue;
-    ini[section].emplace(trim(t.substr(0, eq)), IniEntry{trim(t.substr(eq + 1)), n});
-  }
-  return ini;
-}
-
-const IniEntry* iniValue(const Ini& ini, const std::string& section, const std::string& key) {
-  const auto s = ini.find(section);
-  if (s == ini.end()) return nullptr;
-  const auto k = s->second.find(key);
-  return k == s->second.end() ? nullptr : &k->second;
-}
-
-struct Where {
-  std::string file;
-  unsigned line = 0;
-};
-
-enum class Use { Net, Setp, Link, Addf };
-
-struct Reference {
-  Where at;
-  std::string name;
-  Use use = Use::Net;
-  std::string signal;  // for Net/Link
-};
-
-struct DriverLine {
-  std::string module;
-  std::string config;
-  Where at;
-  std::string boardIp;
-};
-
-struct Reader {
-  const Ini* ini = nullptr;
+// The checker: the configuration as read, and where its findings go.
+struct Checker {
+  const HalConfig& hal;
   std::vector<Finding>* findings = nullptr;
-  std::vector<Reference> refs;
-  std::vector<DriverLine> drivers;
-  std::map<std::string, std::vector<Where>> sets;          // signal -> sets lines
-  std::map<std::string, std::vector<std::string>> signals;  // signal -> pins, in order
-  std::map<std::string, Where> signalFirst;
 
   void error(const Where& w, std::string name, std::string reason, std::string suggestion = {},
              const char* severity = "error") {
     findings->push_back({w.file, w.line, severity, std::move(name), std::move(reason), std::move(suggestion)});
-  }
-
-  // [SECTION]KEY and [SECTION](KEY), as halcmd -i substitutes them.
-  std::string substitute(const std::string& text, const Where& w) {
-    static const std::regex ref(R"(\[([A-Za-z0-9_]+)\](\(([A-Za-z0-9_]+)\)|([A-Za-z0-9_]+)))");
-    std::string out;
-    auto begin = std::sregex_iterator(text.begin(), text.end(), ref);
-    std::size_t last = 0;
-    for (auto it = begin; it != std::sregex_iterator(); ++it) {
-      const auto& m = *it;
-      out += text.substr(last, static_cast<std::size_t>(m.position()) - last);
-      last = static_cast<std::size_t>(m.position() + m.length());
-      const std::string section = m[1];
-      const std::string key = m[3].matched ? std::string(m[3]) : std::string(m[4]);
-      if (!ini) {
-        error(w, m.str(), fmt::format("{} needs an INI file (halcmd -i): check the .ini instead", m.str()), {},
-              "warning");
-        out += m.str();
-        continue;
-      }
-      if (const auto* v = iniValue(*ini, section, key)) {
-        out += v->value;
-      } else {
-        error(w, m.str(), fmt::format("the INI file has no [{}]{}: halcmd stops here", section, key));
-        out += m.str();
-      }
-    }
-    return out + text.substr(last);
-  }
-
-  static std::vector<std::string> tokens(const std::string& line) {
-    std::vector<std::string> out;
-    std::string cur;
-    bool quoted = false, any = false;
-    for (char c : line) {
-      if (c == '"') {
-        quoted = !quoted;
-        any = true;
-        continue;
-      }
-      if (!quoted && (c == ' ' || c == '\t')) {
-        if (any) out.push_back(cur);
-        cur.clear();
-        any = false;
-        continue;
-      }
-      cur += c;
-      any = true;
-    }
-    if (any) out.push_back(cur);
-    return out;
-  }
-
-  void readHal(const std::filesystem::path& path, const std::string& shown) {
-    std::ifstream in(path);
-    std::string raw, line;
-    unsigned n = 0, start = 0;
-    while (std::getline(in, raw)) {
-      ++n;
-      if (line.empty()) start = n;
-      if (!raw.empty() && raw.back() == '\r') raw.pop_back();
-      if (!raw.empty() && raw.back() == '\\') {
-        line += raw.substr(0, raw.size() - 1) + " ";
-        continue;
-      }
-      line += raw;
-      // A comment starts at a # that begins a word (halcmd(1)).
-      bool quoted = false;
-      for (std::size_t i = 0; i < line.size(); ++i) {
-        if (line[i] == '"') quoted = !quoted;
-        if (!quoted && line[i] == '#' && (i == 0 || line[i - 1] == ' ' || line[i - 1] == '\t')) {
-          line.resize(i);
-          break;
-        }
-      }
-      const Where w{shown, start};
-      statement(tokens(substitute(line, w)), w);
-      line.clear();
-    }
-  }
-
-  void statement(const std::vector<std::string>& t, const Where& w) {
-    if (t.empty()) return;
-    const auto& cmd = t[0];
-    if (cmd == "loadrt" && t.size() >= 2 && t[1].rfind("hm2_", 0) == 0) {
-      DriverLine d{t[1], {}, w, {}};
-      for (std::size_t i = 2; i < t.size(); ++i)
-        if (t[i].rfind("config=", 0) == 0)
-          d.config = t[i].substr(7);
-        else if (t[i].rfind("board_ip=", 0) == 0)
-          d.boardIp = t[i].substr(9);
-      // One config per board, comma-separated (a module array parameter):
-      // the first board's.
-      if (const auto comma = d.config.find(','); comma != std::string::npos) d.config.resize(comma);
-      if (const auto comma = d.boardIp.find(','); comma != std::string::npos) d.boardIp.resize(comma);
-      drivers.push_back(d);
-    } else if (cmd == "net" && t.size() >= 2) {
-      const auto& sig = t[1];
-      signalFirst.emplace(sig, w);
-      for (std::size_t i = 2; i < t.size(); ++i) {
-        if (t[i] == "=>" || t[i] == "<=" || t[i] == "<=>") continue;
-        link(t[i], sig, w, Use::Net);
-      }
-    } else if (cmd == "setp" && t.size() >= 3) {
-      refs.push_back({w, t[1], Use::Setp, {}});
-    } else if (cmd == "sets" && t.size() >= 3) {
-      sets[t[1]].push_back(w);
-    } else if (cmd == "linkps" && t.size() >= 3) {
-      signalFirst.emplace(t[2], w);
-      link(t[1], t[2], w, Use::Link);
-    } else if (cmd == "linksp" && t.size() >= 3) {
-      signalFirst.emplace(t[1], w);
-      link(t[2], t[1], w, Use::Link);
-    } else if (cmd == "linkpp" && t.size() >= 3) {
-      signalFirst.emplace(t[1], w);
-      link(t[1], t[1], w, Use::Link);
-      link(t[2], t[1], w, Use::Link);
-    } else if (cmd == "addf" && t.size() >= 3) {
-      refs.push_back({w, t[1], Use::Addf, {}});
-    }
-  }
-
-  void link(const std::string& pin, const std::string& sig, const Where& w, Use use) {
-    refs.push_back({w, pin, use, sig});
-    auto& pins = signals[sig];
-    if (std::find(pins.begin(), pins.end(), pin) == pins.end()) pins.push_back(pin);
   }
 };
 
@@ -316,13 +125,13 @@ std::string moduleReason(const Board& b, const std::string& module, const std::s
 
 // Every reference checked against the boards chosen (boardIndex: prefix ->
 // index in `boards`); the findings go to r.findings.
-void evaluate(Reader& r, const std::vector<const Board*>& boards, const std::map<std::string, std::size_t>& boardIndex,
+void evaluate(Checker& r, const std::vector<const Board*>& boards, const std::map<std::string, std::size_t>& boardIndex,
               unsigned& references) {
   for (const auto* b : boards)
     for (const auto& problem : b->loadProblems) r.error(Where{b->file, b->line}, "config", problem);
   // Every reference.
   std::map<std::string, std::string> pinSignal;  // pin -> the signal it joined
-  for (const auto& ref : r.refs) {
+  for (const auto& ref : r.hal.refs) {
     const bool hm2 = ref.name.rfind("hm2_", 0) == 0;
     if (ref.use == Use::Net || ref.use == Use::Link) {
       const auto [it, fresh] = pinSignal.emplace(ref.name, ref.signal);
@@ -455,7 +264,7 @@ void evaluate(Reader& r, const std::vector<const Board*>& boards, const std::map
 
   // Signals: what LinuxCNC refuses (two outputs, an output with a
   // bidirectional pin, mixed types) and inputs nothing writes.
-  for (const auto& [sig, pins] : r.signals) {
+  for (const auto& [sig, pins] : r.hal.signals) {
     std::vector<std::pair<std::string, const Item*>> known;
     bool allKnown = true;
     for (const auto& pin : pins) {
@@ -465,10 +274,10 @@ void evaluate(Reader& r, const std::vector<const Board*>& boards, const std::map
       if (item && item->kind == Kind::Pin) known.emplace_back(pin, item);
       else allKnown = false;
     }
-    const Where at = r.signalFirst.count(sig) ? r.signalFirst[sig] : Where{};
+    const Where at = r.hal.signalFirst.count(sig) ? r.hal.signalFirst.at(sig) : Where{};
     const std::string& signal = sig;  // clang 14 cannot capture a structured binding (C++20 allows it)
     auto lineOf = [&](const std::string& pin) {
-      for (const auto& ref : r.refs)
+      for (const auto& ref : r.hal.refs)
         if (ref.name == pin && ref.signal == signal) return ref.at;
       return at;
     };
@@ -491,7 +300,7 @@ void evaluate(Reader& r, const std::vector<const Board*>& boards, const std::map
                             known[i].first));
         break;
       }
-    if (allKnown && !known.empty() && outs.empty() && ios.empty() && !r.sets.count(sig))
+    if (allKnown && !known.empty() && outs.empty() && ios.empty() && !r.hal.sets.count(sig))
       r.error(at, sig,
               fmt::format("signal {} has no writer: {} is an input and nothing on the signal drives it (no output "
                           "pin, no sets)",
@@ -507,67 +316,14 @@ bool CheckResult::ok() const {
 
 CheckResult checkConfig(const std::filesystem::path& file, const BoardModel& model) {
   CheckResult result;
-  Reader r;
-  r.findings = &result.findings;
-  Ini ini;
-  if (!std::filesystem::exists(file)) {
-    result.findings.push_back({file.string(), 0, "error", {}, "no such file", {}});
-    return result;
-  }
-  const auto dir = file.parent_path();
-  if (file.extension() == ".ini") {
-    ini = readIni(file);
-    r.ini = &ini;
-    // [HAL]HALFILE in order, then POSTGUI_HALFILE and SHUTDOWN (LinuxCNC
-    // runs them after the GUI is up and at exit).
-    std::vector<std::pair<std::string, IniEntry>> halFiles;
-    if (const auto s = ini.find("HAL"); s != ini.end()) {
-      for (const char* key : {"HALFILE", "POSTGUI_HALFILE", "SHUTDOWN"}) {
-        const auto range = s->second.equal_range(key);
-        std::vector<IniEntry> entries;
-        for (auto it = range.first; it != range.second; ++it) entries.push_back(it->second);
-        std::sort(entries.begin(), entries.end(), [](const IniEntry& a, const IniEntry& b) { return a.line < b.line; });
-        for (const auto& e : entries) halFiles.emplace_back(key, e);
-      }
-    }
-    if (halFiles.empty())
-      result.findings.push_back({file.filename().string(), 0, "warning", {}, "[HAL] names no HALFILE", {}});
-    for (const auto& [key, e] : halFiles) {
-      const auto words = Reader::tokens(e.value);
-      if (words.empty()) continue;
-      std::filesystem::path p = words[0];
-      if (p.extension() == ".tcl") {
-        result.findings.push_back({file.filename().string(), e.line, "warning", words[0],
-                                   fmt::format("{} {}: Tcl HAL files are not checked", key, words[0]), {}});
-        continue;
-      }
-      const auto full = p.is_absolute() ? p : dir / p;
-      if (!std::filesystem::exists(full)) {
-        // LinuxCNC also looks in its own HAL library (HALLIB_DIR).
-        const auto lib = std::filesystem::path("/usr/share/linuxcnc/hallib") / p;
-        if (!p.is_absolute() && std::filesystem::exists(lib)) {
-          r.readHal(lib, lib.string());
-          result.files.push_back(lib.string());
-          continue;
-        }
-        result.findings.push_back({file.filename().string(), e.line, "error", words[0],
-                                   fmt::format("{} {}: no such file next to the INI (or in LinuxCNC's hallib)", key,
-                                               words[0]),
-                                   {}});
-        continue;
-      }
-      r.readHal(full, p.is_absolute() ? p.string() : p.string());
-      result.files.push_back(full.string());
-    }
-  } else {
-    r.readHal(file, file.filename().string());
-    result.files.push_back(file.string());
-  }
+  const HalConfig hal = readConfiguration(file, result.findings);
+  result.files = hal.files;
+  Checker r{hal, &result.findings};
 
   // The boards: each hostmot2 prefix the configuration names, made by the
   // driver that loads that kind of card.
   std::set<std::string> prefixes;
-  for (const auto& ref : r.refs)
+  for (const auto& ref : r.hal.refs)
     if (ref.name.rfind("hm2_", 0) == 0 && !boardOf(ref.name).empty()) prefixes.insert(boardOf(ref.name));
   std::map<std::string, std::size_t> boardIndex;
   std::vector<std::vector<Board>> candidates;  // per board, what it may be
@@ -575,17 +331,17 @@ CheckResult checkConfig(const std::filesystem::path& file, const BoardModel& mod
   for (const auto& prefix : prefixes) {
     const std::string want = isEthernet(prefix) ? "hm2_eth" : "hm2_pci";
     const DriverLine* d = nullptr;
-    for (const auto& dr : r.drivers)
+    for (const auto& dr : r.hal.drivers)
       if (dr.module == want) d = &dr;
     const Reference* first = nullptr;
-    for (const auto& ref : r.refs)
+    for (const auto& ref : r.hal.refs)
       if (boardOf(ref.name) == prefix) {
         first = &ref;
         break;
       }
     if (!d) {
       std::string loaded;
-      for (const auto& dr : r.drivers) loaded += " " + dr.module;
+      for (const auto& dr : r.hal.drivers) loaded += " " + dr.module;
       r.error(first->at, prefix,
               fmt::format("no board {}: it is made by {}, which the configuration does not load{}", prefix, want,
                           loaded.empty() ? std::string() : " (it loads" + loaded + ")"));
@@ -596,7 +352,7 @@ CheckResult checkConfig(const std::filesystem::path& file, const BoardModel& mod
     const auto config = parseHm2Config(d->config, &problems);
     for (const auto& p : problems) r.error(d->at, "config", p);
     unsigned sevenI77s = 1;
-    for (const auto& ref : r.refs)
+    for (const auto& ref : r.hal.refs)
       if (ref.name.rfind(prefix + ".7i77.0.3.", 0) == 0 || ref.name.rfind(prefix + ".7i77.0.4.", 0) == 0) sevenI77s = 2;
     Board b;
     b.prefix = prefix;

@@ -12,18 +12,10 @@
 #include <string>
 #include <vector>
 
+#include "linuxcnc/hal_config.hpp"
 #include "linuxcnc/hm2_pins.hpp"
 
 namespace lbpkit::linuxcnc {
-
-struct Finding {
-  std::string file;  // as given (relative to the INI's folder for HAL files)
-  unsigned line = 0;
-  std::string severity;  // "error" or "warning"
-  std::string name;      // the pin, parameter or signal it is about ("" for others)
-  std::string reason;
-  std::string suggestion;  // the nearest existing name, if any
-};
 
 // A board a configuration loads: its driver line and what it creates.
 struct Board {

@@ -223,7 +223,9 @@ bool Machine::commandsVelocity(const AxisPlant& a) const {
 
 double Machine::commandVelocity(std::size_t axis) const {
   const AxisPlant& a = axes_.at(axis);
-  if (a.stepper) return stepGens_->stepRate(a.stepper->parameters().stepGen) / a.stepper->parameters().stepsPerUnit;
+  if (a.stepper)
+    return stepGens_->stepRate(a.stepper->parameters().stepGen) / a.stepper->parameters().stepsPerUnit *
+           (a.stepper->parameters().reversed ? -1.0 : 1.0);
   if (!commandsVelocity(a)) return 0.0;
   const Drive& first = a.drives.front();
   return first.amplifier.command(board_->analog.outputVoltage(first.d.analogOutput)) *

@@ -34,6 +34,10 @@ struct AmplifierParameters {
   double peakTorque = 7.0;      // velocity mode: Nm the drive's loop may ask of the motor
   double bandwidthHz = 100.0;   // velocity mode: the drive's velocity loop (PI)
   EnablePolarity enablePolarity = EnablePolarity::ActiveHigh;
+  // The motor turns the other way for a positive input (its leads, or the
+  // drive's direction setting, the other way round): what a configuration
+  // with a negative OUTPUT_SCALE drives.
+  bool reversed = false;
 
   bool operator==(const AmplifierParameters&) const = default;
 };
@@ -54,7 +58,8 @@ class ServoAmplifier {
     // The deadband is taken out of the input, so the command is continuous
     // just past it.
     const double past = v > 0 ? v - p_.deadbandVolts : v + p_.deadbandVolts;
-    return std::clamp(past * p_.gain, -p_.limit, p_.limit);
+    const double c = std::clamp(past * p_.gain, -p_.limit, p_.limit);
+    return p_.reversed ? -c : c;
   }
   // The motor torque (Nm) over the next `h` seconds: 0 when disabled (the
   // velocity loop's integrator is cleared too, as a drive does when its

@@ -11,13 +11,17 @@ StepperMotor::StepperMotor(StepperParameters parameters, double position, std::i
       initial_(position),
       origin_(count),
       count_(count),
-      lowest_(static_cast<std::int64_t>(std::ceil((hardStopMin - position) * parameters.stepsPerUnit))),
-      highest_(static_cast<std::int64_t>(std::floor((hardStopMax - position) * parameters.stepsPerUnit))) {}
+      lowest_(static_cast<std::int64_t>(std::ceil(
+          (parameters.reversed ? position - hardStopMax : hardStopMin - position) * parameters.stepsPerUnit))),
+      highest_(static_cast<std::int64_t>(std::floor(
+          (parameters.reversed ? position - hardStopMin : hardStopMax - position) * parameters.stepsPerUnit))) {}
 
-double StepperMotor::position() const { return initial_ + static_cast<double>(moved_) / p_.stepsPerUnit; }
+double StepperMotor::unitsPerStep() const { return (p_.reversed ? -1.0 : 1.0) / p_.stepsPerUnit; }
+
+double StepperMotor::position() const { return initial_ + static_cast<double>(moved_) * unitsPerStep(); }
 
 double StepperMotor::commandedPosition() const {
-  return initial_ + static_cast<double>(count_ - origin_) / p_.stepsPerUnit;
+  return initial_ + static_cast<double>(count_ - origin_) * unitsPerStep();
 }
 
 void StepperMotor::step(std::int64_t count, double commandedRate, bool held) {
@@ -32,7 +36,7 @@ void StepperMotor::step(std::int64_t count, double commandedRate, bool held) {
   moved_ += followed;
   // The speed the steps are made at, while the motor follows them.
   const bool following = !stalled_ && !held && followed == made;
-  velocity_ = following ? commandedRate / p_.stepsPerUnit : 0.0;
+  velocity_ = following ? commandedRate * unitsPerStep() : 0.0;
 }
 
 }  // namespace machine

@@ -26,6 +26,10 @@ struct StepperParameters {
   unsigned stepGen = 0;       // the card's StepGen instance (stepgen.NN)
   double stepsPerUnit = 800;  // StepGen steps per machine unit: full steps x microsteps x gear ratio / pitch
   double maxStepRate = 0.0;   // steps per second the motor follows (pull-out); 0: every rate
+  // A step in the StepGen's forward direction moves the axis towards
+  // negative positions (the motor or DIR wired the other way): what a
+  // configuration with a negative position-scale (SCALE) drives.
+  bool reversed = false;
 
   bool operator==(const StepperParameters&) const = default;
 };
@@ -54,6 +58,9 @@ class StepperMotor {
   [[nodiscard]] const StepperParameters& parameters() const { return p_; }
 
  private:
+  // Machine units one step in the StepGen's forward direction moves the axis.
+  [[nodiscard]] double unitsPerStep() const;
+
   StepperParameters p_;
   double initial_;
   std::int64_t origin_;   // the count when built

@@ -1,0 +1,265 @@
+// halcmd(1): INI substitution, comments, continued lines, quoting; the
+// INI's [HAL] section (LinuxCNC's INI documentation).
+#include "linuxcnc/hal_config.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <fstream>
+#include <regex>
+
+namespace lbpkit::linuxcnc {
+
+std::string trim(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t\r\n");
+  if (b == std::string::npos) return {};
+  return s.substr(b, s.find_last_not_of(" \t\r\n") - b + 1);
+}
+
+const IniEntry* Ini::find(const std::string& section, const std::string& key) const {
+  const auto s = sections.find(section);
+  if (s == sections.end()) return nullptr;
+  const auto k = s->second.find(key);
+  return k == s->second.end() ? nullptr : &k->second;
+}
+
+std::string HalConfig::signalOf(const std::string& pin) const {
+  for (const auto& [signal, pins] : signals)
+    if (std::find(pins.begin(), pins.end(), pin) != pins.end()) return signal;
+  return {};
+}
+
+const Setp* HalConfig::setpOf(const std::string& name) const {
+  for (auto it = setps.rbegin(); it != setps.rend(); ++it)
+    if (it->name == name) return &*it;
+  return nullptr;
+}
+
+namespace {
+
+Ini readIni(const std::filesystem::path& path) {
+  Ini ini;
+  ini.file = path.filename().string();
+  std::ifstream in(path);
+  std::string line, section;
+  unsigned n = 0;
+  while (std::getline(in, line)) {
+    ++n;
+    const auto t = trim(line);
+    if (t.empty() || t[0] == '#' || t[0] == ';') continue;
+    if (t[0] == '[') {
+      section = t.substr(1, t.find(']') - 1);
+      continue;
+    }
+    const auto eq = t.find('=');
+    if (eq == std::string::npos) continue;
+    ini.sections[section].emplace(trim(t.substr(0, eq)), IniEntry{trim(t.substr(eq + 1)), n});
+  }
+  return ini;
+}
+
+struct Reader {
+  HalConfig& hal;
+  std::vector<Finding>& findings;
+
+  void error(const Where& w, std::string name, std::string reason, std::string suggestion = {},
+             const char* severity = "error") {
+    findings.push_back({w.file, w.line, severity, std::move(name), std::move(reason), std::move(suggestion)});
+  }
+
+  // [SECTION]KEY and [SECTION](KEY), as halcmd -i substitutes them.
+  std::string substitute(const std::string& text, const Where& w) {
+    static const std::regex ref(R"(\[([A-Za-z0-9_]+)\](\(([A-Za-z0-9_]+)\)|([A-Za-z0-9_]+)))");
+    std::string out;
+    auto begin = std::sregex_iterator(text.begin(), text.end(), ref);
+    std::size_t last = 0;
+    for (auto it = begin; it != std::sregex_iterator(); ++it) {
+      const auto& m = *it;
+      out += text.substr(last, static_cast<std::size_t>(m.position()) - last);
+      last = static_cast<std::size_t>(m.position() + m.length());
+      const std::string section = m[1];
+      const std::string key = m[3].matched ? std::string(m[3]) : std::string(m[4]);
+      if (!hal.hasIni) {
+        error(w, m.str(), fmt::format("{} needs an INI file (halcmd -i): check the .ini instead", m.str()), {},
+              "warning");
+        out += m.str();
+        continue;
+      }
+      if (const auto* v = hal.ini.find(section, key)) {
+        out += v->value;
+      } else {
+        error(w, m.str(), fmt::format("the INI file has no [{}]{}: halcmd stops here", section, key));
+        out += m.str();
+      }
+    }
+    return out + text.substr(last);
+  }
+
+  static std::vector<std::string> tokens(const std::string& line) {
+    std::vector<std::string> out;
+    std::string cur;
+    bool quoted = false, any = false;
+    for (char c : line) {
+      if (c == '"') {
+        quoted = !quoted;
+        any = true;
+        continue;
+      }
+      if (!quoted && (c == ' ' || c == '\t')) {
+        if (any) out.push_back(cur);
+        cur.clear();
+        any = false;
+        continue;
+      }
+      cur += c;
+      any = true;
+    }
+    if (any) out.push_back(cur);
+    return out;
+  }
+
+  void readHal(const std::filesystem::path& path, const std::string& shown) {
+    std::ifstream in(path);
+    std::string raw, line;
+    unsigned n = 0, start = 0;
+    while (std::getline(in, raw)) {
+      ++n;
+      if (line.empty()) start = n;
+      if (!raw.empty() && raw.back() == '\r') raw.pop_back();
+      if (!raw.empty() && raw.back() == '\\') {
+        line += raw.substr(0, raw.size() - 1) + " ";
+        continue;
+      }
+      line += raw;
+      // A comment starts at a # that begins a word (halcmd(1)).
+      bool quoted = false;
+      for (std::size_t i = 0; i < line.size(); ++i) {
+        if (line[i] == '"') quoted = !quoted;
+        if (!quoted && line[i] == '#' && (i == 0 || line[i - 1] == ' ' || line[i - 1] == '\t')) {
+          line.resize(i);
+          break;
+        }
+      }
+      const Where w{shown, start};
+      statement(tokens(substitute(line, w)), tokens(line), w);
+      line.clear();
+    }
+  }
+
+  // `t`: the words after substitution; `written`: as written.
+  void statement(const std::vector<std::string>& t, const std::vector<std::string>& written, const Where& w) {
+    if (t.empty()) return;
+    const auto& cmd = t[0];
+    if (cmd == "loadrt" && t.size() >= 2 && t[1].rfind("hm2_", 0) == 0) {
+      DriverLine d{t[1], {}, w, {}};
+      for (std::size_t i = 2; i < t.size(); ++i)
+        if (t[i].rfind("config=", 0) == 0)
+          d.config = t[i].substr(7);
+        else if (t[i].rfind("board_ip=", 0) == 0)
+          d.boardIp = t[i].substr(9);
+      // One config per board, comma-separated (a module array parameter):
+      // the first board's.
+      if (const auto comma = d.config.find(','); comma != std::string::npos) d.config.resize(comma);
+      if (const auto comma = d.boardIp.find(','); comma != std::string::npos) d.boardIp.resize(comma);
+      hal.drivers.push_back(d);
+    } else if (cmd == "loadrt" && t.size() >= 2) {
+      hal.components.push_back({t[1], {t.begin() + 2, t.end()}, w});
+    } else if (cmd == "net" && t.size() >= 2) {
+      const auto& sig = t[1];
+      hal.signalFirst.emplace(sig, w);
+      for (std::size_t i = 2; i < t.size(); ++i) {
+        if (t[i] == "=>" || t[i] == "<=" || t[i] == "<=>") continue;
+        link(t[i], sig, w, Use::Net);
+      }
+    } else if (cmd == "setp" && t.size() >= 3) {
+      hal.refs.push_back({w, t[1], Use::Setp, {}});
+      hal.setps.push_back({w, t[1], t[2], written.size() >= 3 ? written[2] : t[2]});
+    } else if (cmd == "sets" && t.size() >= 3) {
+      hal.sets[t[1]].push_back(w);
+    } else if (cmd == "linkps" && t.size() >= 3) {
+      hal.signalFirst.emplace(t[2], w);
+      link(t[1], t[2], w, Use::Link);
+    } else if (cmd == "linksp" && t.size() >= 3) {
+      hal.signalFirst.emplace(t[1], w);
+      link(t[2], t[1], w, Use::Link);
+    } else if (cmd == "linkpp" && t.size() >= 3) {
+      hal.signalFirst.emplace(t[1], w);
+      link(t[1], t[1], w, Use::Link);
+      link(t[2], t[1], w, Use::Link);
+    } else if (cmd == "addf" && t.size() >= 3) {
+      hal.refs.push_back({w, t[1], Use::Addf, {}});
+    }
+  }
+
+  void link(const std::string& pin, const std::string& sig, const Where& w, Use use) {
+    hal.refs.push_back({w, pin, use, sig});
+    auto& pins = hal.signals[sig];
+    if (std::find(pins.begin(), pins.end(), pin) == pins.end()) pins.push_back(pin);
+  }
+};
+
+
+}  // namespace
+
+HalConfig readConfiguration(const std::filesystem::path& file, std::vector<Finding>& findings) {
+  HalConfig hal;
+  Reader r{hal, findings};
+  if (!std::filesystem::exists(file)) {
+    findings.push_back({file.string(), 0, "error", {}, "no such file", {}});
+    return hal;
+  }
+  const auto dir = file.parent_path();
+  if (file.extension() == ".ini") {
+    hal.ini = readIni(file);
+    hal.hasIni = true;
+    const Ini& ini = hal.ini;
+    // [HAL]HALFILE in order, then POSTGUI_HALFILE and SHUTDOWN (LinuxCNC
+    // runs them after the GUI is up and at exit).
+    std::vector<std::pair<std::string, IniEntry>> halFiles;
+    if (const auto s = ini.sections.find("HAL"); s != ini.sections.end()) {
+      for (const char* key : {"HALFILE", "POSTGUI_HALFILE", "SHUTDOWN"}) {
+        const auto range = s->second.equal_range(key);
+        std::vector<IniEntry> entries;
+        for (auto it = range.first; it != range.second; ++it) entries.push_back(it->second);
+        std::sort(entries.begin(), entries.end(), [](const IniEntry& a, const IniEntry& b) { return a.line < b.line; });
+        for (const auto& e : entries) halFiles.emplace_back(key, e);
+      }
+    }
+    if (halFiles.empty())
+      findings.push_back({file.filename().string(), 0, "warning", {}, "[HAL] names no HALFILE", {}});
+    for (const auto& [key, e] : halFiles) {
+      const auto words = Reader::tokens(e.value);
+      if (words.empty()) continue;
+      std::filesystem::path p = words[0];
+      if (p.extension() == ".tcl") {
+        findings.push_back({file.filename().string(), e.line, "warning", words[0],
+                                   fmt::format("{} {}: Tcl HAL files are not checked", key, words[0]), {}});
+        continue;
+      }
+      const auto full = p.is_absolute() ? p : dir / p;
+      if (!std::filesystem::exists(full)) {
+        // LinuxCNC also looks in its own HAL library (HALLIB_DIR).
+        const auto lib = std::filesystem::path("/usr/share/linuxcnc/hallib") / p;
+        if (!p.is_absolute() && std::filesystem::exists(lib)) {
+          r.readHal(lib, lib.string());
+          hal.files.push_back(lib.string());
+          continue;
+        }
+        findings.push_back({file.filename().string(), e.line, "error", words[0],
+                                   fmt::format("{} {}: no such file next to the INI (or in LinuxCNC's hallib)", key,
+                                               words[0]),
+                                   {}});
+        continue;
+      }
+      r.readHal(full, p.is_absolute() ? p.string() : p.string());
+      hal.files.push_back(full.string());
+    }
+  } else {
+    r.readHal(file, file.filename().string());
+    hal.files.push_back(file.string());
+  }
+
+  return hal;
+}
+
+}  // namespace lbpkit::linuxcnc

@@ -1,0 +1,104 @@
+// A LinuxCNC configuration read as LinuxCNC reads it (halcmd(1), the INI
+// file's [HAL] section): the INI's values, and every HAL file it names
+// with [SECTION]KEY substituted, as the statements that matter to what a
+// configuration connects: loadrt (the hostmot2 drivers and the other
+// components), net, setp, sets, link*, addf. What `lbpkit check-config`
+// checks and `lbpkit machine --from-config` derives a machine from. Needs no
+// LinuxCNC.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace lbpkit::linuxcnc {
+
+// Something said about a configuration: where, how bad, about what.
+struct Finding {
+  std::string file;  // as given (relative to the INI's folder for HAL files)
+  unsigned line = 0;
+  std::string severity;  // "error" or "warning"
+  std::string name;      // the pin, parameter or signal it is about ("" for others)
+  std::string reason;
+  std::string suggestion;  // the nearest existing name, if any
+};
+
+struct Where {
+  std::string file;
+  unsigned line = 0;
+};
+
+struct IniEntry {
+  std::string value;
+  unsigned line = 0;
+};
+
+struct Ini {
+  std::string file;  // its name, as findings give it
+  std::map<std::string, std::multimap<std::string, IniEntry>> sections;
+  // The first KEY in [SECTION], or nullptr.
+  [[nodiscard]] const IniEntry* find(const std::string& section, const std::string& key) const;
+};
+
+enum class Use { Net, Setp, Link, Addf };
+
+// A pin, parameter or function named by a statement.
+struct Reference {
+  Where at;
+  std::string name;
+  Use use = Use::Net;
+  std::string signal;  // for Net/Link
+};
+
+// loadrt of a hostmot2 driver (hm2_eth, hm2_pci, ...).
+struct DriverLine {
+  std::string module;
+  std::string config;  // the first board's config= string
+  Where at;
+  std::string boardIp;  // the first board's board_ip=
+};
+
+// loadrt of any other component, with its arguments (names=, count=).
+struct LoadedComponent {
+  std::string module;
+  std::vector<std::string> arguments;
+  Where at;
+};
+
+// setp NAME VALUE: the value after substitution, and as written
+// ("[JOINT_0]ENCODER_SCALE").
+struct Setp {
+  Where at;
+  std::string name;
+  std::string value;
+  std::string written;
+};
+
+struct HalConfig {
+  bool hasIni = false;
+  Ini ini;
+  std::vector<Reference> refs;
+  std::vector<DriverLine> drivers;
+  std::vector<LoadedComponent> components;
+  std::vector<Setp> setps;
+  std::map<std::string, std::vector<Where>> sets;           // signal -> sets lines
+  std::map<std::string, std::vector<std::string>> signals;  // signal -> pins, in order
+  std::map<std::string, Where> signalFirst;
+  std::vector<std::string> files;  // the HAL files read
+
+  // The signal `pin` is on ("" when none), and the last setp of `name`
+  // (nullptr when none).
+  [[nodiscard]] std::string signalOf(const std::string& pin) const;
+  [[nodiscard]] const Setp* setpOf(const std::string& name) const;
+};
+
+// Reads an INI and the HAL files its [HAL] section names, in LinuxCNC's
+// order (HALFILE, then POSTGUI_HALFILE, then SHUTDOWN), or one HAL file.
+// What LinuxCNC would refuse on the way (a missing file, an unknown
+// [SECTION]KEY) goes to `findings`.
+HalConfig readConfiguration(const std::filesystem::path& file, std::vector<Finding>& findings);
+
+std::string trim(const std::string& s);
+
+}  // namespace lbpkit::linuxcnc
