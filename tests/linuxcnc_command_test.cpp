@@ -104,6 +104,13 @@ class LinuxCncCommand : public ::testing::Test {
     std::string url;
     const bool up = test_support::waitFor(
         [&] {
+          // lbpkit linuxcnc ended before LinuxCNC ran: nothing more to wait
+          // for (its log says why).
+          int status = 0;
+          if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+            pid_ = -1;
+            return true;
+          }
           std::smatch m;
           const auto text = slurp(log_);
           if (std::regex_search(text, m, std::regex(R"(web view: (http://127\.0\.0\.1:\d+)/)"))) url = m[1];
@@ -111,7 +118,7 @@ class LinuxCncCommand : public ::testing::Test {
           return !url.empty() && doits(url) > 3000;
         },
         60s, 200ms);
-    return up;
+    return up && pid_ > 0;
   }
   // Waits for lbpkit linuxcnc to end: its exit status, -2 if it did not in 30 s.
   int end() {

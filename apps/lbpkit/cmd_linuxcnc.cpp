@@ -50,8 +50,9 @@ using namespace std::chrono_literals;
 
 struct LinuxCncOptions {
   std::string ini;
-  std::string machine = "mill";
+  std::string machine = "auto";
   std::string card;
+  std::string display;  // in place of the INI's [DISPLAY]DISPLAY
   std::vector<std::string> simArguments;  // after --
 };
 
@@ -147,6 +148,55 @@ std::string peerOf(const std::string& cardIp) {
   return cardIp.substr(0, dot + 1) + (cardIp.substr(dot + 1) == "2" ? "3" : "2");
 }
 
+// A copy of the configuration in `into`, as LinuxCNC would run it on the
+// virtual card: a PCI card's configuration (hm2_pci, a 5I25 or 6I25) on the
+// 7I92 at 10.10.10.10 (hm2_eth, its pins hm2_7i92.0.*, no firmware= to
+// load), and `display` in place of [DISPLAY]DISPLAY. Returns the copy's INI.
+fs::path copyConfiguration(const fs::path& ini, const fs::path& into, const std::vector<std::string>& pciPrefixes,
+                           const std::string& display) {
+  fs::create_directories(into);
+  fs::copy(ini.parent_path(), into, fs::copy_options::recursive | fs::copy_options::overwrite_existing |
+                                        fs::copy_options::skip_symlinks);
+  auto rewrite = [&](const fs::path& file) {
+    std::ifstream in(file);
+    std::string text, line;
+    bool inDisplay = false;
+    while (std::getline(in, line)) {
+      std::string out = line;
+      for (const auto& prefix : pciPrefixes)
+        for (auto at = out.find(prefix + "."); at != std::string::npos; at = out.find(prefix + ".", at))
+          out.replace(at, prefix.size(), "hm2_7i92.0");
+      const auto first = out.find_first_not_of(" \t");
+      const bool loadrt = first != std::string::npos && out.compare(first, 7, "loadrt ") == 0;
+      if (loadrt && (out.find("hm2_pci") != std::string::npos || out.find("DRIVER") != std::string::npos)) {
+        // loadrt hm2_pci config="firmware=... num_encoders=..." -> hm2_eth
+        const auto word = out.find_first_not_of(" \t", first + 7);
+        const auto end = out.find_first_of(" \t", word);
+        out = out.substr(0, word) + "hm2_eth board_ip=10.10.10.10" + (end == std::string::npos ? "" : out.substr(end));
+        for (auto f = out.find("firmware="); f != std::string::npos; f = out.find("firmware=")) {
+          const auto stop = out.find_first_of(" \t\"", f);
+          out.erase(f, stop == std::string::npos ? std::string::npos : stop - f + (out[stop] == '"' ? 0 : 1));
+        }
+      }
+      if (file.extension() == ".ini") {
+        const auto t = out.find_first_not_of(" \t");
+        if (t != std::string::npos && out[t] == '[') inDisplay = out.compare(t, 9, "[DISPLAY]") == 0;
+        if (inDisplay && !display.empty() && t != std::string::npos && out.compare(t, 7, "DISPLAY") == 0 &&
+            out.find('=') != std::string::npos)
+          out = "DISPLAY = " + display;
+        if (out.find("hm2_pci") != std::string::npos && out.find('=') != std::string::npos)
+          out.replace(out.find("hm2_pci"), 7, "hm2_eth");
+      }
+      text += out + "\n";
+    }
+    in.close();
+    std::ofstream(file, std::ios::trunc) << text;
+  };
+  for (const auto& e : fs::recursive_directory_iterator(into))
+    if (e.is_regular_file() && (e.path().extension() == ".hal" || e.path().extension() == ".ini")) rewrite(e.path());
+  return into / ini.filename();
+}
+
 int runLinuxCnc(const LinuxCncOptions& o) {
   if (::geteuid() != 0)
     throw lbpkit::Error("lbpkit linuxcnc needs root (a network namespace and a veth pair): run it with sudo");
@@ -169,35 +219,62 @@ int runLinuxCnc(const LinuxCncOptions& o) {
     throw lbpkit::Error(fmt::format("{}: {} error{} that LinuxCNC would refuse (lbpkit check-config {} says more)",
                                     o.ini, errors, errors == 1 ? "" : "s", o.ini));
   const lbpkit::linuxcnc::Board* board = nullptr;
-  for (const auto& b : result.boards)
-    if (b.driver == "hm2_eth") board = &b;
-  if (board == nullptr) {
-    for (const auto& b : result.boards)
-      if (b.driver == "hm2_pci")
-        throw lbpkit::Error(fmt::format("{}:{}: {} is a PCI card (hm2_pci); lbpkit linuxcnc runs configurations "
-                                        "whose card is on Ethernet (hm2_eth)",
-                                        b.file, b.line, b.prefix));
-    throw lbpkit::Error(fmt::format("{}: loads no Mesa Ethernet card (loadrt hm2_eth)", o.ini));
+  std::vector<std::string> pciPrefixes;
+  for (const auto& b : result.boards) {
+    if (b.driver == "hm2_eth" && board == nullptr) board = &b;
+    if (b.driver == "hm2_pci") pciPrefixes.push_back(b.prefix);
   }
-  if (board->boardIp.empty())
+  if (board == nullptr && pciPrefixes.empty())
+    throw lbpkit::Error(fmt::format("{}: loads no Mesa card (loadrt hm2_eth or hm2_pci)", o.ini));
+  if (board != nullptr && board->boardIp.empty())
     throw lbpkit::Error(fmt::format("{}:{}: loadrt hm2_eth has no board_ip=", board->file, board->line));
-  const std::string card = o.card.empty() ? cardOfBoard(board->prefix) : o.card;
+  // A PCI card cannot be on a veth pair: its configuration runs as the same
+  // 7I77 on a 7I92 (Mesa's 7I77x2 firmware has the same modules on both).
+  const bool pci = board == nullptr;
+  const std::string boardIp = pci ? std::string("10.10.10.10") : board->boardIp;
+  const std::string card = !o.card.empty() ? o.card : pci ? std::string("7I92") : cardOfBoard(board->prefix);
 
   const auto id = std::to_string(::getpid() % 100000);
   const std::string fifo = fmt::format("/tmp/lbpkit-linuxcnc-{}-rtapi", id);
+  // What this run makes: the machine file (--machine auto), the copy of a
+  // configuration it changes; removed at the end.
+  const fs::path runDir = fmt::format("/tmp/lbpkit-linuxcnc-{}", id);
+  struct RemoveAll {
+    fs::path path;
+    ~RemoveAll() {
+      std::error_code ec;
+      fs::remove_all(path, ec);
+    }
+  } removeRunDir{runDir};
+  fs::create_directories(runDir);
+  std::string machine = o.machine;
+  if (machine == "auto") {
+    machine = (runDir / "machine.toml").string();
+    app::deriveMachineFile(ini, machine, true);
+    fmt::print("lbpkit linuxcnc: the machine {} expects (lbpkit machine --from-config {} writes it)\n", o.ini, o.ini);
+  }
+  fs::path run = ini;
+  if (pci || !o.display.empty()) {
+    run = copyConfiguration(ini, runDir / "config", pciPrefixes, o.display);
+    if (pci)
+      fmt::print("lbpkit linuxcnc: {} is a PCI card (hm2_pci): running a copy of the configuration with the same "
+                 "7I77 on a 7I92 at 10.10.10.10 (hm2_eth, pins hm2_7i92.0.*) in {}\n",
+                 pciPrefixes.front(), run.parent_path().string());
+    if (!o.display.empty()) fmt::print("lbpkit linuxcnc: the display is {} ([DISPLAY]DISPLAY in the copy)\n", o.display);
+  }
+
   app::installSignalHandlers();
 
   lbpkit::linuxcnc::NetworkNamespace ns(
-      "lbpkit-linuxcnc-" + id,
-      {{"lbl" + id, board->boardIp + "/32", peerOf(board->boardIp) + "/24", peerOf(board->boardIp) + "/32"}});
+      "lbpkit-linuxcnc-" + id, {{"lbl" + id, boardIp + "/32", peerOf(boardIp) + "/24", peerOf(boardIp) + "/32"}});
 
   // The sim on the configuration's board_ip, hm2_eth's port, its API and web
   // view on this PC's loopback.
   int pipeFds[2];
   if (::pipe2(pipeFds, O_CLOEXEC) != 0) throw lbpkit::Error("cannot make a pipe for the sim's output");
-  std::vector<std::string> simArgv = {"/proc/self/exe", "sim", "--bind", board->boardIp, "--api", "127.0.0.1:0"};
+  std::vector<std::string> simArgv = {"/proc/self/exe", "sim", "--bind", boardIp, "--api", "127.0.0.1:0"};
   if (!card.empty()) simArgv.insert(simArgv.end(), {"--card", card});
-  if (!o.machine.empty()) simArgv.insert(simArgv.end(), {"--machine", o.machine});
+  if (!machine.empty()) simArgv.insert(simArgv.end(), {"--machine", machine});
   simArgv.insert(simArgv.end(), o.simArguments.begin(), o.simArguments.end());
   pid_t sim = spawn(simArgv, pipeFds[1]);
   ::close(pipeFds[1]);
@@ -252,9 +329,9 @@ int runLinuxCnc(const LinuxCncOptions& o) {
                                "--init-groups", "env", "RTAPI_FIFO_PATH=" + fifo});
     else
       argv.insert(argv.end(), {"env", "RTAPI_UID=65534", "RTAPI_FIFO_PATH=" + fifo});
-    argv.insert(argv.end(), {"linuxcnc", ini.string()});
+    argv.insert(argv.end(), {"linuxcnc", run.string()});
     fmt::print("lbpkit linuxcnc: LinuxCNC ({}) in network namespace {}, the card {} at {}; Ctrl-C stops both\n",
-               ini.string(), ns.name(), card.empty() ? board->prefix : card, board->boardIp);
+               run.string(), ns.name(), card, boardIp);
     std::fflush(stdout);
     lcnc = spawn(argv, -1);
 
@@ -302,8 +379,12 @@ void addLinuxCncCommand(CLI::App& app) {
       "in a network namespace of its own with its own display; everything stops with it or with Ctrl-C");
   cmd->add_option("config", o->ini, "The configuration's INI file")->required();
   cmd->add_option("--machine", o->machine,
-                  "The machine behind the 7I77: mill, lathe, gantry or a machine file (lbpkit sim --machine)")
+                  "The machine behind the 7I77: auto (the one the configuration expects: lbpkit machine "
+                  "--from-config), mill, lathe, gantry or a machine file (lbpkit sim --machine)")
       ->capture_default_str();
+  cmd->add_option("--display", o->display,
+                  "Run the configuration with this display program in place of its [DISPLAY]DISPLAY (a copy of "
+                  "the configuration; for a display of your own or a headless one)");
   cmd->add_option("--card", o->card, "Which Mesa card (default: the one the configuration loads)");
   cmd->add_option("sim-options", o->simArguments, "After --: more options for lbpkit sim (--clock, --record, ...)");
   cmd->callback([o] { app::gRun = [o] { return runLinuxCnc(*o); }; });

@@ -6,6 +6,7 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -56,6 +57,12 @@ ApiAddress parseApiAddress(const std::string& text, const std::string& host);
 // `pinout` narrow it down when not empty.
 lbpkit::linuxcnc::BoardModel catalogueBoardModel(std::string card, std::string pinout);
 
+// The machine `ini` expects, written to `out` (over an existing file only
+// with `force`) once it loads as lbpkit sim loads it; what the derivation
+// found goes to stderr. Returns the file's text; throws lbpkit::Error when
+// there is no machine (cmd_machine.cpp).
+std::string deriveMachineFile(const std::filesystem::path& ini, const std::filesystem::path& out, bool force);
+
 }  // namespace app
 
 void addRemoteCommand(CLI::App& app);
@@ -69,3 +76,4 @@ void addPinsCommand(CLI::App& app);
 void addCheckConfigCommand(CLI::App& app);
 void addBenchCommand(CLI::App& app);
 void addLinuxCncCommand(CLI::App& app);  // cmd_linuxcnc.cpp
+void addMachineCommand(CLI::App& app);   // cmd_machine.cpp

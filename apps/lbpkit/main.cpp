@@ -32,6 +32,7 @@ int main(int argc, char** argv) {
   addBenchCommand(app);
   addDecodeCommand(app);
   addLinuxCncCommand(app);
+  addMachineCommand(app);
   CLI11_PARSE(app, argc, argv);
   try {
     return app::gRun ? app::gRun() : 0;

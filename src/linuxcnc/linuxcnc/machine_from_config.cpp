@@ -1,0 +1,840 @@
+// The machine a configuration expects, from its INI and HAL files (the
+// LinuxCNC INI documentation: [JOINT_n] and homing; hostmot2(9): encoder
+// scale, analogout scalemax, stepgen position-scale; the 7I77 manual: the
+// field inputs, sinking, read as on when a contact closes to field power).
+#include "linuxcnc/machine_from_config.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <map>
+#include <optional>
+#include <set>
+
+namespace lbpkit::linuxcnc {
+
+bool DerivedMachine::ok() const {
+  return std::none_of(findings.begin(), findings.end(), [](const Finding& f) { return f.severity == "error"; });
+}
+
+namespace {
+
+std::vector<std::string> split(const std::string& s, char by) {
+  std::vector<std::string> out;
+  std::size_t from = 0;
+  for (;;) {
+    const auto at = s.find(by, from);
+    out.push_back(s.substr(from, at == std::string::npos ? std::string::npos : at - from));
+    if (at == std::string::npos) return out;
+    from = at + 1;
+  }
+}
+
+std::optional<double> number(const std::string& s) {
+  if (s.empty()) return std::nullopt;
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  if (end == s.c_str() || *end != '\0' || !std::isfinite(v)) return std::nullopt;
+  return v;
+}
+
+std::optional<unsigned> digits(const std::string& s) {
+  if (s.empty() || s.size() > 3 || !std::all_of(s.begin(), s.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); }))
+    return std::nullopt;
+  return static_cast<unsigned>(std::stoul(s));
+}
+
+std::string lower(std::string s) {
+  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+bool yes(const std::string& s) {
+  const auto l = lower(s);
+  return l == "yes" || l == "true" || l == "1";
+}
+
+// A pin of a 7I77's or 7I76's field I/O: hm2_<card>.<n>.<7i77|7i76>.<port>.<channel>.<input-NN[-not]|output-NN>.
+struct FieldPin {
+  std::string daughtercard;  // "7I77", "7I76"
+  unsigned number = 0;
+  bool inverted = false;  // input-NN-not
+};
+
+std::optional<FieldPin> fieldPin(const std::string& pin, const std::string& what) {
+  const auto p = split(pin, '.');
+  if (p.size() != 6 || p[0].rfind("hm2_", 0) != 0 || (p[2] != "7i77" && p[2] != "7i76")) return std::nullopt;
+  if (p[5].rfind(what + "-", 0) != 0) return std::nullopt;
+  auto rest = p[5].substr(what.size() + 1);
+  FieldPin f{p[2] == "7i77" ? "7I77" : "7I76", 0, false};
+  if (rest.size() > 4 && rest.ends_with("-not")) {
+    f.inverted = true;
+    rest.resize(rest.size() - 4);
+  }
+  const auto n = digits(rest);
+  if (!n) return std::nullopt;
+  f.number = *n;
+  return f;
+}
+
+// hm2_<card>.<n>.<module>.NN.<leaf> -> NN
+std::optional<unsigned> modulePin(const std::string& pin, const std::string& module, const std::string& leaf) {
+  const auto p = split(pin, '.');
+  if (p.size() != 5 || p[0].rfind("hm2_", 0) != 0 || p[2] != module || p[4] != leaf) return std::nullopt;
+  return digits(p[3]);
+}
+
+// hm2_<card>.<n>.7i77.<port>.<channel>.analogoutK -> K
+std::optional<unsigned> analogOut(const std::string& pin) {
+  const auto p = split(pin, '.');
+  if (p.size() != 6 || p[0].rfind("hm2_", 0) != 0 || p[2] != "7i77" || p[5].rfind("analogout", 0) != 0) return std::nullopt;
+  return digits(p[5].substr(9));
+}
+
+std::string cardOf(const std::string& pin) {
+  const auto p = split(pin, '.');
+  return p.size() >= 2 ? p[0] + "." + p[1] : std::string();
+}
+
+std::string fmtNumber(double v) {
+  if (std::abs(v - std::round(v)) < 1e-9 && std::abs(v) < 1e12) return fmt::format("{:.1f}", std::round(v));
+  return fmt::format("{:.6g}", v);
+}
+
+// A value the configuration gives, and where it says so.
+struct Value {
+  double v = 0.0;
+  std::string from;
+};
+
+// A field input whose state reaches a pin, and whether it arrives inverted
+// (an odd number of `not`s and input-NN-not on the way).
+struct Source {
+  std::string pin;
+  FieldPin field;
+  bool inverted = false;
+};
+
+struct SwitchOut {
+  std::string name, kind, daughtercard, contact, axis, comment;
+  unsigned input = 0;
+  std::optional<double> position;
+  bool tripAbove = true;
+};
+
+struct OutputOut {
+  std::string name, daughtercard, comment;
+  unsigned output = 0;
+};
+
+struct AxisOut {
+  std::string name, comment;
+  std::vector<std::pair<std::string, std::string>> keys;  // key = value, comment
+  std::string tableName;                                  // "axis.drive" or "axis.stepper"
+  std::vector<std::pair<std::string, std::string>> drive;
+  std::vector<std::pair<std::string, std::string>> amplifier;
+  int brakeOutput = -1;
+  std::string brakeDaughtercard, brakeComment;
+};
+
+class Deriver {
+ public:
+  Deriver(const HalConfig& hal, std::vector<Finding>& findings, std::filesystem::path ini)
+      : hal_(hal), findings_(findings), ini_(std::move(ini)) {
+    for (const auto& c : hal_.components) {
+      std::string dashed = c.module;
+      std::replace(dashed.begin(), dashed.end(), '_', '-');
+      bool named = false;
+      for (const auto& a : c.arguments) {
+        if (a.rfind("names=", 0) == 0) {
+          for (const auto& n : split(a.substr(6), ',')) instanceModule_[n] = c.module;
+          named = true;
+        } else if (a.rfind("count=", 0) == 0 || a.rfind("num_chan=", 0) == 0) {
+          const auto n = digits(a.substr(a.find('=') + 1)).value_or(1);
+          for (unsigned i = 0; i < n; ++i) instanceModule_[fmt::format("{}.{}", dashed, i)] = c.module;
+          named = true;
+        }
+      }
+      if (!named) instanceModule_[dashed + ".0"] = c.module;
+    }
+    for (const auto& [signal, pins] : hal_.signals)
+      for (const auto& p : pins) pinSignal_.emplace(p, signal);
+  }
+
+  std::string run() {
+    const auto joints = jointCount();
+    const auto letters = coordinates();
+    const auto units = hal_.ini.find("TRAJ", "LINEAR_UNITS");
+    const std::string u = units ? lower(units->value) : "mm";
+    inch_ = u == "inch" || u == "in" || u == "imperial";
+    for (const auto& p : pinSignal_)
+      if (p.first.find(".7i76.") != std::string::npos) sevenI76_ = true;
+    std::map<std::string, unsigned> seen;
+    for (unsigned n = 0; n < joints; ++n) {
+      const char letter = n < letters.size() ? letters[n] : '\0';
+      std::string name = letter ? std::string(1, static_cast<char>(std::tolower(static_cast<unsigned char>(letter))))
+                                : fmt::format("joint{}", n);
+      if (const auto k = seen[name]++; k > 0) name += std::to_string(k + 1);
+      joint(n, letter, name);
+    }
+    if (axes_.empty() && !failed_)
+      error({ini_.filename().string(), 0}, "",
+            "no joint drives a 7I77 analog output or a StepGen: lbpkit cannot tell what this configuration moves");
+    estop();
+    probe();
+    permissives();
+    spindle();
+    outputs();
+    return failed_ ? std::string() : toml();
+  }
+
+ private:
+  void error(const Where& w, const std::string& name, const std::string& reason) {
+    findings_.push_back({w.file, w.line, "error", name, reason, {}});
+    failed_ = true;
+  }
+  void warning(const Where& w, const std::string& name, const std::string& reason) {
+    findings_.push_back({w.file, w.line, "warning", name, reason, {}});
+  }
+
+  [[nodiscard]] std::string signal(const std::string& pin) const {
+    const auto it = pinSignal_.find(pin);
+    return it == pinSignal_.end() ? std::string() : it->second;
+  }
+  [[nodiscard]] const std::vector<std::string>& pinsOn(const std::string& signal) const {
+    static const std::vector<std::string> none;
+    const auto it = hal_.signals.find(signal);
+    return it == hal_.signals.end() ? none : it->second;
+  }
+  [[nodiscard]] Where where(const std::string& pin) const {
+    for (const auto& r : hal_.refs)
+      if (r.name == pin) return r.at;
+    return {ini_.filename().string(), 0};
+  }
+  // Where a pin is connected, for a message: "signal S, with A, B".
+  [[nodiscard]] std::string describe(const std::string& pin) const {
+    const auto s = signal(pin);
+    if (s.empty()) return "it is on no signal";
+    std::string others;
+    for (const auto& p : pinsOn(s))
+      if (p != pin) others += (others.empty() ? "" : ", ") + p;
+    return fmt::format("signal {} ({}), with {}", s, at(hal_.signalFirst.count(s) ? hal_.signalFirst.at(s) : Where{}),
+                       others.empty() ? "nothing else" : others);
+  }
+  [[nodiscard]] std::string at(const Where& w) const { return fmt::format("{}:{}", w.file, w.line); }
+  [[nodiscard]] std::string moduleOf(const std::string& instance) const {
+    const auto it = instanceModule_.find(instance);
+    return it == instanceModule_.end() ? std::string() : it->second;
+  }
+
+  // The field inputs whose state reaches `pin` through nets and the logic
+  // components a configuration puts between a switch and what it stops.
+  void trace(const std::string& pin, bool inverted, std::vector<Source>& out, int depth = 0) const {
+    if (depth > 16) return;
+    const auto s = signal(pin);
+    if (s.empty()) return;
+    for (const auto& p : pinsOn(s)) {
+      if (p == pin) continue;
+      if (const auto f = fieldPin(p, "input")) {
+        out.push_back({p, *f, inverted != f->inverted});
+        continue;
+      }
+      const auto dot = p.rfind('.');
+      if (dot == std::string::npos) continue;
+      const auto instance = p.substr(0, dot), leaf = p.substr(dot + 1);
+      const auto module = moduleOf(instance);
+      if (module == "not" && leaf == "out") {
+        trace(instance + ".in", !inverted, out, depth + 1);
+      } else if ((module == "or2" || module == "and2") && leaf == "out") {
+        trace(instance + ".in0", inverted, out, depth + 1);
+        trace(instance + ".in1", inverted, out, depth + 1);
+      } else if (module == "estop_latch" && leaf == "ok-out") {
+        trace(instance + ".ok-in", inverted, out, depth + 1);
+        trace(instance + ".fault-in", !inverted, out, depth + 1);
+      } else if (module == "debounce" && leaf == "out") {
+        trace(instance + ".in", inverted, out, depth + 1);
+      }
+    }
+  }
+
+  // A value from a setp of `halName`, else from the INI's [section]key.
+  [[nodiscard]] std::optional<Value> value(const std::string& halName, const std::string& section,
+                                           const std::string& key) const {
+    if (const auto* s = hal_.setpOf(halName)) {
+      if (const auto v = number(s->value)) {
+        const auto written = s->written == s->value ? s->value : fmt::format("{} = {}", s->written, s->value);
+        return Value{*v, fmt::format("{}: setp {} {}", at(s->at), halName, written)};
+      }
+    }
+    return iniValue(section, key);
+  }
+  [[nodiscard]] std::optional<Value> iniValue(const std::string& section, const std::string& key) const {
+    if (const auto* e = hal_.ini.find(section, key))
+      if (const auto v = number(e->value))
+        return Value{*v, fmt::format("[{}]{} = {} ({}:{})", section, key, e->value, ini_.filename().string(), e->line)};
+    return std::nullopt;
+  }
+  [[nodiscard]] Where sectionWhere(const std::string& section) const {
+    unsigned first = 0;
+    if (const auto s = hal_.ini.sections.find(section); s != hal_.ini.sections.end())
+      for (const auto& [k, e] : s->second)
+        if (first == 0 || e.line < first) first = e.line;
+    return {ini_.filename().string(), first > 0 ? first - 1 : 0};
+  }
+
+  [[nodiscard]] unsigned jointCount() {
+    unsigned n = 0;
+    for (const char* pins : {"joint", "axis"}) {
+      for (const auto& p : pinSignal_)
+        if (p.first.rfind(std::string(pins) + ".", 0) == 0)
+          n = std::max(n, digits(split(p.first, '.')[1]).value_or(0) + 1);
+      if (n > 0) {
+        jointPins_ = pins;
+        break;
+      }
+    }
+    if (const auto v = iniValue("KINS", "JOINTS")) return static_cast<unsigned>(std::max(0.0, v->v));
+    if (const auto v = iniValue("TRAJ", "AXES"); v && jointPins_ == "axis") return static_cast<unsigned>(std::max(0.0, v->v));
+    return n;
+  }
+  [[nodiscard]] std::string coordinates() const {
+    std::string letters;
+    if (const auto* k = hal_.ini.find("KINS", "KINEMATICS"))
+      for (const auto& w : split(k->value, ' '))
+        if (w.rfind("coordinates=", 0) == 0) letters = w.substr(12);
+    if (letters.empty())
+      if (const auto* c = hal_.ini.find("TRAJ", "COORDINATES")) letters = c->value;
+    std::string out;
+    for (char c : letters)
+      if (std::isalpha(static_cast<unsigned char>(c))) out += static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    return out;
+  }
+
+  void joint(unsigned n, char letter, const std::string& name) {
+    // LinuxCNC 2.8 and later name the joints' pins joint.N; 2.7 axis.N.
+    const std::string jp = fmt::format("{}.{}.", jointPins_, n);
+    // Its INI section: [JOINT_N] (2.8 and later), [AXIS_N] (2.7), [AXIS_L].
+    std::string section = fmt::format("JOINT_{}", n);
+    if (!hal_.ini.sections.count(section)) section = fmt::format("AXIS_{}", n);
+    if (!hal_.ini.sections.count(section) && letter) section = std::string("AXIS_") + letter;
+    const auto fbSig = signal(jp + "motor-pos-fb"), cmdSig = signal(jp + "motor-pos-cmd");
+    const Where iniAt = sectionWhere(section);
+    if (fbSig.empty() || cmdSig.empty()) {
+      warning(iniAt, jp + "motor-pos-cmd",
+              fmt::format("joint {}: {}motor-pos-cmd or -fb is on no signal: no axis for it", n, jp));
+      return;
+    }
+    // The PID between the joint's command and what drives the motor.
+    std::string pid;
+    for (const auto& p : pinsOn(cmdSig))
+      if (p.ends_with(".command") && moduleOf(p.substr(0, p.size() - 8)) == "pid") pid = p.substr(0, p.size() - 8);
+    std::optional<unsigned> encoder, analog, stepgen;
+    std::string board, analogPin;
+    bool velocityStepgen = false;
+    auto encoderOn = [&](const std::string& sig) {
+      for (const auto& p : pinsOn(sig))
+        if (const auto e = modulePin(p, "encoder", "position")) {
+          encoder = *e;
+          board = cardOf(p);
+        }
+    };
+    encoderOn(fbSig);
+    if (!encoder && !pid.empty()) encoderOn(signal(pid + ".feedback"));
+    for (const auto& p : pinsOn(cmdSig))
+      if (const auto s = modulePin(p, "stepgen", "position-cmd")) {
+        stepgen = *s;
+        board = cardOf(p);
+      }
+    if (!pid.empty())
+      for (const auto& p : pinsOn(signal(pid + ".output"))) {
+        if (const auto a = analogOut(p)) {
+          analog = *a;
+          analogPin = p;
+          board = cardOf(p);
+        }
+        if (const auto s = modulePin(p, "stepgen", "velocity-cmd")) {
+          stepgen = *s;
+          velocityStepgen = true;
+          board = cardOf(p);
+        }
+      }
+    if (!stepgen && !analog) {
+      error(where(jp + "motor-pos-cmd"), jp + "motor-pos-cmd",
+            fmt::format("joint {}: neither a PID whose output reaches a 7I77 analogoutN nor a StepGen takes its "
+                        "command (signal {}): lbpkit cannot tell what moves it",
+                        n, cmdSig));
+      return;
+    }
+    if (analog && !encoder) {
+      error(where(jp + "motor-pos-fb"), jp + "motor-pos-fb",
+            fmt::format("joint {}: drives analogout{} but its feedback (signal {}) is no hm2 encoder.NN.position: "
+                        "lbpkit's servo axes read an encoder",
+                        n, *analog, fbSig));
+      return;
+    }
+    const bool angular = [&] {
+      const auto* t = hal_.ini.find(section, "TYPE");
+      return t && lower(t->value) == "angular";
+    }();
+    const double mmPerUnit = angular || !inch_ ? 1.0 : 25.4;
+    const auto minLimit = iniValue(section, "MIN_LIMIT"), maxLimit = iniValue(section, "MAX_LIMIT");
+    if (!minLimit || !maxLimit || !(minLimit->v < maxLimit->v)) {
+      error(iniAt, section, fmt::format("[{}] needs MIN_LIMIT below MAX_LIMIT: they give the axis its travel", section));
+      return;
+    }
+    const auto maxVel = iniValue(section, "MAX_VELOCITY");
+    const auto maxAcc = iniValue(section, "MAX_ACCELERATION");
+    const double vmax = maxVel ? std::abs(maxVel->v) : 25.0 / mmPerUnit;
+    const double amax = maxAcc && maxAcc->v > 0 ? maxAcc->v : 250.0 / mmPerUnit;
+    const double sv = iniValue(section, "HOME_SEARCH_VEL").value_or(Value{}).v;
+    const double lv = iniValue(section, "HOME_LATCH_VEL").value_or(Value{}).v;
+    const auto offset = iniValue(section, "HOME_OFFSET").value_or(Value{0.0, "LinuxCNC's default HOME_OFFSET = 0"});
+    const auto* useIndexEntry = hal_.ini.find(section, "HOME_USE_INDEX");
+    const bool useIndex = useIndexEntry && yes(useIndexEntry->value);
+
+    AxisOut a;
+    a.name = name;
+    const std::string unitName = angular ? "degrees" : (inch_ ? "inch" : "mm");
+    a.comment = fmt::format("joint {} ([{}], {}){}", n, section, unitName,
+                            angular ? ": a rotary joint, one machine unit a degree" : "");
+    if (inch_ && !angular) a.comment += ": machine files are in mm, 25.4 to the inch";
+    // The screw: a configuration gives counts and volts per unit, never the
+    // pitch; 5 mm (0.2 in) is assumed and the encoder's lines and the
+    // gearing follow from it.
+    const double pitch = inch_ && !angular ? 5.08 : 5.0;
+    double gear = 1.0;
+    double lead = pitch;
+    if (stepgen) {
+      const auto scale = value(fmt::format("{}.stepgen.{:02d}.position-scale", board, *stepgen), section, "SCALE");
+      if (!scale || scale->v == 0.0) {
+        error(iniAt, section, fmt::format("joint {}: no position-scale for stepgen.{:02d} (setp or [{}]SCALE)", n,
+                                          *stepgen, section));
+        return;
+      }
+      auto maxStepVel = value(fmt::format("{}.stepgen.{:02d}.maxvel", board, *stepgen), section, "STEPGEN_MAXVEL");
+      const double stepVel = maxStepVel && maxStepVel->v > 0 ? maxStepVel->v : vmax * 1.25;
+      const double stepsPerMm = std::abs(scale->v) / mmPerUnit;
+      a.keys.emplace_back("screw_pitch", fmtNumber(pitch) + "|assumed: a configuration gives steps per unit, not the screw");
+      a.tableName = "axis.stepper";
+      a.drive.emplace_back("stepgen", fmt::format("{}|{}.stepgen.{:02d}{}", *stepgen, board, *stepgen,
+                                                 velocityStepgen ? " (velocity mode, through " + pid + ")" : ""));
+      a.drive.emplace_back("steps_per_unit", fmtNumber(stepsPerMm) + "|" + scale->from + (mmPerUnit != 1.0 ? ", / 25.4" : ""));
+      a.drive.emplace_back("max_step_rate",
+                           fmtNumber(std::ceil(stepVel * std::abs(scale->v) * 1.25)) + "|" +
+                               fmt::format("pulls out 25 % above the StepGen's {} {}/s ({})", fmtNumber(stepVel),
+                                           unitName, maxStepVel ? maxStepVel->from : "1.25 x MAX_VELOCITY"));
+      a.drive.emplace_back("reversed", std::string(scale->v < 0 ? "true" : "false") + "|" +
+                                           (scale->v < 0 ? "a negative scale: a forward step moves it back" : "the scale's sign"));
+    } else {
+      const auto encScale = value(fmt::format("{}.encoder.{:02d}.scale", board, *encoder), section, "ENCODER_SCALE");
+      if (!encScale || encScale->v == 0.0) {
+        error(iniAt, section, fmt::format("joint {}: no scale for encoder.{:02d} (setp or [{}]ENCODER_SCALE)", n,
+                                          *encoder, section));
+        return;
+      }
+      const auto outScale = value(analogPin + "-scalemax", section, "OUTPUT_SCALE")
+                                .value_or(Value{10.0, "hostmot2's default scalemax 10 (none set)"});
+      const auto ff1 = value(pid + ".FF1", section, "FF1");
+      const double countsPerMm = std::abs(encScale->v) / mmPerUnit;
+      double lines = countsPerMm * pitch / 4.0;
+      std::string linesWhy = fmt::format("{} counts/{} ({}), 4 counts a line, the assumed pitch", fmtNumber(std::abs(encScale->v)),
+                                         unitName, encScale->from);
+      if (std::abs(lines - std::round(lines)) > 1e-6 || std::round(lines) < 1) {
+        lines = std::max(1.0, std::round(lines));
+        gear = countsPerMm * pitch / (4.0 * lines);
+        linesWhy += ", and a gear ratio making the counts exact";
+      } else {
+        lines = std::round(lines);
+      }
+      lead = pitch / gear;
+      a.keys.emplace_back("screw_pitch", fmtNumber(pitch) + "|assumed: a configuration gives counts per unit, not the screw");
+      a.keys.emplace_back("gear_ratio", fmtNumber(gear) + "|motor revolutions per screw revolution");
+      a.tableName = "axis.drive";
+      a.drive.emplace_back("analog_output", fmt::format("{}|{} ({})", *analog, analogPin, at(where(analogPin))));
+      a.drive.emplace_back("enable", fmt::format("{}|AnalogEna{}", *analog, *analog == 5 ? "/SpinEna (ENA5)" : ""));
+      a.drive.emplace_back("encoder_input", fmt::format("{}|{}.encoder.{:02d} ({})", *encoder, board, *encoder,
+                                                        at(where(fmt::format("{}.encoder.{:02d}.position", board, *encoder)))));
+      a.drive.emplace_back("encoder_lines", fmtNumber(lines).substr(0, fmtNumber(lines).find('.')) + "|" + linesWhy);
+      a.drive.emplace_back("encoder_reversed", std::string(encScale->v < 0 ? "true" : "false") + "|" +
+                                                   (encScale->v < 0 ? "a negative ENCODER_SCALE: it counts down going forward"
+                                                                    : "the encoder scale's sign"));
+      // The PID's output is scalemax at 10 V; with FF1 the output is FF1 x
+      // the commanded velocity, so the drive must give 10 V /
+      // (scalemax / FF1) per unit/s for the feed-forward to be right.
+      const double f = ff1 && ff1->v > 0 ? ff1->v : 1.0;
+      const double unitsPerSecondPerVolt = std::abs(outScale.v) / 10.0 / f;
+      const double gain = unitsPerSecondPerVolt * mmPerUnit / lead;
+      a.amplifier.emplace_back("mode", "\"velocity\"|assumed: the PID's output is a velocity (FF1 feed-forward)");
+      a.amplifier.emplace_back(
+          "gain", fmtNumber(gain) + "|" +
+                      fmt::format("motor rev/s per V: {} {}/s at 10 V ({}){}", fmtNumber(std::abs(outScale.v)), unitName,
+                                  outScale.from,
+                                  ff1 && ff1->v > 0 ? fmt::format(" over FF1 {} ({})", fmtNumber(ff1->v), ff1->from)
+                                                    : std::string(", FF1 0 or none: the scale taken alone")));
+      a.amplifier.emplace_back("limit", fmtNumber(gain * 11.0) + "|saturates just past the 7I77's 10 V");
+      a.amplifier.emplace_back("reversed", std::string(outScale.v < 0 ? "true" : "false") + "|" +
+                                               (outScale.v < 0 ? "a negative OUTPUT_SCALE: positive volts turn it backwards"
+                                                               : "the output scale's sign"));
+      if (10.0 * unitsPerSecondPerVolt < vmax * 0.999)
+        warning(iniAt, section,
+                fmt::format("joint {}: 10 V gives {} {}/s, under MAX_VELOCITY {}: the PID saturates", n,
+                            fmtNumber(10.0 * unitsPerSecondPerVolt), unitName, fmtNumber(vmax)));
+    }
+
+    // Homing and the switches.
+    const double leadUnits = lead / mmPerUnit;
+    double lo = minLimit->v, hi = maxLimit->v;
+    std::string homeComment;
+    double initial = (lo + hi) / 2;
+    std::optional<double> edge;
+    const double latchDir = lv < 0 ? -1.0 : 1.0;
+    if (sv == 0.0 && lv == 0.0) {
+      initial = offset.v;
+      homeComment = fmt::format("homes in place (HOME_SEARCH_VEL and HOME_LATCH_VEL 0): it starts at HOME_OFFSET ({})",
+                                offset.from);
+    } else if (sv == 0.0) {
+      initial = useIndex ? offset.v - latchDir * leadUnits / 2 : offset.v;
+      homeComment = fmt::format("homes on the next index (HOME_SEARCH_VEL 0): it starts half a motor turn before "
+                                "HOME_OFFSET ({})",
+                                offset.from);
+    } else {
+      // The edge the latch finds; with the index, half a motor turn before
+      // the index LinuxCNC calls HOME_OFFSET (the index comes at every whole
+      // motor turn of the machine's position).
+      edge = useIndex ? offset.v - latchDir * leadUnits / 2 : offset.v;
+      homeComment = fmt::format("home switch edge where HOME_OFFSET ({}) falls{}", offset.from,
+                                useIndex ? ", on the next index (HOME_USE_INDEX) half a motor turn on" : "");
+      if (useIndex && std::abs(offset.v / leadUnits - std::round(offset.v / leadUnits)) > 1e-6)
+        homeComment += fmt::format(" (HOME_OFFSET is no whole number of motor turns: LinuxCNC's coordinates are the "
+                                   "machine's shifted by up to {} {})",
+                                   fmtNumber(leadUnits), unitName);
+      lo = std::min(lo, *edge);
+      hi = std::max(hi, *edge);
+    }
+    const double stopDistance = sv * sv / (2 * amax);
+    const double marginLow = 2.0 / mmPerUnit + leadUnits + (sv < 0 ? stopDistance : 0.0);
+    const double marginHigh = 2.0 / mmPerUnit + leadUnits + (sv > 0 ? stopDistance : 0.0);
+    const double stopAtSpeed = vmax * vmax / (2 * amax);
+    const double overtravel = std::max(marginLow, marginHigh) * mmPerUnit + std::max(3.0, stopAtSpeed * mmPerUnit + 1.0);
+    a.keys.emplace_back("travel", fmt::format("[{}, {}]|{} to {}", fmtNumber(lo * mmPerUnit), fmtNumber(hi * mmPerUnit),
+                                              minLimit->from, maxLimit->from));
+    a.keys.emplace_back("overtravel", fmtNumber(std::ceil(overtravel)) +
+                                          "|hard stops past the limit switches, and past a stop from MAX_VELOCITY");
+    a.keys.emplace_back("initial_position", fmtNumber(initial * mmPerUnit) + "|" +
+                                                (sv == 0.0 ? homeComment : std::string("the middle of the travel")));
+
+    // Which inputs the joint's switches are on.
+    struct Role {
+      std::string pin;
+      const char* kind;
+    };
+    for (const Role& r : {Role{"home-sw-in", "home"}, Role{"neg-lim-sw-in", "min_limit"}, Role{"pos-lim-sw-in", "max_limit"}}) {
+      std::vector<Source> sources;
+      trace(jp + r.pin, false, sources);
+      for (const auto& s : sources) {
+        const auto key = fmt::format("{}:{}", s.field.daughtercard, s.field.number);
+        auto& sw = switchAt_[key];
+        const std::string kind = r.kind;
+        if (kind == "home" && sv == 0.0) {
+          if (sw.kind.empty()) homeInPlaceInputs_.insert(key);
+          continue;
+        }
+        if (!sw.kind.empty()) {
+          if (sw.axis == name && sw.kind == "home") {
+            sw.comment += fmt::format("; also {}{} ({})", jp, r.pin, at(where(jp + r.pin)));
+          } else {
+            warning(where(jp + r.pin), jp + r.pin,
+                    fmt::format("{} input {} also serves {}{}: a machine file has one switch per input, so {} has "
+                                "none of its own",
+                                s.field.daughtercard, s.field.number, jp, r.pin, jp + r.pin));
+          }
+          continue;
+        }
+        sw.name = fmt::format("{}-{}", name, kind == "home" ? "home" : kind == "min_limit" ? "min" : "max");
+        sw.kind = kind;
+        sw.daughtercard = s.field.daughtercard;
+        sw.input = s.field.number;
+        sw.contact = s.inverted ? "nc" : "no";
+        sw.axis = name;
+        if (kind == "home") {
+          sw.position = *edge * mmPerUnit;
+          sw.tripAbove = sv > 0;
+          sw.comment = fmt::format("{} ({}), {} the edge: HOME_SEARCH_VEL {} searches {}; {}", s.pin, at(where(s.pin)),
+                                   sv > 0 ? "closed at and above" : "closed at and below", fmtNumber(sv),
+                                   sv > 0 ? "up" : "down", homeComment);
+        } else if (kind == "min_limit") {
+          sw.position = (lo - marginLow) * mmPerUnit;
+          sw.tripAbove = false;
+          sw.comment = fmt::format("{} ({}), past the travel by 2 mm, a motor turn and the homing search's stop", s.pin,
+                                   at(where(s.pin)));
+        } else {
+          sw.position = (hi + marginHigh) * mmPerUnit;
+          sw.tripAbove = true;
+          sw.comment = fmt::format("{} ({}), past the travel by 2 mm, a motor turn and the homing search's stop", s.pin,
+                                   at(where(s.pin)));
+        }
+        sw.comment += s.inverted ? "; NC: the net takes the inverted input" : "; NO: the net takes the input as it is";
+        switchOrder_.push_back(key);
+      }
+    }
+    if (sv != 0.0) {
+      std::vector<Source> homes;
+      trace(jp + "home-sw-in", false, homes);
+      if (homes.empty())
+        error(iniAt, section,
+              fmt::format("joint {}: HOME_SEARCH_VEL is {} but {}home-sw-in reaches no 7I77 or 7I76 field input ({}): "
+                          "there is no home switch to place",
+                          n, fmtNumber(sv), jp, describe(jp + "home-sw-in")));
+    }
+    // A brake on this joint: an output whose signal its amp-enable writes
+    // and whose name says brake.
+    for (const auto& [sig, pins] : hal_.signals) {
+      if (lower(sig).find("brake") == std::string::npos || lower(sig).find("spindle") != std::string::npos) continue;
+      const bool ours = std::find(pins.begin(), pins.end(), jp + "amp-enable-out") != pins.end() ||
+                        lower(sig).find(name) != std::string::npos;
+      if (!ours) continue;
+      for (const auto& p : pins)
+        if (const auto o = fieldPin(p, "output")) {
+          a.brakeOutput = static_cast<int>(o->number);
+          a.brakeDaughtercard = o->daughtercard;
+          a.brakeComment = fmt::format("{} ({}) on signal {}: on releases it", p, at(where(p)), sig);
+        }
+    }
+    if (stepgen) claimedStepgens_.insert(*stepgen);
+    if (encoder) claimedEncoders_.insert(*encoder);
+    if (analog) claimedAnalogs_.insert(*analog);
+    axes_.push_back(std::move(a));
+  }
+
+  void estop() {
+    std::vector<Source> sources;
+    trace("iocontrol.0.emc-enable-in", false, sources);
+    unsigned k = 0;
+    for (const auto& s : sources) {
+      const auto key = fmt::format("{}:{}", s.field.daughtercard, s.field.number);
+      auto& sw = switchAt_[key];
+      if (!sw.kind.empty()) continue;
+      sw = {k++ == 0 ? "estop" : fmt::format("estop{}", k), "estop", s.field.daughtercard,
+            s.inverted ? "no" : "nc", "", {}, s.field.number, std::nullopt, true};
+      sw.comment = fmt::format("{} ({}) reaches iocontrol.0.emc-enable-in{}: {}", s.pin, at(where(s.pin)),
+                               s.inverted ? " inverted" : "",
+                               s.inverted ? "NO, the input on while pressed" : "NC, the input on while all is well");
+      switchOrder_.push_back(key);
+    }
+  }
+
+  void probe() {
+    std::vector<Source> sources;
+    trace("motion.probe-input", false, sources);
+    for (const auto& s : sources) {
+      const auto key = fmt::format("{}:{}", s.field.daughtercard, s.field.number);
+      auto& sw = switchAt_[key];
+      if (!sw.kind.empty()) continue;
+      sw = {"probe", "probe", s.field.daughtercard, s.inverted ? "nc" : "no", "", {}, s.field.number, std::nullopt, true};
+      sw.comment = fmt::format("{} ({}) reaches motion.probe-input: trips when told (POST /api/machine)", s.pin,
+                               at(where(s.pin)));
+      switchOrder_.push_back(key);
+      break;
+    }
+  }
+
+  // Inputs that must be in one state for motion to run: held so.
+  void permissives() {
+    static const std::pair<const char*, bool> kMustBe[] = {
+        {"motion.feed-inhibit", false}, {"motion.feed-hold", false},    {"motion.enable", true},
+        {"spindle.0.inhibit", false},   {"halui.program.pause", false}, {"halui.program.stop", false},
+        {"halui.abort", false},         {"halui.estop.activate", false}, {"halui.machine.off", false}};
+    for (const auto& [pin, want] : kMustBe) {
+      std::vector<Source> sources;
+      trace(pin, false, sources);
+      for (const auto& s : sources) {
+        const auto key = fmt::format("{}:{}", s.field.daughtercard, s.field.number);
+        auto& sw = switchAt_[key];
+        if (!sw.kind.empty()) continue;
+        const bool inputOn = want != s.inverted;
+        if (!inputOn) {
+          sw.kind = "held-off";  // nothing to wire: an input with no switch reads off
+          heldOff_.push_back(fmt::format("{} ({}) must read off for {} to be {}: nothing closes it", s.pin,
+                                         at(where(s.pin)), pin, want ? "TRUE" : "FALSE"));
+          continue;
+        }
+        sw = {fmt::format("held-{}", s.field.number), "other", s.field.daughtercard, "nc", "", {}, s.field.number,
+              std::nullopt, true};
+        sw.comment = fmt::format("{} ({}) must read on for {} to be {}: held closed", s.pin, at(where(s.pin)), pin,
+                                 want ? "TRUE" : "FALSE");
+        switchOrder_.push_back(key);
+      }
+    }
+  }
+
+  void spindle() {
+    std::optional<unsigned> analog;
+    std::string pin;
+    bool on7I76 = false;
+    for (const auto& [p, sig] : pinSignal_) {
+      if (const auto a = analogOut(p); a && !claimedAnalogs_.count(*a) && (!analog || *a == 5)) {
+        analog = *a;
+        pin = p;
+      }
+      if (p.ends_with(".7i76.0.0.spinout") && !analog) {
+        on7I76 = true;
+        pin = p;
+      }
+    }
+    if (!analog && !on7I76) return;
+    const auto scale = value(pin + "-scalemax", "SPINDLE_0", "OUTPUT_SCALE")
+                           .value_or(Value{10.0, "hostmot2's default scalemax 10 (none set)"});
+    spindle_.emplace_back("daughtercard", on7I76 ? "\"7I76\"|the 7I76's SpinOut, SpinEna, SpinDir" : "\"7I77\"|");
+    if (!on7I76) {
+      spindle_.emplace_back("analog_output", fmt::format("{}|{} ({})", *analog, pin, at(where(pin))));
+      spindle_.emplace_back("enable", fmt::format("{}|{}", *analog, *analog == 5 ? "ENA5 follows spinena" : "AnalogEna"));
+    }
+    spindle_.emplace_back("rpm_per_volt", fmtNumber(std::abs(scale.v) / 10.0) + "|" + scale.from + " rpm at 10 V");
+    spindle_.emplace_back("max_rpm", fmtNumber(std::abs(scale.v)) + "|10 V");
+    // Its encoder: one on the spindle's feedback signals that no joint reads.
+    std::optional<unsigned> encoder;
+    std::string board;
+    for (const char* feedback : {"spindle.0.revs", "spindle.0.speed-in", "spindle.0.index-enable", "motion.spindle-revs",
+                                 "motion.spindle-speed-in", "motion.spindle-index-enable"})
+      for (const auto& p : pinsOn(signal(feedback))) {
+        const auto parts = split(p, '.');
+        if (parts.size() == 5 && parts[2] == "encoder" && !encoder) {
+          if (const auto e = digits(parts[3]); e && !claimedEncoders_.count(*e)) {
+            encoder = *e;
+            board = cardOf(p);
+          }
+        }
+      }
+    if (!encoder) {
+      spindle_.emplace_back("encoder_input", "-1|no encoder on spindle.0.revs or speed-in");
+      return;
+    }
+    const auto encScale = value(fmt::format("{}.encoder.{:02d}.scale", board, *encoder), "SPINDLE_0", "ENCODER_SCALE")
+                              .value_or(Value{4096.0, "assumed 1024 lines (no scale set)"});
+    const bool encoderOn7I76 = sevenI76_ && *encoder == 6;
+    spindle_.emplace_back("encoder_daughtercard", encoderOn7I76 ? "\"7I76\"|muxed counter 6 is the 7I76's" : "\"7I77\"|");
+    spindle_.emplace_back("encoder_input", fmt::format("{}|{}.encoder.{:02d}", encoderOn7I76 ? 0 : *encoder, board, *encoder));
+    spindle_.emplace_back("encoder_lines",
+                          fmt::format("{}|{} counts a revolution ({})",
+                                      static_cast<long>(std::max(1.0, std::round(std::abs(encScale.v) / 4.0))),
+                                      fmtNumber(std::abs(encScale.v)), encScale.from));
+    spindle_.emplace_back("encoder_reversed", std::string(encScale.v < 0 ? "true" : "false") + "|the scale's sign");
+  }
+
+  void outputs() {
+    std::set<std::string> seen;
+    for (const auto& [sig, pins] : hal_.signals)
+      for (const auto& p : pins)
+        if (const auto o = fieldPin(p, "output")) {
+          const auto key = fmt::format("{}:{}", o->daughtercard, o->number);
+          if (!seen.insert(key).second) continue;
+          std::string name;
+          for (char c : sig)
+            name += std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' ? c : '-';
+          outputs_.push_back({name, o->daughtercard, fmt::format("{} ({}), signal {}", p, at(where(p)), sig), o->number});
+        }
+  }
+
+  [[nodiscard]] static std::string line(const std::string& indent, const std::string& key, const std::string& valueAndWhy) {
+    const auto bar = valueAndWhy.find('|');
+    const auto v = valueAndWhy.substr(0, bar);
+    const auto why = bar == std::string::npos ? std::string() : valueAndWhy.substr(bar + 1);
+    auto text = fmt::format("{}{} = {}", indent, key, v);
+    if (!why.empty()) text += fmt::format("{}# {}", std::string(text.size() < 30 ? 30 - text.size() : 1, ' '), why);
+    return text + "\n";
+  }
+
+  [[nodiscard]] std::string toml() const {
+    std::string t;
+    t += fmt::format("# The machine {} expects, derived from it by lbpkit machine --from-config\n", ini_.filename().string());
+    t += fmt::format("# (read: {}).\n", [&] {
+      std::string files;
+      for (const auto& f : hal_.files) files += (files.empty() ? "" : ", ") + std::filesystem::path(f).filename().string();
+      return files;
+    }());
+    t += "# Each value says where it came from. Assumed, because a configuration cannot say: the screw's\n"
+         "# pitch (5 mm, 0.2 in), the masses, inertias and friction (the schema's defaults,\n"
+         "# examples/machines/mill.toml), that drives are velocity-mode and that no axis is vertical.\n\n";
+    t += fmt::format("name = \"{}\"\n\n", ini_.stem().string());
+    for (const auto& a : axes_) {
+      t += fmt::format("# {}\n[[axis]]\nname = \"{}\"\n", a.comment, a.name);
+      for (const auto& [k, v] : a.keys) t += line("", k, v);
+      if (a.brakeOutput >= 0) {
+        t += line("", "brake_output", fmt::format("{}|{}", a.brakeOutput, a.brakeComment));
+        t += line("", "brake_daughtercard", fmt::format("\"{}\"|", a.brakeDaughtercard));
+        t += line("", "brake_torque", "4.0|assumed: holds what a drive's peak torque can");
+      }
+      if (a.tableName == "axis.stepper") {
+        t += "  [axis.stepper]\n";
+        for (const auto& [k, v] : a.drive) t += line("  ", k, v);
+      } else {
+        t += "  [[axis.drive]]\n";
+        for (const auto& [k, v] : a.drive) t += line("  ", k, v);
+        t += "  [axis.drive.amplifier]\n";
+        for (const auto& [k, v] : a.amplifier) t += line("  ", k, v);
+      }
+      t += "\n";
+    }
+    if (!spindle_.empty()) {
+      t += "[spindle]\n";
+      for (const auto& [k, v] : spindle_) t += line("", k, v);
+      t += "\n";
+    }
+    for (const auto& key : switchOrder_) {
+      const auto& s = switchAt_.at(key);
+      if (s.kind == "held-off") continue;
+      t += fmt::format("# {}\n[[switch]]\nname = \"{}\"\nkind = \"{}\"\ndaughtercard = \"{}\"\ninput = {}\ncontact = \"{}\"\n",
+                       s.comment, s.name, s.kind, s.daughtercard, s.input, s.contact);
+      if (!s.axis.empty()) {
+        t += fmt::format("axis = \"{}\"\nposition = {}\ntrip_above = {}\n", s.axis, fmtNumber(*s.position),
+                         s.tripAbove ? "true" : "false");
+      }
+      t += "\n";
+    }
+    for (const auto& h : heldOff_) t += "# " + h + "\n";
+    for (const auto& key : homeInPlaceInputs_)
+      if (switchAt_.at(key).kind.empty())
+        t += fmt::format("# {} input {}: a home switch its joint never searches for (it homes in place)\n",
+                         key.substr(0, key.find(':')), key.substr(key.find(':') + 1));
+    for (const auto& o : outputs_) {
+      t += fmt::format("# {}\n[[output]]\nname = \"{}\"\ndaughtercard = \"{}\"\noutput = {}\n\n", o.comment, o.name,
+                       o.daughtercard, o.output);
+    }
+    return t;
+  }
+
+  const HalConfig& hal_;
+  std::vector<Finding>& findings_;
+  std::filesystem::path ini_;
+  std::map<std::string, std::string> instanceModule_;
+  std::map<std::string, std::string> pinSignal_;
+  bool inch_ = false, sevenI76_ = false, failed_ = false;
+  std::string jointPins_ = "joint";
+  std::vector<AxisOut> axes_;
+  std::map<std::string, SwitchOut> switchAt_;  // "7I77:3" -> the switch on that input
+  std::vector<std::string> switchOrder_;
+  std::vector<std::string> heldOff_;
+  std::set<std::string> homeInPlaceInputs_;
+  std::vector<std::pair<std::string, std::string>> spindle_;
+  std::vector<OutputOut> outputs_;
+  std::set<unsigned> claimedStepgens_, claimedEncoders_, claimedAnalogs_;
+};
+
+}  // namespace
+
+DerivedMachine machineFromConfig(const std::filesystem::path& ini) {
+  DerivedMachine m;
+  if (ini.extension() != ".ini") {
+    m.findings.push_back({ini.string(), 0, "error", {}, "a machine comes from a configuration's INI file (.ini)", {}});
+    return m;
+  }
+  const auto hal = readConfiguration(ini, m.findings);
+  if (!m.ok()) return m;
+  m.toml = Deriver(hal, m.findings, ini).run();
+  return m;
+}
+
+}  // namespace lbpkit::linuxcnc

@@ -1,0 +1,198 @@
+// lbpkit machine --from-config: the machine a configuration expects. The
+// example mill's configuration gives back the machine it was written for;
+// negative scales give a reversed drive and encoder; switches land where
+// homing and the nets put them; each public configuration under
+// tests/public_configs/ either gives a machine that loads or an error
+// naming the file, line and what is missing.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <stdexcept>
+#include <string>
+
+#include "config/machine_toml.hpp"
+#include "linuxcnc/machine_from_config.hpp"
+#include "support/temp_dir.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using lbpkit::linuxcnc::machineFromConfig;
+
+const fs::path kSource = LBPKIT_SOURCE_DIR;
+
+// The derived machine loaded as lbpkit sim loads it.
+machine::MachineDescription load(const lbpkit::linuxcnc::DerivedMachine& m) {
+  test_support::TempDir dir;
+  const auto file = dir.path() / "derived.toml";
+  std::ofstream(file) << m.toml;
+  return config::loadMachineFile(file.string());
+}
+
+const machine::SwitchParameters& switchNamed(const machine::MachineDescription& d, const std::string& name) {
+  for (const auto& s : d.switches)
+    if (s.name == name) return s;
+  throw std::runtime_error("no switch " + name);
+}
+
+std::string errors(const lbpkit::linuxcnc::DerivedMachine& m) {
+  std::string out;
+  for (const auto& f : m.findings) out += f.file + ":" + std::to_string(f.line) + ": " + f.severity + ": " + f.reason + "\n";
+  return out;
+}
+
+TEST(MachineFromConfig, TheExampleMillGivesTheMillItIsWiredFor) {
+  const auto m = machineFromConfig(kSource / "examples/linuxcnc/mill/mill.ini");
+  ASSERT_TRUE(m.ok()) << errors(m);
+  const auto d = load(m);
+  const auto mill = machine::mill();
+  ASSERT_EQ(d.axes.size(), 3U);
+  for (std::size_t i = 0; i < 3; ++i) {
+    SCOPED_TRACE(mill.axes[i].name);
+    const auto& a = d.axes[i];
+    EXPECT_EQ(a.name, mill.axes[i].name);
+    EXPECT_EQ(a.travelMin, mill.axes[i].travelMin);
+    EXPECT_EQ(a.travelMax, mill.axes[i].travelMax);
+    ASSERT_EQ(a.drives.size(), 1U);
+    EXPECT_EQ(a.drives[0].analogOutput, i);
+    EXPECT_EQ(a.drives[0].encoderInput, i);
+    // 1600 counts/mm on a 5 mm screw: the mill's 2000 lines; 250 mm/s at
+    // 10 V with FF1 = 1: 5 rev/s per volt.
+    EXPECT_EQ(a.drives[0].encoder.linesPerRev, mill.axes[i].drives[0].encoder.linesPerRev);
+    EXPECT_DOUBLE_EQ(a.drives[0].amplifier.gain, mill.axes[i].drives[0].amplifier.gain);
+    EXPECT_FALSE(a.drives[0].amplifier.reversed);
+    EXPECT_FALSE(a.drives[0].encoder.reversed);
+  }
+  // Home switches on inputs 0, 3, 6, their edges half a motor turn (2.5 mm)
+  // before the index LinuxCNC calls HOME_OFFSET (390, 290, -10), searched
+  // upwards; NC limits on 1, 2, 4, 5, 7, 8 past the travel; the E-stop
+  // chain on 9 (NC: the net takes input-09 as it is), the probe on 10.
+  const auto& xHome = switchNamed(d, "x-home");
+  EXPECT_EQ(xHome.input, 0U);
+  EXPECT_EQ(xHome.position, 392.5);
+  EXPECT_TRUE(xHome.tripAbove);
+  EXPECT_EQ(switchNamed(d, "y-home").input, 3U);
+  EXPECT_EQ(switchNamed(d, "z-home").position, -7.5);
+  for (const auto& [name, input] : std::map<std::string, unsigned>{
+           {"x-min", 1}, {"x-max", 2}, {"y-min", 4}, {"y-max", 5}, {"z-min", 7}, {"z-max", 8}}) {
+    SCOPED_TRACE(name);
+    const auto& s = switchNamed(d, name);
+    EXPECT_EQ(s.input, input);
+    EXPECT_TRUE(s.contact == machine::Contact::NormallyClosed);
+  }
+  EXPECT_LT(switchNamed(d, "x-min").position, 0.0);
+  EXPECT_GT(switchNamed(d, "x-max").position, 400.0);
+  EXPECT_EQ(switchNamed(d, "estop").input, 9U);
+  EXPECT_TRUE(switchNamed(d, "estop").contact == machine::Contact::NormallyClosed);
+  EXPECT_EQ(switchNamed(d, "probe").input, 10U);
+  EXPECT_FALSE(switchNamed(d, "probe").contact == machine::Contact::NormallyClosed);
+  ASSERT_TRUE(d.spindle.has_value());
+  EXPECT_EQ(d.spindle->analogOutput, 5U);
+  EXPECT_EQ(d.spindle->vfd.rpmPerVolt, 2400.0);
+  EXPECT_EQ(d.spindle->encoderInput, 5U);
+  EXPECT_EQ(d.spindle->encoder.linesPerRev, 256U);
+  ASSERT_EQ(d.outputs.size(), 3U);
+  EXPECT_EQ(d.outputs[0].name, "coolant-flood");
+  // Every value says where it came from.
+  EXPECT_NE(m.toml.find("[JOINT_0]ENCODER_SCALE = 1600"), std::string::npos);
+  EXPECT_NE(m.toml.find("mill.hal:"), std::string::npos);
+  EXPECT_NE(m.toml.find("assumed"), std::string::npos);
+}
+
+TEST(MachineFromConfig, NegativeScalesHomingAndPermissives) {
+  const auto m = machineFromConfig(kSource / "tests/machine_from_config/reversed/reversed.ini");
+  ASSERT_TRUE(m.ok()) << errors(m);
+  const auto d = load(m);
+  ASSERT_EQ(d.axes.size(), 2U);
+  const auto& x = d.axes[0];
+  // OUTPUT_SCALE -10 and ENCODER_SCALE -1000: the motor and the encoder
+  // both turn the other way; 1000 counts/mm on the assumed 5 mm screw: 1250
+  // lines; 1 mm/s per volt over FF1 1 is 0.2 rev/s per volt.
+  EXPECT_TRUE(x.drives[0].amplifier.reversed);
+  EXPECT_TRUE(x.drives[0].encoder.reversed);
+  EXPECT_EQ(x.drives[0].encoder.linesPerRev, 1250U);
+  EXPECT_DOUBLE_EQ(x.drives[0].amplifier.gain, 0.2);
+  // Homing down (HOME_SEARCH_VEL -10) onto input 0 read as input-00-not
+  // (NC), latching up (HOME_LATCH_VEL 1) onto the index at HOME_OFFSET -200:
+  // the edge half a motor turn below it.
+  const auto& home = switchNamed(d, "x-home");
+  EXPECT_EQ(home.input, 0U);
+  EXPECT_TRUE(home.contact == machine::Contact::NormallyClosed);
+  EXPECT_FALSE(home.tripAbove);
+  EXPECT_EQ(home.position, -202.5);
+  EXPECT_LE(x.travelMin, -202.5);
+  // Y: FF1 0.5 doubles the drive's gain (2 mm/s per volt / 0.5 on 5 mm:
+  // 0.8 rev/s per volt); it homes in place, so it starts at HOME_OFFSET.
+  EXPECT_DOUBLE_EQ(d.axes[1].drives[0].amplifier.gain, 0.8);
+  EXPECT_EQ(d.axes[1].initialPosition, 25.0);
+  // The E-stop button through `not`: a NO contact; the lube sensor through
+  // `not` into motion.feed-inhibit is held closed so that feed is allowed.
+  EXPECT_EQ(switchNamed(d, "estop").input, 5U);
+  EXPECT_FALSE(switchNamed(d, "estop").contact == machine::Contact::NormallyClosed);
+  const auto& held = switchNamed(d, "held-12");
+  EXPECT_EQ(held.input, 12U);
+  EXPECT_TRUE(held.contact == machine::Contact::NormallyClosed);
+  EXPECT_NE(m.toml.find("motion.feed-inhibit"), std::string::npos);
+  // A signal named for a brake, written by the joint's amp-enable: X's brake.
+  EXPECT_EQ(x.brakeOutput, 3);
+}
+
+// The public configurations (tests/public_configs/*/SOURCE.md): what each
+// gives, or what each lacks, said where.
+TEST(MachineFromConfig, PublicConfigurationsGiveAMachineOrSayWhatIsMissing) {
+  const auto dir = kSource / "tests/public_configs";
+  {
+    // A 5I25 + 7I77 mill by PNCconf for LinuxCNC 2.7, in inches; each axis'
+    // home switch is also both its limits (in series): one switch an input.
+    const auto m = machineFromConfig(dir / "5i25-7i77-mill-floppydisk525/7i77v7.ini");
+    ASSERT_TRUE(m.ok()) << errors(m);
+    const auto d = load(m);
+    EXPECT_EQ(d.axes.size(), 3U);
+    EXPECT_NE(m.toml.find("25.4 to the inch"), std::string::npos);
+    EXPECT_NE(errors(m).find("a machine file has one switch per input"), std::string::npos);
+  }
+  {
+    // A 7I96S + 7I77 router, three servo axes and a spindle VFD.
+    const auto m = machineFromConfig(dir / "7i96s-7i77-router-wrhammer/Rover13s.ini");
+    ASSERT_TRUE(m.ok()) << errors(m);
+    const auto d = load(m);
+    EXPECT_EQ(d.axes.size(), 3U);
+    EXPECT_TRUE(d.spindle.has_value());
+  }
+  {
+    // Home switches on an Arduino (a Python component): no 7I77 input.
+    const auto m = machineFromConfig(dir / "5i25-7i77-vmc-bendemott/tree_4024.ini");
+    EXPECT_FALSE(m.ok());
+    EXPECT_NE(errors(m).find("tree_4024.ini:128: error: joint 0: HOME_SEARCH_VEL is -5.0 but axis.0.home-sw-in "
+                             "reaches no 7I77 or 7I76 field input (signal input-x-axis-limit (tree_4024.hal:68), with "
+                             "mega2560.input-18"),
+              std::string::npos)
+        << errors(m);
+  }
+  {
+    // Y on an STMBL drive through a custom component: not a 7I77 axis.
+    const auto m = machineFromConfig(dir / "7i80-7i77-router-shulter/justinbieber.ini");
+    EXPECT_FALSE(m.ok());
+    EXPECT_NE(errors(m).find("justinbieber.hal:89: error: joint 1: neither a PID whose output reaches a 7I77 "
+                             "analogoutN nor a StepGen takes its command (signal yposcmd)"),
+              std::string::npos)
+        << errors(m);
+  }
+}
+
+TEST(MachineFromConfig, WhatIsNotAConfigurationSaysSo) {
+  test_support::TempDir dir;
+  EXPECT_NE(errors(machineFromConfig(dir.path() / "absent.ini")).find("absent.ini:0: error: no such file"),
+            std::string::npos);
+  EXPECT_NE(errors(machineFromConfig(kSource / "examples/linuxcnc/mill/mill.hal")).find("from a configuration's INI"),
+            std::string::npos);
+  std::ofstream(dir.path() / "empty.ini") << "[EMC]\nVERSION = 1.1\n";
+  const auto m = machineFromConfig(dir.path() / "empty.ini");
+  EXPECT_FALSE(m.ok());
+  EXPECT_TRUE(m.toml.empty());
+  EXPECT_NE(errors(m).find("no joint drives a 7I77 analog output or a StepGen"), std::string::npos) << errors(m);
+}
+
+}  // namespace
