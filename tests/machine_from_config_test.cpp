@@ -166,7 +166,7 @@ TEST(MachineFromConfig, PublicConfigurationsGiveAMachineOrSayWhatIsMissing) {
     const auto m = machineFromConfig(dir / "5i25-7i77-vmc-bendemott/tree_4024.ini");
     EXPECT_FALSE(m.ok());
     EXPECT_NE(errors(m).find("tree_4024.ini:128: error: joint 0: HOME_SEARCH_VEL is -5.0 but axis.0.home-sw-in "
-                             "reaches no 7I77 or 7I76 field input (signal input-x-axis-limit (tree_4024.hal:68), with "
+                             "reaches no 7I77, 7I76 or card input (signal input-x-axis-limit (tree_4024.hal:68), with "
                              "mega2560.input-18"),
               std::string::npos)
         << errors(m);

@@ -461,9 +461,9 @@ TEST_F(SevenI76MachineFile, EveryMistakeNamesFileLineColumnAndKey) {
                             "  steps_per_unit = 800\n";
   const Case cases[] = {
       {"[[switch]]\nname = \"a\"\ndaughtercard = \"7I75\"\ninput = 0\n",
-       "3:16: switch[0].daughtercard: \"7I75\" is not one of \"7I77\", \"7I76\""},
+       "3:16: switch[0].daughtercard: \"7I75\" is not one of \"7I77\", \"7I76\", \"card\""},
       {"[[switch]]\nname = \"a\"\ndaughtercard = 76\ninput = 0\n",
-       "3:16: switch[0].daughtercard: expected a string (\"7I77\", \"7I76\"), not an integer"},
+       "3:16: switch[0].daughtercard: expected a string (\"7I77\", \"7I76\", \"card\"), not an integer"},
       {"[[switch]]\nname = \"a\"\ndaughtercard = \"7I76\"\ninput = 32\n",
        "4:9: switch[0].input: 32 is out of range: 0 to 31"},
       {"[[switch]]\nname = \"a\"\ndaughtercard = \"7I76\"\ninput = -1\n",

@@ -19,6 +19,8 @@
 #include "config/machine_toml.hpp"
 #include "config/toml_reader.hpp"
 #include "hostmot2/card.hpp"
+#include "hostmot2/ioport.hpp"
+#include "hostmot2/muxed_encoder.hpp"
 #include "machine/machine.hpp"
 #include "support/machine_file_fixture.hpp"
 
@@ -156,6 +158,52 @@ TEST(MachineStepper, AReversedMotorMovesTheOtherWay) {
   r.run(1700);
   EXPECT_NEAR(r.z(), -155.0, 1.0 / kStepsPerMm);
   EXPECT_GT(r.m.state().axes[kZ].stepper->lostSteps, 0);
+}
+
+// A closed-loop stepper: an encoder on the motor's shaft (1000 lines, 4000
+// counts a turn of the 5 mm screw: 800 counts a mm) counts where the steps
+// put Z, on the card's muxed encoder 2.
+TEST(MachineStepper, AClosedLoopSteppersEncoderCountsWhereItIs) {
+  auto d = stepperMill();
+  d.axes[kZ].stepper->encoderInput = 2;
+  d.axes[kZ].stepper->encoder.linesPerRev = 1000;
+  Rig r(std::move(d));
+  const double z0 = r.z();
+  const auto& encoders = r.card.part<hm2::MuxedEncoder>();
+  const std::uint16_t before = encoders.count(2);
+  r.setStepRate(40'000.0);
+  r.run(100);
+  // Stopped: the counter has caught up with the plant (which sees the
+  // StepGen's steps one card period behind the card).
+  r.setStepRate(0.0);
+  r.run(5);
+  const double moved = r.z() - z0;
+  ASSERT_GT(moved, 4.99);
+  const auto counted = static_cast<std::int16_t>(static_cast<std::uint16_t>(encoders.count(2) - before));
+  EXPECT_NEAR(counted, moved * 800.0, 1.0);
+}
+
+// A switch on one of the card's own IO pins (LinuxCNC's gpio.NNN, as the
+// 7I96S's inputs are wired): closed, it drives the pin high; open, low.
+TEST(MachineStepper, ASwitchOnTheCardsOwnPinDrivesIt) {
+  auto d = stepperMill();
+  machine::SwitchParameters s;
+  s.name = "z-low";
+  s.daughtercard = machine::Daughtercard::Card;
+  s.input = 30;  // port 1, bit 13: the 7I92's ports are 17 pins wide
+  s.axis = "z";
+  s.position = -70.0;
+  s.tripAbove = true;
+  d.switches.push_back(s);
+  Rig r(std::move(d));
+  const auto& io = r.card.part<hm2::IoPort>();
+  ASSERT_EQ(io.width(), 17U);
+  r.run(1);
+  EXPECT_FALSE(io.pin(1, 13)) << "Z at -75 mm: open";
+  r.setStepRate(40'000.0);  // up at 50 mm/s: past -70 in 100 ms
+  r.run(150);
+  EXPECT_GT(r.z(), -70.0);
+  EXPECT_TRUE(io.pin(1, 13)) << "closed above -70 mm";
 }
 
 TEST(MachineStepper, StepsFasterThanThePullOutRateAreLost) {

@@ -12,6 +12,7 @@
 // gone, Ctrl-C) everything started is stopped and the namespace removed.
 #include <fcntl.h>
 #include <poll.h>
+#include <pwd.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/stat.h>
@@ -20,15 +21,12 @@
 
 #include <fmt/core.h>
 
-#include <atomic>
 #include <chrono>
-#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <memory>
-#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -134,6 +132,23 @@ int stopLinuxCnc(pid_t unshare) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+// What LinuxCNC said before it failed: started without a terminal, the
+// linuxcnc script writes its messages to linuxcnc_debug.txt in the home of
+// the user it runs as (the one who ran sudo, or root).
+void printLinuxCncLog() {
+  std::string home = "/root";
+  if (const char* user = std::getenv("SUDO_USER"); user != nullptr && std::string(user) != "root")
+    if (const passwd* pw = ::getpwnam(user); pw != nullptr && pw->pw_dir != nullptr) home = pw->pw_dir;
+  const fs::path log = fs::path(home) / "linuxcnc_debug.txt";
+  std::ifstream in(log);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);)
+    if (line.find("Running with fallback_uid") == std::string::npos) lines.push_back(line);
+  if (lines.empty()) return;
+  fmt::print("lbpkit linuxcnc: the end of LinuxCNC's {}:\n", log.string());
+  for (std::size_t i = lines.size() > 12 ? lines.size() - 12 : 0; i < lines.size(); ++i) fmt::print("  {}\n", lines[i]);
+}
+
 // The card a board's HAL name is (hm2_7i92.0 -> 7I92), or empty.
 std::string cardOfBoard(const std::string& prefix) {
   const auto kind = prefix.substr(4, prefix.find('.') - 4);  // "hm2_7i92.0" -> "7i92"
@@ -194,7 +209,34 @@ fs::path copyConfiguration(const fs::path& ini, const fs::path& into, const std:
   };
   for (const auto& e : fs::recursive_directory_iterator(into))
     if (e.is_regular_file() && (e.path().extension() == ".hal" || e.path().extension() == ".ini")) rewrite(e.path());
-  return into / ini.filename();
+  const auto copy = into / ini.filename();
+  // A configuration older than LinuxCNC 2.8's joints ([EMC]VERSION below
+  // 1.1): linuxcnc would ask, in a dialog, to convert it with update_ini;
+  // the copy is converted without asking (update_ini -f), as that dialog's
+  // "yes" would.
+  std::ifstream in(copy);
+  std::string line, version;
+  bool inEmc = false;
+  while (std::getline(in, line)) {
+    const auto t = lbpkit::linuxcnc::trim(line);
+    if (!t.empty() && t[0] == '[') inEmc = t.rfind("[EMC]", 0) == 0;
+    if (inEmc && t.rfind("VERSION", 0) == 0 && t.find('=') != std::string::npos)
+      version = lbpkit::linuxcnc::trim(t.substr(t.find('=') + 1));
+  }
+  double v = 0.0;
+  try {
+    v = std::stod(version);
+  } catch (const std::exception&) {
+  }
+  if (v < 1.1) {
+    fmt::print("lbpkit linuxcnc: {} is a configuration from before LinuxCNC 2.8 ([EMC]VERSION {}): the copy is "
+               "converted with update_ini -f, as linuxcnc's own dialog offers\n",
+               ini.filename().string(), version.empty() ? "none" : version);
+    std::fflush(stdout);
+    if (std::system(fmt::format("update_ini -f '{}' >/dev/null 2>&1", copy.string()).c_str()) != 0)
+      throw lbpkit::Error(fmt::format("update_ini -f {} failed: LinuxCNC could not convert it either", copy.string()));
+  }
+  return copy;
 }
 
 int runLinuxCnc(const LinuxCncOptions& o) {
@@ -348,6 +390,7 @@ int runLinuxCnc(const LinuxCncOptions& o) {
         fmt::print("lbpkit linuxcnc: LinuxCNC {} ({}); stopping the sim\n", WIFEXITED(status) ? "ended" : "was killed",
                    WIFEXITED(status) ? fmt::format("exit status {}", WEXITSTATUS(status))
                                      : fmt::format("signal {}", WTERMSIG(status)));
+        if (WIFEXITED(status) && WEXITSTATUS(status) != 0) printLinuxCncLog();
         break;
       }
       if (::waitpid(sim, &status, WNOHANG) == sim) {

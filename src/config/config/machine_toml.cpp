@@ -47,6 +47,7 @@ constexpr std::int64_t kOutputs = remote::FieldIoProcessor::kOutputs;        // 
 // The 7I76's (docs/cards.md#the-7i76-field-io): 32 inputs, 16 outputs, one
 // spindle encoder input.
 constexpr std::int64_t kInputs76 = remote::SevenI76FieldIo::kInputs;    // 0..31
+constexpr std::int64_t kCardPins = 144;  // a card's IO pins: at most 6 ports of 24 (the machine checks the card's)
 constexpr std::int64_t kOutputs76 = remote::SevenI76FieldIo::kOutputs;  // 0..15
 // A HostMot2 firmware's StepGens (how many this card's has, the machine
 // checks against the card: machine.cpp).
@@ -95,7 +96,7 @@ class MachineReader {
   MachineReader(const std::string& path, const toml::table& root)
       : r_(path), root_(root), analog_(r_, "analog output"), encoders_(r_, "encoder"), inputs_(r_, "field input"),
         outputs_(r_, "field output"), inputs76_(r_, "the 7I76's field input"),
-        outputs76_(r_, "the 7I76's field output"), stepGens_(r_, "StepGen") {}
+        outputs76_(r_, "the 7I76's field output"), inputsCard_(r_, "the card's IO pin"), stepGens_(r_, "StepGen") {}
 
   MachineDescription read(std::string defaultName) {
     MachineDescription m;
@@ -268,7 +269,8 @@ class MachineReader {
   // and the axis' screw and gearing, as a stepper's data sheet gives them.
   StepperParameters stepper(const toml::table& t, const std::string& prefix, const AxisDescription& a) {
     StepperParameters s;
-    r_.onlyKeys(t, prefix, {"stepgen", "steps_per_unit", "full_steps", "microsteps", "max_step_rate", "reversed"});
+    r_.onlyKeys(t, prefix, {"stepgen", "steps_per_unit", "full_steps", "microsteps", "max_step_rate", "reversed",
+                            "encoder_input", "encoder_lines", "encoder_index", "encoder_reversed"});
     (void)r_.required(t, prefix, "stepgen");
     s.stepGen = index(t, prefix, "stepgen", 0, kStepGens);
     stepGens_.claim(s.stepGen, "axis " + a.name, at(t, "stepgen"), prefix + "stepgen");
@@ -290,6 +292,16 @@ class MachineReader {
     // Absent: the motor follows every rate.
     s.maxStepRate = r_.positive(t, prefix, "max_step_rate", s.maxStepRate, 1e7, "steps/s");
     s.reversed = r_.boolean(t, prefix, "reversed", s.reversed);
+    // A closed-loop stepper's encoder.
+    if (t.get("encoder_input") != nullptr) {
+      s.encoderInput = index(t, prefix, "encoder_input", 0, kEncoders);
+      encoders_.claim(*s.encoderInput, "axis " + a.name, at(t, "encoder_input"), prefix + "encoder_input");
+      s.encoder = encoder(t, prefix, s.encoder);
+    } else {
+      for (std::string_view key : {"encoder_lines", "encoder_index", "encoder_reversed"})
+        if (t.get(key) != nullptr)
+          r_.fail(t.get(key), prefix + std::string(key), "no encoder_input: the stepper has no encoder to describe");
+    }
     return s;
   }
 
@@ -348,11 +360,13 @@ class MachineReader {
     for (auto k : {SwitchKind::Home, SwitchKind::MinLimit, SwitchKind::MaxLimit, SwitchKind::Estop, SwitchKind::Probe,
                    SwitchKind::Other})
       if (kindName(k) == kind) s.kind = k;
-    s.daughtercard = daughtercard(t, prefix, "daughtercard");
+    // A switch may also be on one of the card's own IO pins (gpio.NNN).
+    const bool onCard = r_.text(t, prefix, "daughtercard", "7I77", {"7I77", "7I76", "card"}) == "card";
+    s.daughtercard = onCard ? Daughtercard::Card : daughtercard(t, prefix, "daughtercard");
     const bool on76 = s.daughtercard == Daughtercard::SevenI76;
     (void)r_.required(t, prefix, "input");
-    s.input = index(t, prefix, "input", 0, on76 ? kInputs76 : kInputs);
-    (on76 ? inputs76_ : inputs_).claim(s.input, "switch " + s.name, at(t, "input"), prefix + "input");
+    s.input = index(t, prefix, "input", 0, onCard ? kCardPins : on76 ? kInputs76 : kInputs);
+    (onCard ? inputsCard_ : on76 ? inputs76_ : inputs_).claim(s.input, "switch " + s.name, at(t, "input"), prefix + "input");
     // Limits and the E-stop chain are normally closed, so that a broken wire
     // reads as tripped (manual: WHY SINKING INPUTS).
     const bool ncByDefault = s.kind == SwitchKind::MinLimit || s.kind == SwitchKind::MaxLimit || s.kind == SwitchKind::Estop;
@@ -417,7 +431,7 @@ class MachineReader {
 
   ConfigReader r_;
   const toml::table& root_;
-  Claims analog_, encoders_, inputs_, outputs_, inputs76_, outputs76_, stepGens_;
+  Claims analog_, encoders_, inputs_, outputs_, inputs76_, outputs76_, inputsCard_, stepGens_;
   double stepUs_ = 50.0;
   std::string sevenI76Where_;  // the first key that wires the 7I76 (daughtercard)
 };

@@ -57,15 +57,23 @@ bool yes(const std::string& s) {
   return l == "yes" || l == "true" || l == "1";
 }
 
-// A pin of a 7I77's or 7I76's field I/O: hm2_<card>.<n>.<7i77|7i76>.<port>.<channel>.<input-NN[-not]|output-NN>.
+// A pin of a 7I77's or 7I76's field I/O: hm2_<card>.<n>.<7i77|7i76>.<port>.<channel>.<input-NN[-not]|output-NN>,
+// or an input on one of the card's own IO pins.
 struct FieldPin {
-  std::string daughtercard;  // "7I77", "7I76"
+  std::string daughtercard;  // "7I77", "7I76", "card"
   unsigned number = 0;
   bool inverted = false;  // input-NN-not
 };
 
 std::optional<FieldPin> fieldPin(const std::string& pin, const std::string& what) {
   const auto p = split(pin, '.');
+  // An input on the card's own IO pins: hm2_<card>.<n>.gpio.NNN.in[_not]
+  // (the 7I96S's TB3 inputs).
+  if (what == "input" && p.size() == 5 && p[0].rfind("hm2_", 0) == 0 && p[2] == "gpio" &&
+      (p[4] == "in" || p[4] == "in_not")) {
+    if (const auto n = digits(p[3])) return FieldPin{"card", *n, p[4] == "in_not"};
+    return std::nullopt;
+  }
   if (p.size() != 6 || p[0].rfind("hm2_", 0) != 0 || (p[2] != "7i77" && p[2] != "7i76")) return std::nullopt;
   if (p[5].rfind(what + "-", 0) != 0) return std::nullopt;
   auto rest = p[5].substr(what.size() + 1);
@@ -102,6 +110,21 @@ std::string cardOf(const std::string& pin) {
 std::string fmtNumber(double v) {
   if (std::abs(v - std::round(v)) < 1e-9 && std::abs(v) < 1e12) return fmt::format("{:.1f}", std::round(v));
   return fmt::format("{:.6g}", v);
+}
+
+// The encoder lines a motor turn gives `countsPerMm` on a screw of `pitch`
+// mm: whole lines, and the gear ratio (motor turns per screw turn) that
+// makes the counts exact where the pitch alone does not.
+struct Lines {
+  unsigned long lines = 1;
+  double gear = 1.0;
+};
+Lines encoderLines(double countsPerMm, double pitch) {
+  const double exact = countsPerMm * pitch / 4.0;
+  if (std::abs(exact - std::round(exact)) <= 1e-6 && std::round(exact) >= 1)
+    return {static_cast<unsigned long>(std::round(exact)), 1.0};
+  const double lines = std::max(1.0, std::round(exact));
+  return {static_cast<unsigned long>(lines), countsPerMm * pitch / (4.0 * lines)};
 }
 
 // A value the configuration gives, and where it says so.
@@ -428,6 +451,24 @@ class Deriver {
                                            unitName, maxStepVel ? maxStepVel->from : "1.25 x MAX_VELOCITY"));
       a.drive.emplace_back("reversed", std::string(scale->v < 0 ? "true" : "false") + "|" +
                                            (scale->v < 0 ? "a negative scale: a forward step moves it back" : "the scale's sign"));
+      if (encoder) {
+        // A closed-loop stepper: LinuxCNC's feedback from an encoder.
+        const auto encScale = value(fmt::format("{}.encoder.{:02d}.scale", board, *encoder), section, "ENCODER_SCALE");
+        if (!encScale || encScale->v == 0.0) {
+          error(iniAt, section, fmt::format("joint {}: no scale for encoder.{:02d} (setp or [{}]ENCODER_SCALE)", n,
+                                            *encoder, section));
+          return;
+        }
+        const auto e = encoderLines(std::abs(encScale->v) / mmPerUnit, pitch);
+        gear = e.gear;
+        a.keys.emplace_back("gear_ratio", fmtNumber(gear) + "|motor revolutions per screw revolution");
+        a.drive.emplace_back("encoder_input", fmt::format("{}|{}.encoder.{:02d} ({}), its feedback", *encoder, board,
+                                                          *encoder, at(where(fmt::format("{}.encoder.{:02d}.position", board, *encoder)))));
+        a.drive.emplace_back("encoder_lines", fmt::format("{}|{} counts/{} ({}), 4 counts a line, the assumed pitch{}", e.lines,
+                                                          fmtNumber(std::abs(encScale->v)), unitName, encScale->from,
+                                                          gear != 1.0 ? ", and a gear ratio making the counts exact" : ""));
+        a.drive.emplace_back("encoder_reversed", std::string(encScale->v < 0 ? "true" : "false") + "|the encoder scale's sign");
+      }
     } else {
       const auto encScale = value(fmt::format("{}.encoder.{:02d}.scale", board, *encoder), section, "ENCODER_SCALE");
       if (!encScale || encScale->v == 0.0) {
@@ -438,20 +479,15 @@ class Deriver {
       const auto outScale = value(analogPin + "-scalemax", section, "OUTPUT_SCALE")
                                 .value_or(Value{10.0, "hostmot2's default scalemax 10 (none set)"});
       const auto ff1 = value(pid + ".FF1", section, "FF1");
-      const double countsPerMm = std::abs(encScale->v) / mmPerUnit;
-      double lines = countsPerMm * pitch / 4.0;
+      const auto e = encoderLines(std::abs(encScale->v) / mmPerUnit, pitch);
+      const double lines = static_cast<double>(e.lines);
+      gear = e.gear;
       std::string linesWhy = fmt::format("{} counts/{} ({}), 4 counts a line, the assumed pitch", fmtNumber(std::abs(encScale->v)),
                                          unitName, encScale->from);
-      if (std::abs(lines - std::round(lines)) > 1e-6 || std::round(lines) < 1) {
-        lines = std::max(1.0, std::round(lines));
-        gear = countsPerMm * pitch / (4.0 * lines);
-        linesWhy += ", and a gear ratio making the counts exact";
-      } else {
-        lines = std::round(lines);
-      }
-      lead = pitch / gear;
+      if (gear != 1.0) linesWhy += ", and a gear ratio making the counts exact";
       a.keys.emplace_back("screw_pitch", fmtNumber(pitch) + "|assumed: a configuration gives counts per unit, not the screw");
       a.keys.emplace_back("gear_ratio", fmtNumber(gear) + "|motor revolutions per screw revolution");
+      lead = pitch / gear;
       a.tableName = "axis.drive";
       a.drive.emplace_back("analog_output", fmt::format("{}|{} ({})", *analog, analogPin, at(where(analogPin))));
       a.drive.emplace_back("enable", fmt::format("{}|AnalogEna{}", *analog, *analog == 5 ? "/SpinEna (ENA5)" : ""));
@@ -484,6 +520,7 @@ class Deriver {
                             fmtNumber(10.0 * unitsPerSecondPerVolt), unitName, fmtNumber(vmax)));
     }
 
+    lead = pitch / gear;
     // Homing and the switches.
     const double leadUnits = lead / mmPerUnit;
     double lo = minLimit->v, hi = maxLimit->v;
@@ -513,6 +550,13 @@ class Deriver {
                                    fmtNumber(leadUnits), unitName);
       lo = std::min(lo, *edge);
       hi = std::max(hi, *edge);
+      // Powered up a few seconds' search from its home switch (5 mm, or 5 s
+      // at HOME_SEARCH_VEL), within the travel: where the machine is at
+      // power-up is the one thing no configuration says.
+      const double away = std::min(std::max(5.0 / mmPerUnit, 5.0 * std::abs(sv)), 0.4 * (hi - lo));
+      initial = std::clamp(*edge - (sv > 0 ? away : -away), lo, hi);
+      homeComment += fmt::format("; it starts {} {} from the switch, {} s of HOME_SEARCH_VEL", fmtNumber(away), unitName,
+                                 fmtNumber(away / std::abs(sv)));
     }
     const double stopDistance = sv * sv / (2 * amax);
     const double marginLow = 2.0 / mmPerUnit + leadUnits + (sv < 0 ? stopDistance : 0.0);
@@ -524,7 +568,10 @@ class Deriver {
     a.keys.emplace_back("overtravel", fmtNumber(std::ceil(overtravel)) +
                                           "|hard stops past the limit switches, and past a stop from MAX_VELOCITY");
     a.keys.emplace_back("initial_position", fmtNumber(initial * mmPerUnit) + "|" +
-                                                (sv == 0.0 ? homeComment : std::string("the middle of the travel")));
+                                                (sv == 0.0 ? homeComment
+                                                           : fmt::format("{} {} from its home switch, on the side "
+                                                                         "HOME_SEARCH_VEL searches from",
+                                                                         fmtNumber(std::abs(*edge - initial)), unitName)));
 
     // Which inputs the joint's switches are on.
     struct Role {
@@ -585,7 +632,7 @@ class Deriver {
       trace(jp + "home-sw-in", false, homes);
       if (homes.empty())
         error(iniAt, section,
-              fmt::format("joint {}: HOME_SEARCH_VEL is {} but {}home-sw-in reaches no 7I77 or 7I76 field input ({}): "
+              fmt::format("joint {}: HOME_SEARCH_VEL is {} but {}home-sw-in reaches no 7I77, 7I76 or card input ({}): "
                           "there is no home switch to place",
                           n, fmtNumber(sv), jp, describe(jp + "home-sw-in")));
     }

@@ -50,6 +50,8 @@ class IoPort final : public Module {
   // Watchdog bite: every GPIO output is released.
   void releaseOutputs();
   [[nodiscard]] std::uint32_t ddr(unsigned port) const { return regs_.at(port)[1]; }
+  [[nodiscard]] unsigned ports() const { return ports_; }
+  [[nodiscard]] unsigned width() const { return width_; }  // pins per port
   [[nodiscard]] State state() const;
 
  private:

@@ -1,5 +1,7 @@
 #include "machine/machine.hpp"
 
+#include "hostmot2/ioport.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <stdexcept>
@@ -82,7 +84,7 @@ Machine::Machine(MachineDescription description, hm2::HostMot2Card& card, SimTim
       encoders_(&card.part<hm2::MuxedEncoder>()),
       stepGens_(card.module<hm2::StepGen>()),
       sevenI76_(card.sevenI76()),
-      inputs_{&board_->fieldIo, sevenI76_},
+      inputs_{&board_->fieldIo, sevenI76_, card.module<hm2::IoPort>()},
       time_(now),
       h_(d_.step),
       hSeconds_(std::chrono::duration<double>(d_.step).count()),
@@ -110,7 +112,7 @@ Machine::Machine(MachineDescription description, hm2::HostMot2Card& card, SimTim
     if (a.screwPitch == 0 || a.gearRatio == 0) bad("axis " + a.name + " needs a screw pitch and gear ratio");
     if (a.brakeOutput >= static_cast<int>(remote::FieldIoProcessor::kOutputs)) bad("axis " + a.name + ": no such brake output");
     AxisPlant plant{Axis(axisParameters(a), a.initialPosition), {}, 0.0, a.brakeOutput, a.brakeDaughtercard, 0.0,
-                    std::nullopt};
+                    std::nullopt, std::nullopt};
     plant.commanded = plant.axis.position();
     const auto motors = static_cast<double>(std::max<std::size_t>(a.drives.size(), 1));  // none: a stepper
     plant.inertiaShare = plant.axis.parameters().inertia / motors;
@@ -130,6 +132,10 @@ Machine::Machine(MachineDescription description, hm2::HostMot2Card& card, SimTim
       const AxisParameters& p = plant.axis.parameters();
       plant.stepper.emplace(*a.stepper, a.initialPosition, stepGens_->steps(n, card.now()), p.hardStopMin,
                             p.hardStopMax);
+      if (a.stepper->encoderInput)
+        plant.stepperEncoder.emplace(a.stepper->encoder, *encoders_,
+                                     checkEncoder(*a.stepper->encoderInput, "axis " + a.name + ": stepper"),
+                                     a.initialPosition / p.unitsPerMotorRev);
     }
     for (const auto& drive : a.drives) {
       checkChannel(drive.analogOutput, "axis " + a.name + ": analog output");
@@ -159,6 +165,11 @@ Machine::Machine(MachineDescription description, hm2::HostMot2Card& card, SimTim
       spindleEncoder_.emplace(d_.spindle->encoder, *encoders_, input, 0.0);
     }
   }
+  for (const auto& s : d_.switches)
+    if (s.daughtercard == Daughtercard::Card &&
+        (inputs_.card == nullptr || s.input >= inputs_.card->ports() * inputs_.card->width()))
+      bad("switch " + s.name + ": IO pin " + std::to_string(s.input) + " is not on the card (its firmware has " +
+          std::to_string(inputs_.card == nullptr ? 0 : inputs_.card->ports() * inputs_.card->width()) + ")");
   // What the outputs drive loads them (manual: FIELD OUTPUT CHARACTERISTICS).
   for (const auto& o : d_.outputs) {
     if (o.output >= remote::FieldIoProcessor::kOutputs) bad("output " + o.name + ": no such field output");
@@ -347,8 +358,19 @@ void Machine::step() {
     positions_[i] = a.axis.position();
   }
   if (spindle_) spindle_->step(spindleVolts(), spindleEna(), hSeconds_);
-  for (AxisPlant& a : axes_)
+  for (AxisPlant& a : axes_) {
     for (Drive& drive : a.drives) drive.encoder.drive(a.axis.motorRevs(), from, t1, seconds, minimum);
+    if (a.stepperEncoder) {
+      // The stepper's position is known as far as the card has run (its
+      // StepGen's steps); to the step's end it goes on at the rate the
+      // StepGen steps at. Aimed there, the encoder turns smoothly, where
+      // chasing a host period's steps within one plant step would spin it
+      // faster than the counter's filter follows.
+      const double ahead = std::max(0.0, std::chrono::duration<double>(t1 - card_->now()).count());
+      const double position = a.stepper->position() + a.stepper->velocity() * ahead;
+      a.stepperEncoder->drive(position / a.axis.parameters().unitsPerMotorRev, from, t1, seconds, minimum);
+    }
+  }
   if (spindleEncoder_) spindleEncoder_->drive(spindle_->revolutions(), from, t1, seconds, minimum);
   time_ = t1;
 }

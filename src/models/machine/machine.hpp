@@ -192,6 +192,7 @@ class Machine {
     Daughtercard brakeDaughtercard;
     double commanded = 0.0;  // machine units: drive 0's velocity command integrated since enabled
     std::optional<StepperMotor> stepper;  // in place of the drives
+    std::optional<QuadratureEncoder> stepperEncoder;  // on the stepper's shaft
   };
   [[nodiscard]] static double position(const AxisPlant& a) {
     return a.stepper ? a.stepper->position() : a.axis.position();

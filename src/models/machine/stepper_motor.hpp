@@ -18,6 +18,10 @@
 // step and the rate register's value then.
 #pragma once
 
+#include "machine/quadrature_encoder.hpp"
+
+#include <optional>
+
 #include <cstdint>
 
 namespace machine {
@@ -30,6 +34,12 @@ struct StepperParameters {
   // negative positions (the motor or DIR wired the other way): what a
   // configuration with a negative position-scale (SCALE) drives.
   bool reversed = false;
+  // An encoder on the motor's shaft (a closed-loop stepper: LinuxCNC's
+  // feedback from the encoder, its command a StepGen velocity), counted on
+  // the card's muxed encoder `encoderInput`; none when absent. One motor
+  // revolution is the axis' screw pitch over its gear ratio.
+  std::optional<unsigned> encoderInput{};
+  EncoderParameters encoder{};
 
   bool operator==(const StepperParameters&) const = default;
 };

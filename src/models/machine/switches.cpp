@@ -13,6 +13,7 @@ Switches::Switches(std::vector<SwitchParameters> switches, std::vector<int> axis
     : switches_(std::move(switches)), axisOf_(std::move(axisOf)) {
   if (axisOf_.size() != switches_.size()) throw std::invalid_argument("switches: one axis index per switch");
   for (const auto& s : switches_) {
+    if (s.daughtercard == Daughtercard::Card) continue;  // the card's pins: the machine checks them
     const unsigned inputs = s.daughtercard == Daughtercard::SevenI76 ? remote::SevenI76FieldIo::kInputs
                                                                      : remote::FieldIoProcessor::kInputs;
     if (s.input >= inputs)
@@ -59,11 +60,13 @@ bool Switches::unchanged(const double* axisPositions) const {
 
 void Switches::apply(const double* axisPositions, const FieldInputs& io) {
   // Each board's field power: what a closed contact puts on its inputs.
-  const std::array<double, 2> field{io.sevenI77 != nullptr ? io.sevenI77->fieldVoltage() : 0.0,
-                                    io.sevenI76 != nullptr ? io.sevenI76->fieldVoltage() : 0.0};
-  const std::array<bool, 2> fieldChanged{field[0] != appliedField_[0], field[1] != appliedField_[1]};
+  // (The card's own pins have no field power of their own: 1, on.)
+  const std::array<double, 3> field{io.sevenI77 != nullptr ? io.sevenI77->fieldVoltage() : 0.0,
+                                    io.sevenI76 != nullptr ? io.sevenI76->fieldVoltage() : 0.0, 1.0};
+  const std::array<bool, 3> fieldChanged{field[0] != appliedField_[0], field[1] != appliedField_[1],
+                                         field[2] != appliedField_[2]};
   // Every input already shows what it would be set to: nothing to do.
-  if (!fieldChanged[0] && !fieldChanged[1] && !dirty_ && unchanged(axisPositions)) return;
+  if (!fieldChanged[0] && !fieldChanged[1] && !fieldChanged[2] && !dirty_ && unchanged(axisPositions)) return;
   appliedField_ = field;
   dirty_ = false;
   constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -86,7 +89,11 @@ void Switches::apply(const double* axisPositions, const FieldInputs& io) {
     if (now == applied_[i] && !fieldChanged[board]) continue;
     applied_[i] = now;
     const double volts = now ? field[board] : 0.0;
-    if (switches_[i].daughtercard == Daughtercard::SevenI76) {
+    if (switches_[i].daughtercard == Daughtercard::Card) {
+      if (io.card == nullptr) throw std::invalid_argument("switch " + switches_[i].name + ": the card has no IO pins");
+      const unsigned width = io.card->width();
+      io.card->setInput(switches_[i].input / width, switches_[i].input % width, now != 0);
+    } else if (switches_[i].daughtercard == Daughtercard::SevenI76) {
       if (io.sevenI76 == nullptr) throw std::invalid_argument("switch " + switches_[i].name + ": no 7I76 to wire it to");
       io.sevenI76->setInputVoltage(switches_[i].input, volts);
     } else {

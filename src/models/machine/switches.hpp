@@ -12,6 +12,8 @@
 #include <array>
 #include <cstdint>
 #include <string>
+
+#include "hostmot2/ioport.hpp"
 #include <vector>
 
 #include "machine/daughtercard.hpp"
@@ -39,11 +41,14 @@ struct SwitchParameters {
   bool operator==(const SwitchParameters&) const = default;
 };
 
-// The field inputs switches can be wired to: the 7I77's, and the 7I76's on
-// the firmwares that have one (nullptr on the others).
+// The field inputs switches can be wired to: the 7I77's, the 7I76's on the
+// firmwares that have one (nullptr on the others), and the card's own IO
+// pins (its IOPort: pin N is port N / width, bit N % width). A closed
+// contact on a card pin drives it high, an open one low.
 struct FieldInputs {
   remote::FieldIoProcessor* sevenI77 = nullptr;
   remote::SevenI76FieldIo* sevenI76 = nullptr;
+  hm2::IoPort* card = nullptr;
 };
 
 class Switches {
@@ -89,7 +94,7 @@ class Switches {
   std::vector<std::uint8_t> tripped_;  // by position, from the last apply()
   std::vector<std::uint8_t> forced_;   // by hand
   std::vector<std::uint8_t> applied_;  // 0 off, 1 on, 2 never applied
-  std::array<double, 2> appliedField_{-1.0, -1.0};  // per Daughtercard
+  std::array<double, 3> appliedField_{-1.0, -1.0, -1.0};  // per Daughtercard
   // apply() runs at every plant step; it has nothing to do while no switch
   // is tripped or released by hand (dirty_), the field voltage is the same
   // and every axis stays where its switches keep their states.

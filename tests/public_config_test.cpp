@@ -1,0 +1,164 @@
+// Configurations nobody here wrote (tests/public_configs/, each with its
+// SOURCE.md), from their own files to homed and moved with the user's
+// commands alone: `lbpkit machine --from-config` writes the machine, and
+// `lbpkit linuxcnc --display tests/e2e/config_display.py` runs LinuxCNC
+// against the sim with it, on the sim's host clock (docs/clocks.md), and a
+// headless display that homes every joint, makes G53 MDI moves across each
+// axis' travel and runs a short program. Every joint must end within one
+// count of LinuxCNC's command, and LinuxCNC report no error in any step. What a
+// configuration needs that Debian's LinuxCNC lacks (a custom component, a
+// GUI panel) is left out, line by line, each with its reason. Needs root
+// and linuxcnc-uspace (scripts/test installs it).
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "support/interop.hpp"
+#include "support/process.hpp"
+#include "support/temp_dir.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// Lines a configuration's file has that Debian's LinuxCNC cannot load:
+// each line of `file` holding `text` is commented out.
+struct LeftOut {
+  std::string file;
+  std::string text;
+  std::string why;
+};
+
+struct PublicConfig {
+  std::string folder;  // under tests/public_configs/
+  std::string ini;
+  std::vector<LeftOut> leftOut;
+};
+
+std::ostream& operator<<(std::ostream& o, const PublicConfig& c) { return o << c.folder; }
+
+void leaveOut(const fs::path& config, const LeftOut& l) {
+  const auto file = config / l.file;
+  std::ifstream in(file);
+  ASSERT_TRUE(in) << file;
+  std::string text, line;
+  unsigned changed = 0;
+  while (std::getline(in, line)) {
+    if (line.find(l.text) != std::string::npos) {
+      line = "# left out by lbpkit's test (" + l.why + "): " + line;
+      ++changed;
+    }
+    text += line + "\n";
+  }
+  in.close();
+  ASSERT_GT(changed, 0U) << l.file << " has no line with " << l.text;
+  std::ofstream(file, std::ios::trunc) << text;
+}
+
+class PublicConfigRun : public ::testing::TestWithParam<PublicConfig> {
+ protected:
+  void SetUp() override {
+    if (::geteuid() != 0) GTEST_SKIP() << "lbpkit linuxcnc needs root";
+    if (!interop::have("linuxcnc") || !interop::have("ip")) GTEST_SKIP() << "linuxcnc-uspace or iproute2 is not installed";
+  }
+};
+
+TEST_P(PublicConfigRun, HomesMovesAndRunsAProgram) {
+  const auto& c = GetParam();
+  test_support::TempDir dir;
+  // LinuxCNC runs as nobody (rtapi_app's RTAPI_UID): the folder is readable,
+  // the results file writable.
+  fs::permissions(dir.path(), fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                                  fs::perms::others_read | fs::perms::others_exec);
+  const auto config = dir.path() / "config";
+  fs::copy(fs::path(LBPKIT_SOURCE_DIR) / "tests/public_configs" / c.folder, config, fs::copy_options::recursive);
+  for (const auto& l : c.leftOut) leaveOut(config, l);
+  fs::create_directories(dir.path() / "e2e");
+  for (const char* script : {"config_display.py", "mill_display.py"}) {
+    fs::copy_file(fs::path(LBPKIT_SOURCE_DIR) / "tests/e2e" / script, dir.path() / "e2e" / script);
+    fs::permissions(dir.path() / "e2e" / script, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                                                     fs::perms::others_read | fs::perms::others_exec);
+  }
+  const auto results = dir.path() / "results.jsonl";
+  std::ofstream(results).close();
+  fs::permissions(results, fs::perms::all);
+
+  const auto ini = (config / c.ini).string();
+  const auto machine = (dir.path() / "machine.toml").string();
+  const auto derived = test_support::run({"machine", "--from-config", ini, "-o", machine});
+  ASSERT_EQ(derived.exit, 0) << derived.err;
+
+  const auto display = (dir.path() / "e2e/config_display.py").string() + " --out " + results.string();
+  const auto r = test_support::run({"linuxcnc", ini, "--machine", machine, "--display", display, "--", "--clock",
+                                    "host=1ms", "--state", (dir.path() / "sim.eeprom").string()},
+                                   std::chrono::seconds(280));
+  const std::string log = r.out + r.err;
+  EXPECT_EQ(r.exit, 0) << log;
+
+  std::ifstream in(results);
+  std::map<std::string, std::vector<nlohmann::json>> steps;
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty()) {
+      const auto j = nlohmann::json::parse(line);
+      steps[j["step"].get<std::string>()].push_back(j);
+    }
+  ASSERT_EQ(steps.count("exception"), 0U) << steps["exception"][0].dump(2) << log;
+  ASSERT_EQ(steps.count("finished"), 1U) << log;
+  EXPECT_TRUE(steps["machine_on"].at(0)["ok"].get<bool>()) << steps["machine_on"][0].dump();
+  const auto& home = steps["home"].at(0);
+  EXPECT_TRUE(home["ok"].get<bool>()) << home.dump();
+  EXPECT_TRUE(home["within_one_count"].get<bool>()) << home.dump();
+  EXPECT_TRUE(home["messages"].empty()) << home.dump();
+  ASSERT_EQ(steps["mdi"].size(), 3U);
+  for (const auto& m : steps["mdi"]) {
+    EXPECT_TRUE(m["ok"].get<bool>()) << m.dump();
+    EXPECT_TRUE(m["within_one_count"].get<bool>()) << m.dump();
+    EXPECT_TRUE(m["messages"].empty()) << m.dump();
+  }
+  const auto& program = steps["program"].at(0);
+  EXPECT_TRUE(program["ok"].get<bool>()) << program.dump();
+  EXPECT_TRUE(program["within_one_count"].get<bool>()) << program.dump();
+  // What LinuxCNC said after the last step (a watchdog bite when its servo
+  // thread stalls past the host clock's 40 ms silence is LinuxCNC's
+  // lateness), printed for the record.
+  std::printf("%s: homed in %.1f s; after the steps LinuxCNC said: %s\n", c.folder.c_str(),
+              home["seconds"].get<double>(), steps["finished"][0]["all_messages"].dump().c_str());
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Public, PublicConfigRun,
+    ::testing::Values(
+        // A 7I96S + 7I77 testbed by hand (LinuxCNC 2.9, mm): X a closed-loop
+        // stepper (a StepGen in velocity mode, an encoder's feedback), Y a
+        // servo, their home switches on the 7I96S's own inputs, a
+        // classicladder program (Debian's LinuxCNC has it). Nothing left out.
+        PublicConfig{"gtec-testbed-7i96s-xy", "mesa_7i96s_7i77_xy.ini", {}},
+        // A 5I25 + 7I77 mill by PNCconf for LinuxCNC 2.7, in inches: run as
+        // a copy on a 7I92 (hm2_pci) converted by update_ini.
+        PublicConfig{"5i25-7i77-mill-floppydisk525",
+                     "7i77v7.ini",
+                     {{"7i77v7.hal", "probe_parport", "a PC parallel port: no such module in LinuxCNC's uspace build"},
+                      {"7i77v7.hal", "pet_watchdog",
+                       "LinuxCNC 2.9's hostmot2 exports no pet_watchdog function (lbpkit check-config says so)"},
+                      {"7i77v7.hal", "hal_manualtoolchange", "a Tk window: there is no X display here"},
+                      {"custom.hal", "spindle-vfd", "gs2_vfd talks to a VFD on a serial port"},
+                      {"7i77v7.ini", "POSTGUI_HALFILE", "its PyVCP panel's pins exist only with AXIS"}}}),
+    [](const ::testing::TestParamInfo<PublicConfig>& i) {
+      std::string name;
+      for (char ch : i.param.folder)
+        if (std::isalnum(static_cast<unsigned char>(ch))) name += ch;
+      return name;
+    });
+
+}  // namespace
