@@ -103,13 +103,16 @@ class ConfigDisplay(mill_display.Display):
         # only makes the period late; hm2_eth may then wait for its reply
         # (20 ms, under the 40 ms silence that hands the sim back to the wall
         # clock) instead of running a period without feedback, as
-        # mill_display.py's host_clock() does.
+        # mill_display.py's host_clock() does. A servo thread held back past
+        # that silence is a host gone quiet to the sim, whose time then runs
+        # on: the HostMot2 watchdog gets 500 ms (timeout_ns), as a
+        # configuration for a machine without real-time scheduling would.
         params = mill_display.subprocess.run(["halcmd", "list", "param"], capture_output=True, text=True).stdout.split()
-        names = [n for n in params if n.endswith(".packet-read-timeout")]
-        results = [mill_display.subprocess.run(["halcmd", "setp", n, "20000000"], capture_output=True, text=True)
-                   for n in names]
-        self.report("clock", packet_read_timeout_ns=20000000, boards=names,
-                    ok=bool(names) and all(r.returncode == 0 for r in results))
+        settings = [(n, "20000000") for n in params if n.endswith(".packet-read-timeout")]
+        settings += [(n, "500000000") for n in params if n.endswith(".watchdog.timeout_ns")]
+        results = [mill_display.subprocess.run(["halcmd", "setp", n, v], capture_output=True, text=True)
+                   for n, v in settings]
+        self.report("clock", settings=settings, ok=bool(settings) and all(r.returncode == 0 for r in results))
 
     def run(self):
         self.wait(lambda: self.s.task_state != 0, 10)
