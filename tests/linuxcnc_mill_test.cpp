@@ -43,6 +43,7 @@
 #include <vector>
 
 #include "linuxcnc/network_namespace.hpp"
+#include "support/card_cpu.hpp"
 #include "support/process.hpp"
 #include "support/sim_child.hpp"
 
@@ -61,6 +62,10 @@ constexpr double kWatchdog = 0.050;        // the 7I77's analog and field I/O wa
 // program, as on an on-time real-time machine. Twice that is the bound; the
 // configuration's MIN_FERROR (1 mm) is where a real LinuxCNC would stop.
 constexpr double kFerrorBound = 0.06;
+// LinuxCNC and the sim's card thread share a CPU (support/card_cpu.hpp):
+// the one before the last, since a public configuration's `lbpkit linuxcnc`
+// (the last, its default) may run beside a mill (scripts/test: ctest -j 2).
+const unsigned kCardCpu = test_support::cardCpu(1);
 constexpr auto kRunLimit = 100s;           // one run of the display, start to "ready_for_kill"
 
 // A shell command's exit status; its output is dropped (only `ip`, `sh -c
@@ -227,6 +232,7 @@ class LinuxCncRun {
       ::dup2(log, 1);
       ::dup2(log, 2);
       ::setsid();
+      test_support::runOnCpu(kCardCpu);  // LinuxCNC with the card thread
       std::vector<char*> args;
       for (auto& a : argv) args.push_back(a.data());
       args.push_back(nullptr);
@@ -504,6 +510,11 @@ struct Outcome {
   bool setUp = false;   // the network, the sim and the configuration were there
 };
 
+std::vector<std::string> withCardCpu(std::vector<std::string> arguments) {
+  arguments.insert(arguments.begin(), {"--cpu", std::to_string(kCardCpu)});
+  return arguments;
+}
+
 // One run of a scenario, once: the sim runs on the host clock (`--clock
 // host=1ms`, docs/clocks.md), so LinuxCNC's late servo periods on this
 // kernel move the machine one nominal period each, as an on-time real-time
@@ -520,7 +531,7 @@ Outcome runScenario(const Scenario& scenario) {
   // The card at the INI's address on hm2_eth's port, its API on the test's
   // own link, at the priority a user runs it; its state in a folder of its own.
   test_support::SimChild sim(
-      test_support::SimOptions{"10.10.10.10", -1, net.apiAddress(), false, {}, scenario.simArguments});
+      test_support::SimOptions{"10.10.10.10", -1, net.apiAddress(), false, {}, withCardCpu(scenario.simArguments)});
   if (!sim.up()) {
     ADD_FAILURE() << "lbpkit sim did not start";
     return o;

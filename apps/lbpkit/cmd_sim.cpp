@@ -44,6 +44,7 @@ struct SimCommandOptions {
   std::string clock = "wall";  // --clock wall|host[=PERIOD]
   bool paused = false;
   bool noRealtime = false;
+  int cpu = -1;  // --cpu N: the card thread on CPU N alone
   bool demo = false;
   std::string machine;
   std::string record;
@@ -205,6 +206,7 @@ int runSim(const SimCommandOptions& o) {
     throw lbpkit::Error("--speed and --clock host exclude each other: on the host clock a servo period passes per host "
                         "cycle");
   s.realtime = !o.noRealtime;
+  if (o.cpu != -1) s.cpu = app::checkedCpu(o.cpu, "--cpu");
   s.demo = o.demo;
   if (!o.machine.empty()) {
     if (o.demo) throw lbpkit::Error("--machine and --demo exclude each other: both wire the 7I77's terminals");
@@ -340,6 +342,9 @@ void addSimCommand(CLI::App& app) {
                   "pcap file: every LBP16 datagram the card takes and every reply it sends, timed (lbpkit decode, "
                   "Wireshark)");
   cmd->add_flag("--no-realtime", o->noRealtime, "Do not ask for real-time (SCHED_FIFO) scheduling of the card thread");
+  cmd->add_option("--cpu", o->cpu,
+                  "Run the card thread on this CPU alone; start the host on the same CPU (taskset -c N) and every "
+                  "reply is there before the host looks for it, however busy the PC is");
   cmd->add_flag("--paused", o->paused, "Start with simulated time stopped (the API can run or step it)");
   cmd->add_option("--remote", o->remotes,
                   "CH=pty: SSLBP channel CH (e.g. 2, TB6) on a pseudo-terminal for a remote of your own; repeatable");

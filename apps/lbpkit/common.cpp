@@ -1,5 +1,7 @@
 #include "common.hpp"
 
+#include <sched.h>
+
 #include <fmt/core.h>
 
 #include <csignal>
@@ -101,6 +103,29 @@ ApiAddress parseApiAddress(const std::string& text, const std::string& host) {
     throw lbpkit::Error(fmt::format("--api: \"{}\" is not [ADDR:]PORT (a port is 1..65535)", text));
   a.port = static_cast<int>(std::stoul(portText));
   return a;
+}
+
+}  // namespace app
+
+namespace app {
+
+std::vector<unsigned> allowedCpus() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  std::vector<unsigned> cpus;
+  if (::sched_getaffinity(0, sizeof set, &set) != 0) return cpus;
+  for (unsigned i = 0; i < CPU_SETSIZE; ++i)
+    if (CPU_ISSET(i, &set)) cpus.push_back(i);
+  return cpus;
+}
+
+unsigned checkedCpu(int cpu, const char* option) {
+  const auto cpus = allowedCpus();
+  for (const unsigned c : cpus)
+    if (cpu >= 0 && static_cast<unsigned>(cpu) == c) return c;
+  std::string list;
+  for (const unsigned c : cpus) list += (list.empty() ? "" : ", ") + std::to_string(c);
+  throw lbpkit::Error(fmt::format("{} {}: not a CPU this process may run on (those are {})", option, cpu, list));
 }
 
 }  // namespace app

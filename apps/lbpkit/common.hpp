@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "lbpkit/hostmot2.hpp"
 #include "linuxcnc/config_check.hpp"
@@ -62,6 +63,11 @@ lbpkit::linuxcnc::BoardModel catalogueBoardModel(std::string card, std::string p
 // found goes to stderr. Returns the file's text; throws lbpkit::Error when
 // there is no machine (cmd_machine.cpp).
 std::string deriveMachineFile(const std::filesystem::path& ini, const std::filesystem::path& out, bool force);
+
+// The CPUs this process may run on (sched_getaffinity), ascending.
+std::vector<unsigned> allowedCpus();
+// `--cpu N` checked against them: N, or an error naming the CPUs there are.
+unsigned checkedCpu(int cpu, const char* option);
 
 }  // namespace app
 

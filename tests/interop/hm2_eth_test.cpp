@@ -144,7 +144,7 @@ TEST_F(LinuxCnc, SixtySecondsAt1kHz) {
   if (!measuring()) GTEST_SKIP() << "a measurement: LBPKIT_MEASURE=1 runs it";
   const char* env = std::getenv("LBPKIT_SOAK_SECONDS");
   const int seconds = env != nullptr ? std::atoi(env) : 10;
-  startSim();
+  startSim(false);
   if (!measuredLoad()) return;
   const auto before = sim_->get()["lbp16"]["packets"].get<std::uint64_t>();
   std::this_thread::sleep_for(std::chrono::seconds(seconds));
@@ -204,7 +204,7 @@ TEST_F(LinuxCnc, Hm2EthLoadsTwelveEncodersAndChannels3To5WithOne7I77) {
 TEST_F(LinuxCnc, Hm2EthRunsTwo7I77sOnChannels0To5AndTwelveEncoders) {
   const auto config = fifo_ + ".toml";
   std::ofstream(config) << "[card]\npinout = \"7I77x2\"\n[[daughtercard]]\ntype = \"7I77\"\n[[daughtercard]]\ntype = \"7I77\"\n";
-  sim_ = std::make_unique<Sim>(cardIp_, std::vector<std::string>{"--config", config});
+  sim_ = cardSim(std::vector<std::string>{"--config", config});
   ASSERT_TRUE(sim_->up());
   const auto r = hal("halcmd -f " + twelveEncodersAndSixChannels(fifo_ + ".hal", cardIp_));
   std::filesystem::remove(fifo_ + ".hal");
@@ -241,7 +241,7 @@ TEST_F(LinuxCnc, Hm2EthRunsTwo7I77sOnChannels0To5AndTwelveEncoders) {
 // purpose (POST /api/network); the numbers seen are printed.
 TEST_F(LinuxCnc, PacketErrorsFollowHm2EthsDocumentedRules) {
   if (!measuring()) GTEST_SKIP() << "a measurement: LBPKIT_MEASURE=1 runs it";
-  startSim();
+  startSim(false);
   if (!measuredLoad()) return;
   const std::string board = "hm2_7i92.0.";
   const int limit = std::atoi(getp(board + "packet-error-limit").c_str());
@@ -319,7 +319,7 @@ TEST_F(LinuxCnc, PacketErrorsFollowHm2EthsDocumentedRules) {
 // flat.
 TEST_F(LinuxCnc, AGarbageAndReplayFloodLeavesLinuxCncRunning) {
   if (!measuring()) GTEST_SKIP() << "a measurement: LBPKIT_MEASURE=1 runs it";
-  startSim();
+  startSim(false);
   if (!measuredLoad()) return;
   const std::string board = "hm2_7i92.0.";
   // The flood's sender and the sim take CPU from LinuxCNC's servo thread,

@@ -27,7 +27,7 @@ TEST(Mesaflash, ReadsTheVirtualCard) {
   if (!have("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
   Sim sim(loopback());
   ASSERT_TRUE(sim.up());
-  const std::string card = "timeout 30 mesaflash --device 7i92 --addr " + loopback();
+  const std::string card = "timeout 30 " + onCardCpu() + "mesaflash --device 7i92 --addr " + loopback();
   auto r = sh(card + " --readhmid");
   ASSERT_EQ(r.exit, 0) << r.out;
   EXPECT_NE(r.out.find("BoardName : MESA7I92"), std::string::npos) << r.out;
@@ -86,7 +86,7 @@ TEST(Mesaflash, WritesAndVerifiesTheVirtualFlash) {
   Sim sim(loopback());
   ASSERT_TRUE(sim.up());
   const auto bit = fakeBitfile();
-  const std::string card = "timeout 120 mesaflash --device 7i92 --addr " + loopback();
+  const std::string card = "timeout 120 " + onCardCpu() + "mesaflash --device 7i92 --addr " + loopback();
   auto r = sh(card + " --verify " + bit);  // a blank part has no boot block
   EXPECT_NE(r.out.find("BootSector is invalid"), std::string::npos) << r.out;
   r = sh(card + " --write " + bit + " --fix-boot-block");
@@ -107,7 +107,7 @@ TEST(Mesaflash, ShowsEverySoftwareModeOfBothRemotes) {
   if (!have("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
   Sim sim(loopback());
   ASSERT_TRUE(sim.up());
-  const auto r = sh("timeout 60 mesaflash --device 7i92 --addr " + loopback() + " --sserial --verbose");
+  const auto r = sh("timeout 60 " + onCardCpu() + "mesaflash --device 7i92 --addr " + loopback() + " --sserial --verbose");
   ASSERT_EQ(r.exit, 0) << r.out;
   const auto field = r.out.find("channel 0: 7I77 GPIO");
   const auto analog = r.out.find("channel 1: 7I77 ANALOG");
@@ -148,7 +148,7 @@ TEST(Mesaflash, TheFlashIsKeptAcrossRestarts) {
     return d;
   };
   const auto bit = fakeBitfile();
-  const std::string card = "timeout 120 mesaflash --device 7i92 --addr " + loopback();
+  const std::string card = "timeout 120 " + onCardCpu() + "mesaflash --device 7i92 --addr " + loopback();
   auto first = start();
   auto r = sh(card + " --write " + bit + " --fix-boot-block");
   EXPECT_EQ(r.exit, 0) << r.out;
@@ -199,7 +199,7 @@ TEST(Mesaflash, ReadsEveryCardOfTheCatalogue) {
     Sim sim(loopback(), {"--card", c.card});
     ASSERT_TRUE(sim.up());
     EXPECT_EQ(sim.get()["card"]["name"], c.card);
-    const std::string card = "timeout 30 mesaflash --device " + c.device + " --addr " + loopback();
+    const std::string card = "timeout 30 " + onCardCpu() + "mesaflash --device " + c.device + " --addr " + loopback();
     auto r = sh(card + " --readhmid");
     ASSERT_EQ(r.exit, 0) << r.out;
     for (const auto& line : c.lines) EXPECT_NE(r.out.find(line), std::string::npos) << line << "\n" << r.out;
@@ -210,7 +210,7 @@ TEST(Mesaflash, ReadsEveryCardOfTheCatalogue) {
     EXPECT_NE(r.out.find("channel 0: 7I77 GPIO (unit 0x12000AEE)"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("channel 1: 7I77 ANALOG (unit 0x11000AEE)"), std::string::npos) << r.out;
     // Another card's name is not this one: mesaflash finds no 7I92 here.
-    EXPECT_EQ(sh("timeout 30 mesaflash --device 7i92 --addr " + loopback() + " --readhmid").out.find("MESA"),
+    EXPECT_EQ(sh("timeout 30 " + onCardCpu() + "mesaflash --device 7i92 --addr " + loopback() + " --readhmid").out.find("MESA"),
               std::string::npos);
     EXPECT_EQ(sim.stop(), 0);
   }
@@ -249,7 +249,7 @@ TEST(Mesaflash, EachCardAnswersWithItsOwnLbp16DetailsAndReloads) {
     SCOPED_TRACE(c.card);
     Sim sim(loopback(), {"--card", c.card});
     ASSERT_TRUE(sim.up());
-    const std::string card = "timeout 120 mesaflash --device " + c.device + " --addr " + loopback();
+    const std::string card = "timeout 120 " + onCardCpu() + "mesaflash --device " + c.device + " --addr " + loopback();
     auto r = sh(card + " --verbose");
     ASSERT_EQ(r.exit, 0) << r.out;
     for (const auto& line : {"ETH device " + c.card + " at ip=", "    board name: " + c.card + "\n  " + "  user leds",
@@ -269,7 +269,8 @@ TEST(Mesaflash, EachCardAnswersWithItsOwnLbp16DetailsAndReloads) {
       EXPECT_NE(r.out.find("verified successfully"), std::string::npos) << r.out;
     }
     // A register the FPGA's reload puts back to power-up: IOPort output invert.
-    sh(card + " --wpo 0x1400=0x5");
+    r = sh(card + " --wpo 0x1400=0x5");
+    ASSERT_EQ(r.exit, 0) << r.out;
     ASSERT_EQ(sh(card + " --rpo 0x1400").out, "00000005\n");
     r = sh(card + " --reload");
     EXPECT_EQ(r.exit, 0) << r.out;

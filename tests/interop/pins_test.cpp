@@ -114,7 +114,7 @@ TEST_F(LinuxCnc, PinsListsExactlyWhatHm2EthCreatesInEveryModeWithOneAndTwo7I77s)
   }};
   for (const auto& c : cases) {
     SCOPED_TRACE(std::to_string(c.sevenI77s) + " 7I77, " + c.config);
-    sim_ = std::make_unique<Sim>(cardIp_, c.sevenI77s == 2 ? std::vector<std::string>{"--config", toml}
+    sim_ = cardSim(c.sevenI77s == 2 ? std::vector<std::string>{"--config", toml}
                                                            : std::vector<std::string>{});
     ASSERT_TRUE(sim_->up());
     const auto predicted = lbpkitPins(cardIp_, c.config);
@@ -144,7 +144,7 @@ TEST_F(LinuxCnc, CheckConfigsVerdictsAreLinuxCncs) {
     const auto ini = corpus / "good" / (std::string(name) + ".ini");
     const auto checked = test_support::run({"check-config", ini.string()});
     ASSERT_EQ(checked.exit, 0) << checked.out << checked.err;
-    sim_ = std::make_unique<Sim>(cardIp_, std::string(name) == "two_7i77s" ? std::vector<std::string>{"--config", toml}
+    sim_ = cardSim(std::string(name) == "two_7i77s" ? std::vector<std::string>{"--config", toml}
                                                                             : std::vector<std::string>{});
     ASSERT_TRUE(sim_->up());
     // The same INI with this test's card address.
@@ -209,7 +209,7 @@ TEST_F(LinuxCnc, Hm2EthCreatesEachCardsPinsForEveryModule) {
   }};
   for (const auto& c : cases) {
     SCOPED_TRACE(c.card);
-    sim_ = std::make_unique<Sim>(cardIp_, std::vector<std::string>{"--card", c.card});
+    sim_ = cardSim(std::vector<std::string>{"--card", c.card});
     ASSERT_TRUE(sim_->up());
     const auto r = loadBoard(c.board, c.config);
     ASSERT_EQ(r.exit, 0) << r.out;
@@ -239,7 +239,7 @@ TEST_F(LinuxCnc, Hm2EthCreatesThe7I76sPinsOnChannel3) {
     sim_.reset();
     std::filesystem::remove(config);
   }};
-  sim_ = std::make_unique<Sim>(cardIp_, std::vector<std::string>{"--card", "7I92", "--config", config});
+  sim_ = cardSim(std::vector<std::string>{"--card", "7I92", "--config", config});
   ASSERT_TRUE(sim_->up());
   const auto r = loadBoard("hm2_7i92.0", "num_encoders=8 num_stepgens=5 sserial_port_0=00x20");
   ASSERT_EQ(r.exit, 0) << r.out;
@@ -266,7 +266,7 @@ TEST_F(LinuxCnc, Hm2EthCreatesThe7I96SsTb3InmSsrAndOutmPins) {
     hal("halrun -U");
     sim_.reset();
   }};
-  sim_ = std::make_unique<Sim>(cardIp_, std::vector<std::string>{"--card", "7I96S"});
+  sim_ = cardSim(std::vector<std::string>{"--card", "7I96S"});
   ASSERT_TRUE(sim_->up());
   const auto r = loadBoard("hm2_7i96s.0", "num_encoders=8 num_stepgens=5 num_pwmgens=1 sserial_port_0=00xx");
   ASSERT_EQ(r.exit, 0) << r.out;
@@ -286,7 +286,7 @@ TEST_F(LinuxCnc, Hm2EthCreatesThe7I96SsTb3InmSsrAndOutmPins) {
   hal("halcmd setp " + b + "ssr.00.out-02 1");
   hal("halcmd setp " + b + "outm.00.out-05 1");
   hal("halcmd setp " + b + "outm.00.invert-04 1");
-  const std::string rpo = "timeout 30 mesaflash --device 7i96s --addr " + cardIp_ + " --rpo ";
+  const std::string rpo = "timeout 30 " + onCardCpu() + "mesaflash --device 7i96s --addr " + cardIp_ + " --rpo ";
   auto reg = [&](const char* address) {
     auto v = sh(rpo + address).out;
     while (!v.empty() && v.back() == '\n') v.pop_back();
@@ -346,7 +346,7 @@ TEST_F(LinuxCnc, PinsListsExactlyWhatHm2EthCreatesOnEveryCardOfTheCatalogue) {
   }};
   for (const auto& c : cases) {
     SCOPED_TRACE(c.card + " " + c.pinout + ": " + c.config);
-    sim_ = std::make_unique<Sim>(cardIp_, catalogueCard(c.card, c.pinout, toml));
+    sim_ = cardSim(catalogueCard(c.card, c.pinout, toml));
     ASSERT_TRUE(sim_->up());
     const auto listed = test_support::run({"pins", "--addr", cardIp_, "--config", c.config, "--json"});
     ASSERT_EQ(listed.exit, 0) << listed.err;
@@ -396,7 +396,7 @@ TEST_F(LinuxCnc, CheckConfigsVerdictsOnEveryCardOfTheCatalogueAreLinuxCncs) {
     if (!c.pinout.empty()) check.insert(check.end(), {"--card", c.card, "--pinout", c.pinout});
     const auto checked = test_support::run(check);
     ASSERT_EQ(checked.exit, c.good ? 0 : 1) << checked.out << checked.err;
-    sim_ = std::make_unique<Sim>(cardIp_, catalogueCard(c.card, c.pinout, toml));
+    sim_ = cardSim(catalogueCard(c.card, c.pinout, toml));
     ASSERT_TRUE(sim_->up());
     const auto own = ownCopy(file, "catalogue");
     const auto r = hal("halcmd -f " + own);

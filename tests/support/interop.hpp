@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "linuxcnc/network_namespace.hpp"
+#include "support/card_cpu.hpp"
 #include "support/process.hpp"
 #include "support/sim_child.hpp"
 #include "support/wait.hpp"
@@ -69,13 +70,23 @@ inline void reapOrphans() {
   }
 }
 
+// A real client's command prefix: on the card thread's CPU
+// (support/card_cpu.hpp).
+inline std::string onCardCpu() { return test_support::onCpu(test_support::cardCpu()); }
+
+inline std::vector<std::string> withCardCpu(std::vector<std::string> extra) {
+  extra.insert(extra.begin(), {"--cpu", std::to_string(test_support::cardCpu())});
+  return extra;
+}
+
 // `lbpkit sim` on ADDRESS, on the port hm2_eth and mesaflash use, at the
-// priority a user runs it (no --no-realtime), with its control API on a
-// free port of 127.0.0.1 and its state in a folder of its own.
+// priority a user runs it (no --no-realtime), its card thread on the
+// clients' CPU (onCardCpu), with its control API on a free port of
+// 127.0.0.1 and its state in a folder of its own.
 class Sim : public test_support::SimChild {
  public:
   explicit Sim(const std::string& address, std::vector<std::string> extra = {})
-      : SimChild(test_support::SimOptions{address, -1, "127.0.0.1", false, {}, std::move(extra)}) {}
+      : SimChild(test_support::SimOptions{address, -1, "127.0.0.1", false, {}, withCardCpu(std::move(extra))}) {}
   // POST: the JSON answer, whatever its status.
   json post(const std::string& path, const json& body) { return SimChild::post(path, body).body; }
 };
@@ -157,7 +168,7 @@ class LinuxCnc : public ::testing::Test {
   // Resource temporarily unavailable") though the card answered at once.
   // The polls pass `nice` instead: they yield to the sim and to LinuxCNC.
   Shell hal(const std::string& command, const char* nice = "") {
-    const std::string priority = *nice != '\0' ? std::string(nice) : std::string("chrt -f 1 ");
+    const std::string priority = *nice != '\0' ? std::string(nice) : "chrt -f 1 " + onCardCpu();
     return sh(priority + ns_->exec() + lbpkit::linuxcnc::rtapiEnvironment(fifo_) + "timeout 60 " + command);
   }
   // The polls (halcmd through ip netns exec, every 25 ms) at nice 10: they
@@ -215,8 +226,19 @@ class LinuxCnc : public ::testing::Test {
     if (r.exit != 0) std::printf("hm2_eth did not load on its own read timeout this time:\n%s\n", r.out.c_str());
     return r.exit == 0;
   }
-  void startSim() {
-    sim_ = std::make_unique<Sim>(cardIp_);
+  // The card for hm2_eth's 1 kHz servo thread, on the sim's host clock
+  // (`--clock host=1ms`, docs/clocks.md): each servo cycle's DoIt moves the
+  // card one period on, so the next cycle finds it done however late the
+  // thread ran (a thread held back runs its late periods back to back, tens
+  // of microseconds apart, and on the wall clock hostmot2 stops the
+  // smart-serial port after four DoIts not done in time: LinuxCNC's
+  // sserial.c). `hostClock` false: the wall clock, for the measurements.
+  std::unique_ptr<Sim> cardSim(std::vector<std::string> extra = {}, bool hostClock = true) {
+    if (hostClock) extra.insert(extra.end(), {"--clock", "host=1ms"});
+    return std::make_unique<Sim>(cardIp_, std::move(extra));
+  }
+  void startSim(bool hostClock = true) {
+    sim_ = cardSim({}, hostClock);
     ASSERT_TRUE(sim_->up());
   }
 

@@ -413,6 +413,15 @@ void SimDaemon::run(const std::atomic<bool>& stop) {
       log(LogLevel::Info, "real-time scheduling not permitted: running at normal priority");
     }
   }
+  if (options_.cpu) {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(*options_.cpu, &set);
+    if (pthread_setaffinity_np(pthread_self(), sizeof set, &set) != 0)
+      log(LogLevel::Warn, fmt::format("the card thread cannot run on CPU {} alone: it runs on any", *options_.cpu));
+    else
+      schedule_ += fmt::format(", on CPU {}", *options_.cpu);
+  }
   auto& lbp16 = *lbp16_;
   std::uint64_t errorsSeen = 0;
   if (options_.demo) card_.part<hm2::MuxedEncoder>().setVelocity(0, 10000, card_.now());

@@ -54,6 +54,13 @@ struct SimOptions {
   // Run the card thread at a real-time priority (SCHED_FIFO) when allowed,
   // so a host's read is answered within its period even on a busy machine.
   bool realtime = true;
+  // The one CPU the card thread runs on (`--cpu N`); empty: any. With the
+  // host's process on the same CPU, below the card thread's SCHED_FIFO, a
+  // datagram the host sends wakes the card thread at once on that CPU, and
+  // the reply is in the host's socket before the host runs again to look
+  // for it, however the machine around them is scheduled: a real card
+  // answers in microseconds whatever the PC does (docs/sim.md: Scheduling).
+  std::optional<unsigned> cpu;
   // A little world for demonstrations: the 7I77's field outputs wired back
   // to its inputs 0..15, and encoder 0 turning at 10 000 counts/s.
   bool demo = false;
