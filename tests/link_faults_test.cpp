@@ -290,6 +290,27 @@ TEST(LinkFaultScript, ALinkEntryTakesForAndEndsAsItWasBefore) {
                std::invalid_argument);
 }
 
+TEST(LinkFaultScript, OverlappingLinkEntriesEachUndoOnlyTheirOwnChange) {
+  hm2::HostMot2Card card;
+  servers::SimClock clock(1.0, true);
+  const servers::ApiTarget t{card, clock, {}, nullptr, {}, nullptr, nullptr};
+  auto log = [](const std::string&) {};
+  servers::FaultScript script(
+      {{lbp::SimTime{0ms}, "link", json{{"channel", 0}, {"bit_error_rate", 1e-3}}, lbp::SimTime{300ms}, "f.toml:1:1"},
+       {lbp::SimTime{100ms}, "link", json{{"channel", 0}, {"drop_rate", 1e-2}}, lbp::SimTime{1000ms}, "f.toml:6:1"}},
+      hm2::HostMot2Card::Options{}, std::nullopt);
+  auto& link0 = card.part<hm2::SmartSerial>().link(0);
+  script.runDue(lbp::SimTime{100ms}, t, log);
+  EXPECT_EQ(link0.rates().fromRemote.bitErrorRate, 1e-3);
+  EXPECT_EQ(link0.rates().fromRemote.dropRate, 1e-2);
+  script.runDue(lbp::SimTime{300ms}, t, log);
+  EXPECT_EQ(link0.rates().toRemote.bitErrorRate, 0.0) << "the bit errors ended";
+  EXPECT_EQ(link0.rates().fromRemote.bitErrorRate, 0.0);
+  EXPECT_EQ(link0.rates().toRemote.dropRate, 1e-2);
+  script.runDue(lbp::SimTime{1100ms}, t, log);
+  EXPECT_EQ(link0.rates(), SerialLink::RateSettings{}) << "a clean cable once both ended";
+}
+
 TEST(LinkFaultScript, TheFileTakesLinkEntriesWithFor) {
   const auto p = std::filesystem::temp_directory_path() / ("lbpkit-link-script-" + std::to_string(::getpid()) + ".toml");
   {

@@ -406,4 +406,49 @@ TEST(FaultScript, EntriesAndTheirEndsHappenAtTheirSimulatedTimes) {
   EXPECT_NE(said.front().find("f.toml:1:1: cable"), std::string::npos) << said.front();
 }
 
+// Entries that overlap each take away only their own change, whichever
+// ends first: a later entry that began while an earlier one was on does not
+// put the earlier one's fault back when it ends.
+TEST(FaultScript, OverlappingEntriesEachUndoOnlyTheirOwnChange) {
+  hm2::HostMot2Card card;
+  servers::SimClock clock(1.0, true);
+  servers::UdpServer udp("127.0.0.1", 0);
+  const servers::ApiTarget t{card, clock, {}, nullptr, {}, nullptr, &udp};
+  auto log = [](const std::string&) {};
+  // drop 0.5 for 300 ms, then duplicate 0.25 for 1 s from 100 ms: the later
+  // one ends last.
+  servers::FaultScript later({{lbp::SimTime{0ms}, "network", json{{"drop", 0.5}}, lbp::SimTime{300ms}, "f.toml:1:1"},
+                              {lbp::SimTime{100ms}, "network", json{{"duplicate", 0.25}}, lbp::SimTime{1000ms},
+                               "f.toml:6:1"}},
+                             hm2::HostMot2Card::Options{}, std::nullopt);
+  later.runDue(lbp::SimTime{100ms}, t, log);
+  EXPECT_EQ(udp.faults().settings().reply.drop, 0.5);
+  EXPECT_EQ(udp.faults().settings().reply.duplicate, 0.25);
+  later.runDue(lbp::SimTime{300ms}, t, log);
+  EXPECT_EQ(udp.faults().settings().request.drop, 0.0) << "the drop ended";
+  EXPECT_EQ(udp.faults().settings().request.duplicate, 0.25);
+  later.runDue(lbp::SimTime{1100ms}, t, log);
+  EXPECT_EQ(udp.faults().settings(), servers::NetworkFaultSettings{}) << "a good network once both ended";
+
+  // The same setting twice: drop 0.5 for 300 ms, drop 0.2 from 100 ms for
+  // 100 ms (ends first, back to 0.5), then drop 0.9 from 250 ms for 1 s
+  // (outlives the first, which then changes nothing).
+  servers::FaultScript same({{lbp::SimTime{0ms}, "network", json{{"drop", 0.5}}, lbp::SimTime{300ms}, "f.toml:1:1"},
+                             {lbp::SimTime{100ms}, "network", json{{"drop", 0.2}}, lbp::SimTime{100ms}, "f.toml:6:1"},
+                             {lbp::SimTime{250ms}, "network", json{{"drop", 0.9}, {"direction", "reply"}},
+                              lbp::SimTime{1000ms}, "f.toml:11:1"}},
+                            hm2::HostMot2Card::Options{}, std::nullopt);
+  same.runDue(lbp::SimTime{100ms}, t, log);
+  EXPECT_EQ(udp.faults().settings().request.drop, 0.2);
+  same.runDue(lbp::SimTime{200ms}, t, log);
+  EXPECT_EQ(udp.faults().settings().request.drop, 0.5) << "back to the entry still on";
+  same.runDue(lbp::SimTime{250ms}, t, log);
+  EXPECT_EQ(udp.faults().settings().reply.drop, 0.9);
+  same.runDue(lbp::SimTime{300ms}, t, log);
+  EXPECT_EQ(udp.faults().settings().request.drop, 0.0) << "the first one ended: requests as before it";
+  EXPECT_EQ(udp.faults().settings().reply.drop, 0.9) << "replies keep the entry still on";
+  same.runDue(lbp::SimTime{1250ms}, t, log);
+  EXPECT_EQ(udp.faults().settings(), servers::NetworkFaultSettings{});
+}
+
 }  // namespace

@@ -9,9 +9,11 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "daemon/api_routes.hpp"
@@ -49,14 +51,31 @@ class FaultScript {
   void run(lbp::SimTime now, const ApiTarget& target, const std::function<void(const std::string&)>& log);
   void findNext();
 
+  // What an entry with `for` changed, setting by setting ("network.reply.drop",
+  // "link.1.to_remote.bit_error_rate", "cable.{...}"): each setting keeps the
+  // value it had before the first entry that is still on changed it, and the
+  // value each entry still on gave it, in the order they began. An entry
+  // that ends takes only its own value away: the setting goes to the value
+  // of the latest entry still on, or back to where it was before them all.
+  // So entries that overlap each undo their own change, whatever the order
+  // in which they end.
+  struct Setting {
+    nlohmann::json before;
+    std::vector<std::pair<std::size_t, nlohmann::json>> layers;  // (entry, value it set)
+    std::function<void(const ApiTarget&, const nlohmann::json&)> set;
+  };
   struct Undo {
     lbp::SimTime at{};
     std::string where;
-    std::function<void(const ApiTarget&)> act;
+    std::size_t entry = 0;
+    std::vector<std::string> settings;  // the Setting keys it took part in
   };
+  void end(const Undo& undo, const ApiTarget& target);
+
   std::vector<ScriptedFault> entries_;
   std::size_t done_ = 0;
   std::vector<Undo> undos_;  // not in order; few
+  std::map<std::string, Setting> settings_;
   lbp::SimTime next_ = lbp::SimTime::max();
 };
 
