@@ -4,6 +4,8 @@
 // caught at the line its "# expect:" comment marks, with that reason and the
 // nearest existing name. (tests/interop_test.cpp proves the names against
 // LinuxCNC itself.)
+#include <sys/stat.h>
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -18,6 +20,7 @@
 #include "linuxcnc/hm2_pins.hpp"
 #include "lbpkit/wire/names.hpp"
 #include "support/process.hpp"
+#include "support/temp_dir.hpp"
 
 namespace {
 
@@ -275,6 +278,57 @@ TEST(CheckConfig, EveryBrokenConfigurationIsCaughtWhereItsCommentSays) {
                        << j["findings"].dump(2);
   }
   EXPECT_GE(n, 18);
+}
+
+TEST(CheckConfig, ASignalWithNoWriterIsAWarningAsLinuxCncLoadsIt) {
+  const auto r = check(corpus() / "warned/input_without_writer.hal", true);
+  EXPECT_EQ(r.exit, 0) << r.out << r.err;
+  const auto j = json::parse(r.out, nullptr, false);
+  ASSERT_FALSE(j.is_discarded()) << r.out << r.err;
+  ASSERT_EQ(j["findings"].size(), 1U) << j.dump(2);
+  EXPECT_EQ(j["findings"][0]["severity"], "warning");
+  EXPECT_EQ(j["findings"][0]["line"], 9);
+  EXPECT_NE(j["findings"][0]["reason"].get<std::string>().find("signal coolant has no writer"), std::string::npos);
+}
+
+// What LinuxCNC cannot load never passes, and nothing read crashes or hangs
+// the check: only regular files are read, lines and files are bounded, and
+// [SECTION]KEY is found by a scan, not a recursive regular expression.
+TEST(CheckConfig, FilesLinuxCncCannotLoadAreRefusedAndNothingCrashesOrHangs) {
+  test_support::TempDir dir("lbpkit-check-hostile");
+  auto ini = [&](const std::string& name, const std::string& halfile) {
+    const auto p = dir.path() / (name + ".ini");
+    std::ofstream(p) << "[HAL]\nHALFILE = " << halfile << "\n";
+    return p;
+  };
+  auto refused = [&](const fs::path& p, const std::string& why) {
+    const auto r = test_support::run({"check-config", p.string()}, std::chrono::seconds(20));
+    EXPECT_EQ(r.exit, 1) << p << "\n" << r.out << r.err;
+    EXPECT_NE((r.out + r.err).find(why), std::string::npos) << p << "\n" << r.out << r.err;
+  };
+  refused(ini("directory", dir.path().string()), "a directory, not a file");
+  refused(ini("zero", "/dev/zero"), "not a regular file");
+  refused(ini("random", "/dev/urandom"), "not a regular file");
+  const auto fifo = dir.path() / "fifo.hal";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  refused(ini("fifo", fifo.string()), "not a regular file");
+  refused(fifo, "not a regular file");
+  refused(dir.path(), "a directory, not a file");
+
+  // Long words: a substitution whose key runs on, and one left open.
+  const std::string letters(50'000, 'B');
+  std::ofstream(dir.path() / "long.ini") << "[A]\nB = 1\n[HAL]\nHALFILE = long.hal\n";
+  std::ofstream(dir.path() / "long.hal") << "setp [A]" << letters << " 1\nsetp x [A](" << letters << "\n"
+                                          << "net " << letters << " hm2_7i92.0.7i77.0.0.output-00\n";
+  auto r = test_support::run({"check-config", (dir.path() / "long.ini").string()}, std::chrono::seconds(20));
+  EXPECT_EQ(r.exit, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("the INI file has no [A]BBBB"), std::string::npos) << r.out.substr(0, 2000);
+  // A line past the bound: reported, not read.
+  std::ofstream(dir.path() / "wide.hal") << "# " << std::string(100'000, 'x') << "\nloadrt threads\n";
+  r = test_support::run({"check-config", (dir.path() / "wide.hal").string()}, std::chrono::seconds(20));
+  EXPECT_EQ(r.exit, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("wide.hal:1: error: a line of more than 65536 characters"), std::string::npos)
+      << r.out.substr(0, 2000);
 }
 
 TEST(CheckConfig, TextOutputSaysFileLineReasonAndNearestName) {

@@ -16,6 +16,8 @@ namespace lbpkit::linuxcnc {
 
 namespace {
 
+constexpr std::size_t kHalNameLen = 47;  // HAL_NAME_LEN, LinuxCNC 2.9 (hal.h)
+
 // The checker: the configuration as read, and where its findings go.
 struct Checker {
   const HalConfig& hal;
@@ -132,6 +134,15 @@ void evaluate(Checker& r, const std::vector<const Board*>& boards, const std::ma
   // Every reference.
   std::map<std::string, std::string> pinSignal;  // pin -> the signal it joined
   for (const auto& ref : r.hal.refs) {
+    // HAL's names are at most HAL_NAME_LEN (47) characters (LinuxCNC 2.9:
+    // hal.h); halcmd finds no pin or parameter by a longer one.
+    if (ref.name.size() > kHalNameLen) {
+      r.error(ref.at, ref.name.substr(0, kHalNameLen) + "...",
+              fmt::format("a name of {} characters: HAL's are at most {} (HAL_NAME_LEN), so halcmd finds no such pin "
+                          "or parameter",
+                          ref.name.size(), kHalNameLen));
+      continue;
+    }
     const bool hm2 = ref.name.rfind("hm2_", 0) == 0;
     if (ref.use == Use::Net || ref.use == Use::Link) {
       const auto [it, fresh] = pinSignal.emplace(ref.name, ref.signal);
@@ -300,11 +311,14 @@ void evaluate(Checker& r, const std::vector<const Board*>& boards, const std::ma
                             known[i].first));
         break;
       }
+    // LinuxCNC loads such a signal (its inputs read 0), and a file checked
+    // alone (custom.hal) often nets what another file writes: a warning.
     if (allKnown && !known.empty() && outs.empty() && ios.empty() && !r.hal.sets.count(sig))
       r.error(at, sig,
               fmt::format("signal {} has no writer: {} is an input and nothing on the signal drives it (no output "
-                          "pin, no sets)",
-                          sig, known[0].first));
+                          "pin, no sets); LinuxCNC loads it and the input reads 0",
+                          sig, known[0].first),
+              {}, "warning");
   }
 }
 

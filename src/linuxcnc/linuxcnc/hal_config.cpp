@@ -5,8 +5,8 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <fstream>
-#include <regex>
 
 namespace lbpkit::linuxcnc {
 
@@ -36,6 +36,28 @@ const Setp* HalConfig::setpOf(const std::string& name) const {
 }
 
 namespace {
+
+// Bounds on what is read: a configuration's files are kilobytes.
+constexpr std::uintmax_t kMaxFileBytes = 16U << 20;
+constexpr std::size_t kMaxLineBytes = 64U << 10;
+
+// Why `path` cannot be read as a configuration file; empty when it can.
+// Only a regular file (or a link to one) is read: a directory, a FIFO or a
+// device is nothing LinuxCNC loads, and reading one could hang or never end.
+std::string unreadable(const std::filesystem::path& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const auto st = fs::status(path, ec);
+  if (ec || !fs::exists(st)) return "no such file";
+  if (fs::is_directory(st)) return "a directory, not a file";
+  if (!fs::is_regular_file(st)) return "not a regular file (a FIFO, a socket or a device)";
+  const auto size = fs::file_size(path, ec);
+  if (ec) return "cannot be read";
+  if (size > kMaxFileBytes)
+    return fmt::format("{} bytes, more than the {} MiB lbpkit check-config reads", size, kMaxFileBytes >> 20);
+  if (!std::ifstream(path)) return "cannot be opened (permissions?)";
+  return {};
+}
 
 Ini readIni(const std::filesystem::path& path) {
   Ini ini;
@@ -67,29 +89,51 @@ struct Reader {
     findings.push_back({w.file, w.line, severity, std::move(name), std::move(reason), std::move(suggestion)});
   }
 
-  // [SECTION]KEY and [SECTION](KEY), as halcmd -i substitutes them.
+  // [SECTION]KEY and [SECTION](KEY), as halcmd -i substitutes them. A scan,
+  // one pass over the text: no regular expression, whose backtracking
+  // recurses as deep as a long word is long.
   std::string substitute(const std::string& text, const Where& w) {
-    static const std::regex ref(R"(\[([A-Za-z0-9_]+)\](\(([A-Za-z0-9_]+)\)|([A-Za-z0-9_]+)))");
+    auto word = [&](std::size_t from) {
+      std::size_t i = from;
+      while (i < text.size() && (std::isalnum(static_cast<unsigned char>(text[i])) != 0 || text[i] == '_')) ++i;
+      return i;
+    };
     std::string out;
-    auto begin = std::sregex_iterator(text.begin(), text.end(), ref);
     std::size_t last = 0;
-    for (auto it = begin; it != std::sregex_iterator(); ++it) {
-      const auto& m = *it;
-      out += text.substr(last, static_cast<std::size_t>(m.position()) - last);
-      last = static_cast<std::size_t>(m.position() + m.length());
-      const std::string section = m[1];
-      const std::string key = m[3].matched ? std::string(m[3]) : std::string(m[4]);
+    for (std::size_t at = text.find('['); at != std::string::npos; at = text.find('[', at + 1)) {
+      if (at < last) continue;
+      const std::size_t sectionEnd = word(at + 1);
+      if (sectionEnd == at + 1 || sectionEnd >= text.size() || text[sectionEnd] != ']') continue;
+      std::size_t keyFrom = sectionEnd + 1, keyEnd = 0, end = 0;
+      if (keyFrom < text.size() && text[keyFrom] == '(') {
+        keyEnd = word(keyFrom + 1);
+        if (keyEnd > keyFrom + 1 && keyEnd < text.size() && text[keyEnd] == ')') {
+          ++keyFrom;
+          end = keyEnd + 1;
+        }
+      }
+      if (end == 0) {  // not [S](K): [S]K
+        keyFrom = sectionEnd + 1;
+        keyEnd = word(keyFrom);
+        if (keyEnd == keyFrom) continue;
+        end = keyEnd;
+      }
+      const std::string match = text.substr(at, end - at);
+      const std::string section = text.substr(at + 1, sectionEnd - at - 1);
+      const std::string key = text.substr(keyFrom, keyEnd - keyFrom);
+      out += text.substr(last, at - last);
+      last = end;
+      at = end - 1;
       if (!hal.hasIni) {
-        error(w, m.str(), fmt::format("{} needs an INI file (halcmd -i): check the .ini instead", m.str()), {},
-              "warning");
-        out += m.str();
+        error(w, match, fmt::format("{} needs an INI file (halcmd -i): check the .ini instead", match), {}, "warning");
+        out += match;
         continue;
       }
       if (const auto* v = hal.ini.find(section, key)) {
         out += v->value;
       } else {
-        error(w, m.str(), fmt::format("the INI file has no [{}]{}: halcmd stops here", section, key));
-        out += m.str();
+        error(w, match, fmt::format("the INI file has no [{}]{}: halcmd stops here", section, key));
+        out += match;
       }
     }
     return out + text.substr(last);
@@ -122,11 +166,21 @@ struct Reader {
     std::ifstream in(path);
     std::string raw, line;
     unsigned n = 0, start = 0;
+    bool tooLong = false;  // the logical line being read is past kMaxLineBytes
     while (std::getline(in, raw)) {
       ++n;
-      if (line.empty()) start = n;
+      if (line.empty() && !tooLong) start = n;
       if (!raw.empty() && raw.back() == '\r') raw.pop_back();
-      if (!raw.empty() && raw.back() == '\\') {
+      const bool continued = !raw.empty() && raw.back() == '\\';
+      if (tooLong || line.size() + raw.size() > kMaxLineBytes) {
+        if (!tooLong)
+          error({shown, start}, {},
+                fmt::format("a line of more than {} characters: not a HAL command, not read", kMaxLineBytes));
+        tooLong = continued;
+        line.clear();
+        continue;
+      }
+      if (continued) {
         line += raw.substr(0, raw.size() - 1) + " ";
         continue;
       }
@@ -204,8 +258,8 @@ struct Reader {
 HalConfig readConfiguration(const std::filesystem::path& file, std::vector<Finding>& findings) {
   HalConfig hal;
   Reader r{hal, findings};
-  if (!std::filesystem::exists(file)) {
-    findings.push_back({file.string(), 0, "error", {}, "no such file", {}});
+  if (const auto why = unreadable(file); !why.empty()) {
+    findings.push_back({file.string(), 0, "error", {}, why, {}});
     return hal;
   }
   const auto dir = file.parent_path();
@@ -241,6 +295,11 @@ HalConfig readConfiguration(const std::filesystem::path& file, std::vector<Findi
         // LinuxCNC also looks in its own HAL library (HALLIB_DIR).
         const auto lib = std::filesystem::path("/usr/share/linuxcnc/hallib") / p;
         if (!p.is_absolute() && std::filesystem::exists(lib)) {
+          if (const auto why = unreadable(lib); !why.empty()) {
+            findings.push_back({file.filename().string(), e.line, "error", words[0],
+                                fmt::format("{} {}: {}: LinuxCNC cannot load it", key, lib.string(), why), {}});
+            continue;
+          }
           r.readHal(lib, lib.string());
           hal.files.push_back(lib.string());
           continue;
@@ -251,7 +310,12 @@ HalConfig readConfiguration(const std::filesystem::path& file, std::vector<Findi
                                    {}});
         continue;
       }
-      r.readHal(full, p.is_absolute() ? p.string() : p.string());
+      if (const auto why = unreadable(full); !why.empty()) {
+        findings.push_back({file.filename().string(), e.line, "error", words[0],
+                            fmt::format("{} {}: {}: LinuxCNC cannot load it", key, words[0], why), {}});
+        continue;
+      }
+      r.readHal(full, p.string());
       hal.files.push_back(full.string());
     }
   } else {
