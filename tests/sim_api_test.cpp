@@ -8,6 +8,7 @@
 #include <netinet/tcp.h>
 #include <poll.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
@@ -959,6 +960,68 @@ TEST(SimMachine, TheCliRefusesMachineMistakes) {
   EXPECT_NE(r.err.find("--record /nonexistent-dir/trace.csv: No such file or directory"), std::string::npos) << r.err;
   std::filesystem::remove(state);
   std::filesystem::remove(state + ".analog");
+}
+
+// --trace and --record write only what the user named as output: never
+// through a link, never a FIFO, never the sim's own EEPROM, and an existing
+// file only when it is the output of an earlier run.
+TEST(SimOutputFiles, TraceAndRecordNeverWriteOverWhatTheUserDidNotName) {
+  namespace fs = std::filesystem;
+  auto slurp = [](const std::string& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  };
+  const auto state = tempPath("outputs.eeprom");
+  {
+    Sim first(test_support::SimOptions{loopback(19), 0, {}, true, state, {}});
+    ASSERT_TRUE(first.up());
+    EXPECT_EQ(first.stop(), 0);
+  }
+  const auto eeprom = slurp(state);
+  ASSERT_FALSE(eeprom.empty());
+  auto refused = [&](const std::vector<std::string>& extra, const std::string& why) {
+    std::vector<std::string> args{"sim", "--bind", loopback(19) + ":0", "--api", loopback(19) + ":0", "--no-realtime",
+                                  "--state", state};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto r = test_support::run(args, std::chrono::seconds(10));
+    EXPECT_NE(r.exit, 0) << r.out << r.err;
+    EXPECT_NE(r.err.find(why), std::string::npos) << r.out << r.err;
+  };
+  // The sim's own EEPROM, by its own path and through another name for it.
+  refused({"--trace", state}, "is the sim's own");
+  const auto hard = tempPath("hard.pcap");
+  fs::create_hard_link(state, hard);
+  refused({"--trace", hard}, "is the sim's own");
+  EXPECT_EQ(slurp(state), eeprom) << "the EEPROM is untouched";
+  // A link, and what it points at untouched.
+  const auto precious = tempPath("precious.txt");
+  std::ofstream(precious) << "a file of the user's\n";
+  const auto link = tempPath("link.pcap");
+  fs::create_symlink(precious, link);
+  refused({"--trace", link}, "a symbolic link");
+  EXPECT_EQ(slurp(precious), "a file of the user's\n");
+  // A file that is not a capture or a record.
+  refused({"--trace", precious}, "exists and is not what this option writes");
+  refused({"--machine", "mill", "--record", precious}, "exists and is not what this option writes");
+  EXPECT_EQ(slurp(precious), "a file of the user's\n");
+  // A FIFO: refused at once, not waited on.
+  const auto fifo = tempPath("trace.fifo");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  refused({"--trace", fifo}, "a FIFO");
+  // The same file for both.
+  const auto both = tempPath("both.pcap");
+  refused({"--machine", "mill", "--record", both, "--trace", both}, "exists and is not what this option writes");
+  // An earlier run's capture and record are replaced.
+  const auto pcap = tempPath("earlier.pcap");
+  const auto csv = tempPath("earlier.csv");
+  for (int run = 0; run < 2; ++run) {
+    Sim sim(test_support::SimOptions{loopback(19), 0, {}, true, state, {"--machine", "mill", "--trace", pcap, "--record", csv}});
+    ASSERT_TRUE(sim.up()) << "run " << run;
+    EXPECT_EQ(sim.stop(), 0);
+  }
+  EXPECT_EQ(slurp(pcap).substr(0, 4), std::string("\x4D\x3C\xB2\xA1", 4)) << "a nanosecond pcap, little-endian";
+  EXPECT_EQ(slurp(csv).rfind("time_s,", 0), 0U);
+  EXPECT_EQ(slurp(state).size(), eeprom.size());
 }
 
 // A host cycling the mill over UDP: every servo cycle is a row of the trace,

@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "daemon/output_file.hpp"
 #include "lbpkit/wire/capture.hpp"
 
 namespace servers {
@@ -28,14 +29,23 @@ void putBig32(std::uint8_t* p, std::uint32_t v) {
 }
 }  // namespace
 
-PcapRecorder::PcapRecorder(std::string path, Link link, Report warn, std::size_t slots)
+PcapRecorder::PcapRecorder(std::string path, Link link, Report warn, std::size_t slots,
+                           const std::vector<std::filesystem::path>& own)
     : path_(std::move(path)), link_(link), warn_(std::move(warn)), ring_(slots) {
   const int dlt = link_ == Link::Ipv4Udp ? DLT_RAW : DLT_USER0;
   pcap_ = pcap_open_dead_with_tstamp_precision(dlt, 65535, PCAP_TSTAMP_PRECISION_NANO);
   if (pcap_ == nullptr) throw std::runtime_error(fmt::format("--trace {}: libpcap cannot make a capture", path_));
-  dumper_ = pcap_dump_open(pcap_, path_.c_str());
+  std::FILE* file = nullptr;
+  try {
+    file = openOutputFile("--trace", path_, isCapture, own);
+  } catch (...) {
+    pcap_close(pcap_);
+    throw;
+  }
+  dumper_ = pcap_dump_fopen(pcap_, file);  // closes `file` with the dumper
   if (dumper_ == nullptr) {
     const std::string why = pcap_geterr(pcap_);
+    std::fclose(file);
     pcap_close(pcap_);
     throw std::runtime_error(fmt::format("--trace {}: {}", path_, why));
   }

@@ -9,10 +9,12 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "daemon/drain_thread.hpp"
 #include "daemon/packet_ring.hpp"
@@ -35,7 +37,10 @@ class PcapRecorder {
   // Creates (or truncates) `path`: throws std::runtime_error naming the file
   // and why when it cannot. `warn` hears of packets lost (the writer a whole
   // ring behind) and of write errors, once each, on the writer's thread.
-  PcapRecorder(std::string path, Link link, Report warn, std::size_t slots = 4096);
+  // The file is opened as daemon/output_file.hpp says (`own`: the files it
+  // must never be).
+  PcapRecorder(std::string path, Link link, Report warn, std::size_t slots = 4096,
+               const std::vector<std::filesystem::path>& own = {});
   // Writes what is left and closes the file.
   ~PcapRecorder();
   PcapRecorder(const PcapRecorder&) = delete;

@@ -84,14 +84,19 @@ SimDaemon::SimDaemon(SimOptions options)
                                         [this](std::function<Answer()> job) { return runJob(std::move(job)); });
     apiPort_ = api_->port();
   }
-  // Last, so a sim that cannot start leaves no file behind it.
+  // Last, so a sim that cannot start leaves no file behind it. Never over
+  // one of the sim's own files: its EEPROMs and its flash.
+  std::vector<std::filesystem::path> own{options_.flashFile};
+  for (const auto* d : {&options_.card.first, options_.card.second ? &*options_.card.second : nullptr})
+    if (d != nullptr) own.insert(own.end(), {d->fieldIo.nvFile, d->analog.nvFile});
   if (!options_.recordFile.empty())
-    traceFile_ = std::make_unique<TraceFile>(*trace_, options_.recordFile,
-                                             [this](const std::string& text) { log(LogLevel::Warn, text); });
+    traceFile_ = std::make_unique<TraceFile>(
+        *trace_, options_.recordFile, [this](const std::string& text) { log(LogLevel::Warn, text); }, own);
   if (!options_.packetTraceFile.empty()) {
     cardEndpoint_ = {static_cast<std::uint32_t>(a[0] << 24 | a[1] << 16 | a[2] << 8 | a[3]), udp_->port()};
-    packetTrace_ = std::make_unique<PcapRecorder>(options_.packetTraceFile, PcapRecorder::Link::Ipv4Udp,
-                                                  [this](const std::string& text) { log(LogLevel::Warn, text); });
+    packetTrace_ = std::make_unique<PcapRecorder>(
+        options_.packetTraceFile, PcapRecorder::Link::Ipv4Udp,
+        [this](const std::string& text) { log(LogLevel::Warn, text); }, 4096, own);
   }
 }
 

@@ -1,5 +1,7 @@
 #include "daemon/trace_file.hpp"
 
+#include "daemon/output_file.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -13,10 +15,9 @@
 
 namespace servers {
 
-TraceFile::TraceFile(const TraceRing& ring, std::string path, Report warn)
+TraceFile::TraceFile(const TraceRing& ring, std::string path, Report warn, const std::vector<std::filesystem::path>& own)
     : ring_(ring), path_(std::move(path)), warn_(std::move(warn)) {
-  file_ = std::fopen(path_.c_str(), "w");
-  if (file_ == nullptr) throw std::runtime_error(fmt::format("--record {}: {}", path_, std::strerror(errno)));
+  file_ = openOutputFile("--record", path_, isRecord, own);
   std::string header;
   for (const auto& c : ring_.columns()) header += (header.empty() ? "" : ",") + c;
   header += '\n';

@@ -6,9 +6,11 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "daemon/drain_thread.hpp"
 #include "daemon/trace_ring.hpp"
@@ -22,7 +24,9 @@ class TraceFile {
   // std::runtime_error naming the file and why when it cannot. `warn` hears
   // of rows lost (the writer a whole ring behind) and of write errors, once
   // each; it runs on the writer's thread.
-  TraceFile(const TraceRing& ring, std::string path, Report warn);
+  // The file is opened as daemon/output_file.hpp says (`own`: the files it
+  // must never be).
+  TraceFile(const TraceRing& ring, std::string path, Report warn, const std::vector<std::filesystem::path>& own = {});
   // Writes what is left and closes the file.
   ~TraceFile();
   TraceFile(const TraceFile&) = delete;
