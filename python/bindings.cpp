@@ -6,7 +6,13 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <unistd.h>
+
+#include <fmt/format.h>
+
+#include <atomic>
 #include <chrono>
+#include <cstdint>
 #include <string>
 
 #include "card.hpp"
@@ -23,6 +29,21 @@ using pylbpkit::VirtualMachine;
 using pylbpkit::VirtualSevenI76;
 
 namespace {
+
+// Card.run's bound: more cycles than any run can finish (2**63 would run on
+// for ever) are refused.
+constexpr std::uint64_t kMaxRunCycles = 1'000'000'000'000ULL;
+
+// Set by an atexit handler: the interpreter is on its way out.
+std::atomic<bool> gExiting{false};
+
+bool interpreterExiting() {
+#if PY_VERSION_HEX >= 0x030D0000
+  return gExiting.load() || Py_IsFinalizing() != 0;
+#else
+  return gExiting.load() || _Py_IsFinalizing() != 0;
+#endif
+}
 
 // A Card method called with the card's lock held (card.hpp: not thread-safe).
 template <typename R, typename... A>
@@ -210,12 +231,23 @@ void bindCard(py::module_& m) {
       .def(
           "run",
           [](Card& c, std::uint64_t cycles) {
+            if (cycles > kMaxRunCycles)
+              throw py::value_error(fmt::format("run: at most {} cycles at a time (32 years at 1 kHz), not {}",
+                                                kMaxRunCycles, cycles));
             auto l = c.lock();
             bool interrupted = false;
             lbpkit::CycleStatus last;
             {
               py::gil_scoped_release release;
               last = c.run(cycles, [&] {
+                // The interpreter is exiting with this thread inside run():
+                // taking the GIL now would end the thread from inside a
+                // destructor and abort the process ("terminate called
+                // without an active exception"). It stops cycling and waits,
+                // without the GIL, for the process to end, as Python's own
+                // daemon threads do.
+                if (interpreterExiting())
+                  for (;;) ::pause();
                 py::gil_scoped_acquire acquire;
                 interrupted = PyErr_CheckSignals() != 0;
                 return interrupted;
@@ -433,6 +465,7 @@ void bindMachine(py::module_& m) {
 
 PYBIND11_MODULE(_lbpkit, m) {
   m.doc() = "lbpkit: the host library for Mesa smart-serial (7I77) cards, and the in-process virtual card";
+  py::module_::import("atexit").attr("register")(py::cpp_function([] { gExiting = true; }));
   static py::exception<lbpkit::Error> error(m, "Error", PyExc_RuntimeError);
   py::register_exception_translator([](std::exception_ptr p) {
     try {

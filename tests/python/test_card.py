@@ -2,6 +2,7 @@
 discovery, process data by name, parameters, faults, simulated time."""
 
 import math
+import os
 
 import pytest
 
@@ -182,3 +183,42 @@ def test_network_card_that_is_not_there():
 def test_board_is_only_in_process():
     assert math.isfinite(lbpkit.Card.sim().board.field_voltage())
     assert lbpkit.Card.sim().machine is None
+
+
+def _python(script):
+    """`script` in a Python of its own, with this one's lbpkit: (status, output)."""
+    import subprocess
+    import sys
+    env = dict(os.environ, PYTHONPATH=os.path.dirname(os.path.dirname(lbpkit.__file__)))
+    r = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=60)
+    return r.returncode, r.stdout + r.stderr
+
+
+def test_run_is_interrupted_by_a_real_sigint():
+    status, out = _python(
+        "import os, signal, threading, time, lbpkit\n"
+        "c = lbpkit.Card.sim(); c.start()\n"
+        "threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()\n"
+        "t = time.monotonic()\n"
+        "try:\n"
+        "    c.run(10**9)\n"
+        "except KeyboardInterrupt:\n"
+        "    print('interrupted after', round(time.monotonic() - t, 1))\n")
+    assert status == 0, out
+    assert "interrupted after" in out, out
+
+
+def test_run_refuses_more_cycles_than_can_finish(card):
+    with pytest.raises(ValueError, match="at most 1000000000000 cycles"):
+        card.run(2**63)
+
+
+def test_the_interpreter_exits_cleanly_with_a_thread_inside_run():
+    status, out = _python(
+        "import threading, time, lbpkit\n"
+        "c = lbpkit.Card.sim(); c.start()\n"
+        "threading.Thread(target=lambda: c.run(10**8), daemon=True).start()\n"
+        "time.sleep(0.3)\n"
+        "print('main thread ends')\n")
+    assert status == 0, out
+    assert "terminate called" not in out, out
