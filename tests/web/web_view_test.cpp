@@ -59,6 +59,41 @@ TEST_F(WebView, ThePageIsServedOfflineAndPushedAtLeast20FramesASecond) {
   b->screenshot("web-board");
 }
 
+// With --api-token, a browser opens the web view as /?token=TOKEN: the
+// token goes back as an HttpOnly, SameSite=Strict cookie, the address loses
+// it, and the page, its scripts and its event stream work; without it the
+// API still answers 401.
+TEST_F(WebView, WithATokenTheBrowserComesInOnceThroughTheAddress) {
+  SKIP_WITHOUT_BROWSER();
+  sim = std::make_unique<Sim>(loopback(7), std::vector<std::string>{"--api-token", "s3cret-token"});
+  ASSERT_TRUE(sim->up());
+  b = std::make_unique<Browser>();
+  b->open(sim->url("/"));
+  EXPECT_TRUE(b->waitFor("return document.body.innerText.includes('needs');", 10000ms)) << "401 without the token";
+  b->open(sim->url("/?token=wrong"));
+  EXPECT_TRUE(b->waitFor("return document.body.innerText.includes('needs');", 10000ms)) << "401 with a wrong one";
+  b->open(sim->url("/?token=s3cret-token"));
+  ASSERT_TRUE(b->waitFor(kBoardDrawn, 30000ms)) << "the page, its scripts and its event stream with the cookie";
+  EXPECT_EQ(b->run("return location.search;"), "") << "the token is no longer in the address";
+  EXPECT_EQ(b->run("return document.cookie;"), "") << "no script can read the token";
+  b->screenshot("web-with-token");
+  // Outside the browser: the cookie or the bearer header, nothing else.
+  httplib::Client c(sim->apiAddress(), sim->apiPort());
+  EXPECT_EQ(c.Get("/api/state")->status, 401);
+  EXPECT_EQ(c.Get("/api/state", {{"Cookie", "other=1; lbpkit_token=s3cret-token"}})->status, 200);
+  EXPECT_EQ(c.Get("/api/state", {{"Cookie", "lbpkit_token=s3cret-tokeX"}})->status, 401);
+  EXPECT_EQ(c.Get("/api/state", {{"Authorization", "Bearer s3cret-token"}})->status, 200);
+  const auto r = c.Get("/?token=s3cret-token");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 303);
+  EXPECT_EQ(r->get_header_value("Set-Cookie"), "lbpkit_token=s3cret-token; HttpOnly; SameSite=Strict; Path=/");
+  // A page of another origin is refused even with the cookie.
+  EXPECT_EQ(c.Post("/api/input", {{"Cookie", "lbpkit_token=s3cret-token"}, {"Origin", "http://evil.example"}},
+                   R"({"input":1,"on":true})", "application/json")
+                ->status,
+            403);
+}
+
 TEST_F(WebView, ClickingAnInputIsReadByTheHost) {
   SKIP_WITHOUT_BROWSER();
   ASSERT_NO_FATAL_FAILURE(start(2));

@@ -462,6 +462,24 @@ bool sameSecret(std::string_view a, std::string_view b) {
   return diff == 0;
 }
 
+// The web view's token, once a browser has brought it (/?token=TOKEN).
+constexpr const char* kTokenCookie = "lbpkit_token";
+
+// The value of cookie `name` in the request's Cookie header, or empty.
+std::string cookie(const httplib::Request& req, std::string_view name) {
+  const auto header = req.get_header_value("Cookie");
+  std::size_t at = 0;
+  while (at < header.size()) {
+    const auto end = std::min(header.find(';', at), header.size());
+    auto pair = std::string_view(header).substr(at, end - at);
+    while (!pair.empty() && pair.front() == ' ') pair.remove_prefix(1);
+    if (pair.size() > name.size() && pair.substr(0, name.size()) == name && pair[name.size()] == '=')
+      return std::string(pair.substr(name.size() + 1));
+    at = end + 1;
+  }
+  return {};
+}
+
 httplib::Server::HandlerResponse refuse(httplib::Response& res, int status, const std::string& why) {
   res.status = status;
   res.set_content(json{{"error", why}}.dump(), "application/json");
@@ -485,10 +503,24 @@ void addChecks(httplib::Server& http, const ApiOptions& o, int port) {
     }
     if (!o.token.empty()) {
       const auto auth = req.get_header_value("Authorization");
-      if (auth.rfind("Bearer ", 0) != 0 || !sameSecret(auth.substr(7), o.token)) {
+      const bool bearer = auth.rfind("Bearer ", 0) == 0 && sameSecret(auth.substr(7), o.token);
+      if (!bearer && !sameSecret(cookie(req, kTokenCookie), o.token)) {
+        // A browser opening the web view cannot send a header: the token
+        // comes once in the address (/?token=TOKEN) and goes back as a
+        // cookie that only this API's own pages send (SameSite=Strict) and
+        // no script can read (HttpOnly); the address it came in is replaced.
+        if (req.method == "GET" && req.path == "/" && req.has_param("token")) {
+          if (sameSecret(req.get_param_value("token"), o.token)) {
+            res.status = 303;
+            res.set_header("Location", "/");
+            res.set_header("Set-Cookie", fmt::format("{}={}; HttpOnly; SameSite=Strict; Path=/", kTokenCookie, o.token));
+            res.set_header("Cache-Control", "no-store");
+            return httplib::Server::HandlerResponse::Handled;
+          }
+        }
         res.set_header("WWW-Authenticate", "Bearer");
         return refuse(res, 401, "this API needs \"Authorization: Bearer TOKEN\" with its token (--api-token or "
-                                "LBPKIT_API_TOKEN)");
+                                "LBPKIT_API_TOKEN); a browser opens the web view as /?token=TOKEN");
       }
     }
     if (req.method == "POST") {

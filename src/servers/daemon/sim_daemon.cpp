@@ -267,7 +267,7 @@ std::string SimDaemon::banner() const {
                      options_.apiToken.empty() ? "" : " (with its token: Authorization: Bearer TOKEN)");
   if (apiPort_ >= 0)  // the board and the machine, live
     s += fmt::format("  web view: http://{}:{}/{}\n", options_.apiAddress, apiPort_,
-                     options_.apiToken.empty() ? "" : "#token=TOKEN");
+                     options_.apiToken.empty() ? "" : "?token=TOKEN");
   if (clock_.source() == SimClock::Source::Host)
     s += fmt::format("  time: {}one servo period ({}) per host cycle (each DOIT taken); the wall clock while the "
                      "host is silent over {} ms\n",
