@@ -150,7 +150,10 @@ output = 4
   EXPECT_EQ(m.outputs[0].loadOhms, 480.0);
   // -1: no spindle encoder; no [spindle]: no spindle.
   EXPECT_FALSE(config::loadMachine(write("[spindle]\nencoder_input = -1\n")).spindle->encoderInput.has_value());
-  EXPECT_FALSE(config::loadMachine(write("name = \"empty\"\n")).spindle.has_value());
+  EXPECT_FALSE(config::loadMachine(write("[[output]]\nname = \"lamp\"\noutput = 4\n")).spindle.has_value());
+  // A file with nothing in it is no machine.
+  for (const char* empty : {"", "name = \"empty\"\n", "# only a comment\n"})
+    EXPECT_THROW((void)config::loadMachine(write(empty)), std::exception) << "\"" << empty << "\"";
 }
 
 // The smallest machine the mistakes below are made in (lines 1..8).
@@ -192,9 +195,10 @@ TEST_F(MachineFile, EveryMistakeNamesFileLineColumnAndKey) {
        "5:19: axis[0].drive[0].encoder_input: 6 is out of range: 0 to 5"},
       {"[[axis]]\nname = \"x\"\n  [[axis.drive]]\n  analog_output = 6\n",
        "4:19: axis[0].drive[0].analog_output: 6 is out of range: 0 to 5"},
-      {"[[axis]]\nname = \"x\"\nmass_kg = 0\n", "3:11: axis[0].mass_kg: 0 is out of range: above 0 to 100000 kg"},
+      {"[[axis]]\nname = \"x\"\nmass_kg = 0\n", "3:11: axis[0].mass_kg: 0 is out of range: 0.001 to 100000 kg"},
       {"[[axis]]\nname = \"x\"\nscrew_pitch = -5.0\n",
-       "3:15: axis[0].screw_pitch: -5 is out of range: above 0 to 10000 mm"},
+       "3:15: axis[0].screw_pitch: -5 is out of range: 0.01 to 10000 mm"},
+      {"[[axis]]\nname = \"x\"\nscrew_pitch = 1e-308\n", "3:15: axis[0].screw_pitch: 1e-308 is out of range: 0.01 to 10000 mm"},
       {"[[axis]]\nname = \"x\"\ntravel = [10.0, 5.0]\n",
        "3:10: axis[0].travel: [10, 5]: the low end must be below the high end"},
       {"[[axis]]\nname = \"x\"\ntravel = [0.0]\n", "3:10: axis[0].travel: expected [low, high] (mm), not 1 values"},

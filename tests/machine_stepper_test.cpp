@@ -346,13 +346,13 @@ TEST_F(MachineStepperFile, EveryMistakeNamesTheKey) {
       {kStepperZ + "  stepgen = 0\n",
        "4:3: axis[0].stepper.steps_per_unit: missing: the steps per mm (or the motor's full_steps and microsteps)"},
       {kStepperZ + "  stepgen = 0\n  steps_per_unit = 0\n",
-       "6:20: axis[0].stepper.steps_per_unit: 0 is out of range: above 0 to 1000000 steps per mm"},
+       "6:20: axis[0].stepper.steps_per_unit: 0 is out of range: 0.001 to 1000000 steps per mm"},
       {kStepperZ + "  stepgen = 0\n  steps_per_unit = 800\n  microsteps = 8\n",
        "7:16: axis[0].stepper.microsteps: steps_per_unit is given: the motor's full_steps and microsteps are for "
        "working it out instead"},
       {kStepperZ + "  stepgen = 0\n  microsteps = 0\n", "6:16: axis[0].stepper.microsteps: 0 is out of range: 1 to 1000"},
       {kStepperZ + "  stepgen = 0\n  steps_per_unit = 800\n  max_step_rate = -5\n",
-       "7:19: axis[0].stepper.max_step_rate: -5 is out of range: above 0 to 10000000 steps/s"},
+       "7:19: axis[0].stepper.max_step_rate: -5 is out of range: 1 to 10000000 steps/s"},
       {kStepperZ + "  stepgen = 0\n  steps_per_unit = 800\n[[axis]]\nname = \"x\"\n  [axis.stepper]\n  stepgen = 0\n"
                    "  steps_per_unit = 800\n",
        "10:13: axis[1].stepper.stepgen: StepGen 0 is already axis z's (at 5:13)"},

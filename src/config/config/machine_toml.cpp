@@ -114,6 +114,11 @@ class MachineReader {
              [&](const toml::table& t, const std::string& prefix) { return switchAt(t, prefix, m); });
     readList(root_, "output", m.outputs,
              [&](const toml::table& t, const std::string& prefix) { return output(t, prefix); });
+    // An empty file is no machine: an empty or truncated file of the user's
+    // must not start a sim with nothing behind the 7I77.
+    if (m.axes.empty() && !m.spindle && m.switches.empty() && m.outputs.empty())
+      r_.fail(&root_, "axis",
+              "missing: a machine has at least one [[axis]], [spindle], [[switch]] or [[output]] (the file has none)");
     m.sevenI76Where = sevenI76Where_;
     return m;
   }
@@ -181,16 +186,16 @@ class MachineReader {
                  "enable_polarity", "reversed"});
     a.mode = r_.text(t, prefix, "mode", "velocity", {"velocity", "torque"}) == "velocity" ? AmplifierMode::Velocity
                                                                                          : AmplifierMode::Torque;
-    a.gain = r_.positive(t, prefix, "gain", a.gain, 1e4, a.mode == AmplifierMode::Velocity ? "rev/s per V" : "Nm per V");
-    a.limit = r_.positive(t, prefix, "limit", a.limit, 1e4, a.mode == AmplifierMode::Velocity ? "rev/s" : "Nm");
+    a.gain = r_.positive(t, prefix, "gain", a.gain, 1e-6, 1e4, a.mode == AmplifierMode::Velocity ? "rev/s per V" : "Nm per V");
+    a.limit = r_.positive(t, prefix, "limit", a.limit, 1e-6, 1e4, a.mode == AmplifierMode::Velocity ? "rev/s" : "Nm");
     a.deadbandVolts = r_.number(t, prefix, "deadband_volts", a.deadbandVolts, 0.0, 10.0, "V");
     a.offsetVolts = r_.number(t, prefix, "offset_volts", a.offsetVolts, -10.0, 10.0, "V");
-    a.peakTorque = r_.positive(t, prefix, "peak_torque", a.peakTorque, kMaxTorque, "Nm");
+    a.peakTorque = r_.positive(t, prefix, "peak_torque", a.peakTorque, 1e-6, kMaxTorque, "Nm");
     // The drive's velocity loop is integrated once per plant step: much
     // faster than the step allows and the simulated loop rings or diverges
     // where the real drive would not.
     const double maxBandwidth = std::floor(0.5e6 / (2.0 * std::numbers::pi * stepUs_));
-    a.bandwidthHz = r_.positive(t, prefix, "bandwidth_hz", a.bandwidthHz, 1e5, "Hz");
+    a.bandwidthHz = r_.positive(t, prefix, "bandwidth_hz", a.bandwidthHz, 0.1, 1e5, "Hz");
     if (a.bandwidthHz > maxBandwidth)
       r_.fail(t.get("bandwidth_hz"), prefix + "bandwidth_hz",
               fmt::format("{} Hz is too fast for the plant's {} us step (step_us): at most {} Hz", a.bandwidthHz,
@@ -210,7 +215,7 @@ class MachineReader {
     analog_.claim(d.analogOutput, owner, at(t, "analog_output"), prefix + "analog_output");
     // ENAn and encoder n by default: the 7I77's own pairing of its terminals.
     d.enable = index(t, prefix, "enable", d.analogOutput, kEnables);
-    d.motorInertia = r_.positive(t, prefix, "motor_inertia", d.motorInertia, 1.0, "kg m^2");
+    d.motorInertia = r_.positive(t, prefix, "motor_inertia", d.motorInertia, 1e-9, 1.0, "kg m^2");
     d.encoderInput = index(t, prefix, "encoder_input", d.analogOutput, kEncoders);
     encoders_.claim(d.encoderInput, owner, at(t, "encoder_input"), prefix + "encoder_input");
     d.encoder = encoder(t, prefix, d.encoder);
@@ -228,9 +233,9 @@ class MachineReader {
     a.name = r_.name(t, prefix, "name", "");
     // The API names the spindle's encoder "spindle" where it names axes.
     if (a.name == "spindle") r_.fail(t.get("name"), prefix + "name", "\"spindle\" is the spindle's name, not an axis'");
-    a.screwPitch = r_.positive(t, prefix, "screw_pitch", a.screwPitch, 1e4, "mm");
-    a.gearRatio = r_.positive(t, prefix, "gear_ratio", a.gearRatio, 1e3, "motor revolutions per screw revolution");
-    a.massKg = r_.positive(t, prefix, "mass_kg", a.massKg, 1e5, "kg");
+    a.screwPitch = r_.positive(t, prefix, "screw_pitch", a.screwPitch, 0.01, 1e4, "mm");
+    a.gearRatio = r_.positive(t, prefix, "gear_ratio", a.gearRatio, 1e-3, 1e3, "motor revolutions per screw revolution");
+    a.massKg = r_.positive(t, prefix, "mass_kg", a.massKg, 1e-3, 1e5, "kg");
     a.screwInertia = r_.number(t, prefix, "screw_inertia", a.screwInertia, 0.0, 10.0, "kg m^2");
     a.viscous = r_.number(t, prefix, "viscous", a.viscous, 0.0, 1e3, "Nm per rad/s");
     a.coulomb = r_.number(t, prefix, "coulomb", a.coulomb, 0.0, kMaxTorque, "Nm");
@@ -281,7 +286,7 @@ class MachineReader {
         r_.fail(t.get(key), prefix + std::string(key),
                 "steps_per_unit is given: the motor's full_steps and microsteps are for working it out instead");
       }
-      s.stepsPerUnit = r_.positive(t, prefix, "steps_per_unit", s.stepsPerUnit, 1e6, "steps per mm");
+      s.stepsPerUnit = r_.positive(t, prefix, "steps_per_unit", s.stepsPerUnit, 1e-3, 1e6, "steps per mm");
     } else if (fromMotor) {
       const auto fullSteps = r_.integer(t, prefix, "full_steps", 200, 1, 10'000);
       const auto microsteps = r_.integer(t, prefix, "microsteps", 1, 1, 1'000);
@@ -290,7 +295,7 @@ class MachineReader {
       r_.fail(&t, prefix + "steps_per_unit", "missing: the steps per mm (or the motor's full_steps and microsteps)");
     }
     // Absent: the motor follows every rate.
-    s.maxStepRate = r_.positive(t, prefix, "max_step_rate", s.maxStepRate, 1e7, "steps/s");
+    s.maxStepRate = r_.positive(t, prefix, "max_step_rate", s.maxStepRate, 1.0, 1e7, "steps/s");
     s.reversed = r_.boolean(t, prefix, "reversed", s.reversed);
     // A closed-loop stepper's encoder.
     if (t.get("encoder_input") != nullptr) {
@@ -326,9 +331,9 @@ class MachineReader {
       analog_.claim(s.analogOutput, "the spindle", at(t, "analog_output"), prefix + "analog_output");
       s.enable = index(t, prefix, "enable", s.enable, kEnables);
     }
-    s.vfd.rpmPerVolt = r_.positive(t, prefix, "rpm_per_volt", s.vfd.rpmPerVolt, 1e5, "rpm per V");
-    s.vfd.maxRpm = r_.positive(t, prefix, "max_rpm", s.vfd.maxRpm, 1e6, "rpm");
-    s.vfd.accelerationRpmPerSecond = r_.positive(t, prefix, "acceleration", s.vfd.accelerationRpmPerSecond, 1e7, "rpm/s");
+    s.vfd.rpmPerVolt = r_.positive(t, prefix, "rpm_per_volt", s.vfd.rpmPerVolt, 1e-3, 1e5, "rpm per V");
+    s.vfd.maxRpm = r_.positive(t, prefix, "max_rpm", s.vfd.maxRpm, 1.0, 1e6, "rpm");
+    s.vfd.accelerationRpmPerSecond = r_.positive(t, prefix, "acceleration", s.vfd.accelerationRpmPerSecond, 1e-3, 1e7, "rpm/s");
     s.vfd.deadbandVolts = r_.number(t, prefix, "deadband_volts", s.vfd.deadbandVolts, 0.0, 10.0, "V");
     s.vfd.enablePolarity = polarity(t, prefix, s.vfd.enablePolarity);
     // The encoder on the VFD's board unless told: the 7I77's 0..5 (5 by
@@ -425,7 +430,7 @@ class MachineReader {
     (void)r_.required(t, prefix, "output");
     o.output = index(t, prefix, "output", 0, on76 ? kOutputs76 : kOutputs);
     (on76 ? outputs76_ : outputs_).claim(o.output, "output " + o.name, at(t, "output"), prefix + "output");
-    o.loadOhms = r_.positive(t, prefix, "load_ohms", o.loadOhms, 1e6, "ohms");
+    o.loadOhms = r_.positive(t, prefix, "load_ohms", o.loadOhms, 1e-3, 1e6, "ohms");
     return o;
   }
 

@@ -69,14 +69,8 @@ double ConfigReader::number(const toml::table& t, const std::string& prefix, std
 }
 
 double ConfigReader::positive(const toml::table& t, const std::string& prefix, std::string_view key,
-                              double fallback, double max, std::string_view unit) const {
-  const toml::node* n = t.get(key);
-  if (n == nullptr) return fallback;
-  const auto name = prefix + std::string(key);
-  const double v = numberValue(*n, name, unit);
-  if (!std::isfinite(v) || !(v > 0) || v > max)
-    fail(n, name, fmt::format("{} is out of range: above 0 to {} {}", v, max, unit));
-  return v;
+                              double fallback, double min, double max, std::string_view unit) const {
+  return number(t, prefix, key, fallback, min, max, unit);
 }
 
 std::pair<double, double> ConfigReader::interval(const toml::table& t, const std::string& prefix,

@@ -41,9 +41,11 @@ class ConfigReader {
   // messages; `fallback` when the key is absent.
   [[nodiscard]] double number(const toml::table& t, const std::string& prefix, std::string_view key, double fallback,
                               double min, double max, std::string_view unit) const;
-  // The same, above `min` (not equal to it): masses, pitches, gains.
+  // The same for a quantity that must be above 0 (masses, pitches, gains):
+  // `min`, above 0, is the smallest a real machine has, so that a value such
+  // as 1e-308 is refused instead of dividing by next to nothing later.
   [[nodiscard]] double positive(const toml::table& t, const std::string& prefix, std::string_view key,
-                                double fallback, double max, std::string_view unit) const;
+                                double fallback, double min, double max, std::string_view unit) const;
 
   // [low, high] with low < high, both in [min, max]: a range of travel.
   [[nodiscard]] std::pair<double, double> interval(const toml::table& t, const std::string& prefix,
