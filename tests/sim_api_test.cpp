@@ -618,6 +618,13 @@ TEST(SimApi, RefusesValuesWithNoPhysicalMeaning) {
       {"/api/time", {{"speed", 0}}, "\"speed\" must be a number above 0 and at most 10000"},
       {"/api/time", {{"step_ms", 1e9}}, "\"step_ms\" must be a number from 0 to 60000"},
       {"/api/time", {{"paused", "yes"}}, "\"paused\" must be true or false"},
+      // A misspelt key is refused, as everywhere in the API, not ignored.
+      {"/api/input", {{"input", 3}, {"vots", 3}}, "unknown key \"vots\""},
+      {"/api/field", {{"volt", 24}}, "unknown key \"volt\""},
+      {"/api/output", {{"output", 3}, {"ohm", 80}}, "unknown key \"ohm\""},
+      {"/api/encoder", {{"encoder", 1}, {"velocty", 5}}, "unknown key \"velocty\""},
+      {"/api/cable", {{"channel", 1}, {"conected", false}}, "unknown key \"conected\""},
+      {"/api/time", {{"pause", true}}, "unknown key \"pause\""},
   };
   for (const auto& c : cases) {
     const auto r = sim.post(c.path, c.body);
@@ -920,6 +927,8 @@ TEST(SimMachine, BadMachineActionsAreRefusedNamingTheField) {
       {{{"action", "probe"}, {"touching", "yes"}}, "\"touching\" must be true or false"},
       {{{"action", "switch"}, {"name", "nope"}, {"tripped", true}}, "this machine has no switch \"nope\""},
       {{{"action", "switch"}, {"tripped", true}}, "missing \"name\""},
+      {{{"action", "push"}, {"axis", "x"}, {"distance", 1.0}, {"sped", 2}}, "unknown key \"sped\""},
+      {{{"action", "estop"}, {"pressed", true}, {"axis", "x"}}, "unknown key \"axis\""},
   };
   for (const auto& c : cases) {
     const auto r = sim.post("/api/machine", c.body);

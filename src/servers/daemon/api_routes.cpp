@@ -117,6 +117,7 @@ void machineAction(machine::Machine& m, const json& j) {
   };
   // Everything is checked before anything changes.
   if (action == "push") {
+    fields::onlyKnown(j, {"action", "axis", "distance", "speed"});
     const auto a = axis();
     const double distance = number(j, "distance", -kMaxPush, kMaxPush,
                                    fmt::format("from {:g} to {:g} (machine units)", -kMaxPush, kMaxPush));
@@ -126,9 +127,11 @@ void machineAction(machine::Machine& m, const json& j) {
                                              : kDefaultPushSpeed;
     m.push(a, distance, speed);
   } else if (action == "jam") {
+    fields::onlyKnown(j, {"action", "axis", "jammed"});
     const auto a = axis();
     m.setJammed(a, flag(j, "jammed"));
   } else if (action == "encoder") {
+    fields::onlyKnown(j, {"action", "axis", "drive", "channel", "broken"});
     const std::string name = text(j, "axis");
     const auto a = m.axisIndex(name);
     if (!a && name != "spindle")
@@ -157,14 +160,17 @@ void machineAction(machine::Machine& m, const json& j) {
       throw std::invalid_argument(m.spindle() ? "\"axis\": this machine's spindle has no encoder"
                                               : "\"axis\": this machine has no spindle");
   } else if (action == "estop") {
+    fields::onlyKnown(j, {"action", "pressed"});
     const bool pressed = flag(j, "pressed");
     if (m.setSwitches(machine::SwitchKind::Estop, pressed) == 0)
       throw std::invalid_argument("\"action\": this machine has no E-stop switch");
   } else if (action == "probe") {
+    fields::onlyKnown(j, {"action", "touching"});
     const bool touching = flag(j, "touching");
     if (m.setSwitches(machine::SwitchKind::Probe, touching) == 0)
       throw std::invalid_argument("\"action\": this machine has no probe");
   } else if (action == "switch") {
+    fields::onlyKnown(j, {"action", "name", "tripped"});
     const std::string name = text(j, "name");
     const bool tripped = flag(j, "tripped");
     if (!m.setSwitch(name, tripped)) {
@@ -230,6 +236,7 @@ void machineRouteAction(const ApiTarget& t, const json& j) {
 }
 
 void inputAction(const ApiTarget& t, const json& j) {
+  fields::onlyKnown(j, {"connector", "input", "volts", "on"});
   if (auto* i76 = sevenI76At(j, t.card)) {
     const auto n = index(j, "input", remote::SevenI76FieldIo::kInputs);
     i76->setInputVoltage(n, j.contains("volts") ? number(j, "volts", 0, kMaxVolts, kVoltsRange)
@@ -244,6 +251,7 @@ void inputAction(const ApiTarget& t, const json& j) {
 }
 
 void fieldAction(const ApiTarget& t, const json& j) {
+  fields::onlyKnown(j, {"connector", "volts", "vin"});
   if (auto* i76 = sevenI76At(j, t.card)) {
     // Its processor runs from field power (seven_i76.hpp): it has no VIN.
     if (j.contains("vin")) throw std::invalid_argument("\"vin\": the 7I76 has no VIN (it runs from field power)");
@@ -260,6 +268,7 @@ void fieldAction(const ApiTarget& t, const json& j) {
 }
 
 void encoderAction(const ApiTarget& t, const json& j) {
+  fields::onlyKnown(j, {"connector", "encoder", "counts_per_rev", "velocity"});
   const auto d = connector(j, t.card);
   constexpr unsigned kPer = SimState::kEncodersPerDaughtercard;
   const auto n = index(j, "encoder", kPer) + kPer * d;
@@ -277,11 +286,13 @@ void encoderAction(const ApiTarget& t, const json& j) {
 }
 
 void cableAction(const ApiTarget& t, const json& j) {
+  fields::onlyKnown(j, {"channel", "connected"});
   const auto ch = index(j, "channel", t.card.part<hm2::SmartSerial>().channels());
   t.card.part<hm2::SmartSerial>().link(ch).setConnected(flag(j, "connected"));
 }
 
 void outputAction(const ApiTarget& t, const json& j) {
+  fields::onlyKnown(j, {"connector", "output", "ohms", "short"});
   auto* i76 = sevenI76At(j, t.card);
   auto* io = i76 != nullptr ? nullptr : &t.card.daughtercard(connector(j, t.card)).fieldIo;
   const auto n = index(j, "output", i76 != nullptr ? remote::SevenI76FieldIo::kOutputs : remote::FieldIoProcessor::kOutputs);
@@ -300,11 +311,13 @@ void outputAction(const ApiTarget& t, const json& j) {
 }
 
 void overtempAction(const ApiTarget& t, const json& j) {
+  fields::onlyKnown(j, {"connector", "chip", "hot"});
   auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
   io.setDriverOverTemperature(index(j, "chip", remote::FieldIoProcessor::kChips), flag(j, "hot"));
 }
 
 void timeAction(const ApiTarget& t, const json& j) {
+  fields::onlyKnown(j, {"speed", "paused", "step_ms"});
   // On the host clock a period passes per host cycle: no speed to set
   // (pausing and stepping by hand still work).
   if (j.contains("speed") && t.clock.source() == SimClock::Source::Host)
