@@ -354,6 +354,13 @@ TEST(FaultScriptFile, AMistakeNamesTheFileTheLineAndTheKey) {
                 .find("does not end by itself"),
             std::string::npos);
   EXPECT_NE(error("[[fault]]\nat = -1\nfault = \"cable\"\n").find("fault[0].at"), std::string::npos);
+  // A duration is a decimal number and its unit: no hex float, no inf.
+  for (const char* d : {"0x1p3s", "infs", "nan", " 2s", "+2s", "2.5.1s"})
+    EXPECT_NE(error(std::string("[[fault]]\nat = \"") + d + "\"\nfault = \"cable\"\nchannel = 1\nconnected = false\n")
+                  .find("is not a duration"),
+              std::string::npos)
+        << d;
+  EXPECT_EQ(error("[[fault]]\nat = \"1.5e3ms\"\nfault = \"cable\"\nchannel = 1\nconnected = false\n"), "");
 }
 
 TEST(FaultScript, EveryEntryIsTriedBeforeTheSimStarts) {

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -31,14 +32,21 @@ std::string place(const std::string& path, const toml::node& n) {
 std::chrono::nanoseconds parseDuration(const std::string& text) {
   const std::string what =
       fmt::format("\"{}\" is not a duration: a number with s, ms or us (\"2.5s\", \"200ms\"), from 0 to 1 day", text);
+  // A decimal number only: std::stod alone would also take "0x1p3",
+  // "inf", "nan" and leading spaces.
+  const std::size_t numberEnd = text.find_first_not_of("0123456789.eE+-");
+  const std::string number = text.substr(0, numberEnd);
+  if (number.empty() || (std::isdigit(static_cast<unsigned char>(number[0])) == 0 && number[0] != '.'))
+    throw std::invalid_argument(what);
   std::size_t used = 0;
   double v = 0;
   try {
-    v = std::stod(text, &used);
+    v = std::stod(number, &used);
   } catch (const std::exception&) {
     throw std::invalid_argument(what);
   }
-  const std::string unit = text.substr(used);
+  if (used != number.size()) throw std::invalid_argument(what);
+  const std::string unit = text.substr(number.size());
   double scale = 0;
   if (unit == "s" || unit.empty())
     scale = 1;
