@@ -13,6 +13,8 @@
 #include "lbpkit/wire/hostmot2.hpp"
 #include "lbpkit/wire/process_data.hpp"
 #include "lbpkit/wire/names.hpp"
+#include "remote/nv_store.hpp"
+#include "remote/remote_device.hpp"
 
 namespace pylbpkit {
 
@@ -144,7 +146,15 @@ std::shared_ptr<Card> Card::openSim(const SimOptions& o) {
     d.fieldIo.fieldVoltage = o.fieldVoltage;
   };
   daughter(card.first);
-  if (!o.state.empty()) card.first.fieldIo.nvFile = o.state;
+  if (!o.state.empty()) {
+    // A file the card will not use (a symbolic link, not an EEPROM image,
+    // held by another sim) is refused now, as lbpkit sim refuses it, not
+    // found out at the first non-volatile write.
+    remote::NvStore probe(remote::memory::kEepromSize, o.state);
+    probe.load();
+    if (!probe.refusal().empty()) throw lbpkit::Error(probe.refusal());
+    card.first.fieldIo.nvFile = o.state;
+  }
   if (o.daughtercards == 2) {
     card.second.emplace();
     daughter(*card.second);

@@ -190,6 +190,9 @@ TEST_F(MachineFile, EveryMistakeNamesFileLineColumnAndKey) {
       {"axis = 3\n", "1:8: axis: expected an array of tables ([[axis]]), not an integer"},
       {"[axis]\nname = \"x\"\n", "1:1: axis: expected an array of tables ([[axis]]), not a table"},
       {"[[axis]]\nname = \"x y\"\n", "2:8: axis[0].name: \"x y\" is not a name: 1 to 40 letters, digits, '_' or '-'"},
+      // A NUL shows, and the message goes on past it.
+      {"[[axis]]\nname = \"x\\u0000y\"\n",
+       "2:8: axis[0].name: \"x\\x00y\" is not a name: 1 to 40 letters, digits, '_' or '-'"},
       // Out of range.
       {"[[axis]]\nname = \"x\"\n  [[axis.drive]]\n  analog_output = 0\n  encoder_input = 6\n",
        "5:19: axis[0].drive[0].encoder_input: 6 is out of range: 0 to 5"},

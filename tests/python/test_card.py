@@ -222,3 +222,17 @@ def test_the_interpreter_exits_cleanly_with_a_thread_inside_run():
         "print('main thread ends')\n")
     assert status == 0, out
     assert "terminate called" not in out, out
+
+
+def test_a_state_file_the_card_will_not_use_is_refused_at_once(tmp_path):
+    target = tmp_path / "real.eeprom"
+    lbpkit.Card.sim(state=str(target)).start()  # makes the EEPROM image
+    link = tmp_path / "link.eeprom"
+    link.symlink_to(target)
+    with pytest.raises(lbpkit.Error, match="symbolic link"):
+        lbpkit.Card.sim(state=str(link))
+    text = tmp_path / "notes.txt"
+    text.write_text("a file of the user's\n")
+    with pytest.raises(lbpkit.Error):
+        lbpkit.Card.sim(state=str(text))
+    assert text.read_text() == "a file of the user's\n"

@@ -18,7 +18,27 @@ namespace config {
 // what" (or "FILE: what" when there is no place in the file to point at).
 class FileError : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  // Control characters from the file (a NUL in a string would end the
+  // message where it is printed as a C string) show as \xNN.
+  explicit FileError(const std::string& what) : std::runtime_error(printable(what)) {}
+
+ private:
+  static std::string printable(const std::string& text) {
+    static constexpr char kHex[] = "0123456789abcdef";
+    std::string out;
+    out.reserve(text.size());
+    for (const char c : text) {
+      const auto u = static_cast<unsigned char>(c);
+      if ((u < 0x20 && c != '\n' && c != '\t') || u == 0x7F) {
+        out += "\\x";
+        out += kHex[u >> 4];
+        out += kHex[u & 0xF];
+      } else {
+        out += c;
+      }
+    }
+    return out;
+  }
 };
 
 // The file at `path`, parsed. `what` says what kind of file was expected,
