@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <arpa/inet.h>
+#include <signal.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -297,3 +298,34 @@ TEST(MonitorView, AnApiThatWantsATokenSaysSo) {
 }
 
 }  // namespace
+
+// The monitor's own process held back 200 ms (SIGSTOP, SIGCONT): the 7I77's
+// 50 ms watchdog bites on the sim, which runs on the wall clock. The monitor
+// says so in its header, counts it and restarts the channels, whose CS is
+// clean again on its last screen.
+TEST(MonitorView, TheMonitorRecoversFromAStallOfItsOwnAndSaysSo) {
+  const auto state = (std::filesystem::temp_directory_path() / ("lbpkit-monitor-stall-" + std::to_string(::getpid()))).string();
+  {
+    test_support::Daemon sim({"sim", "--bind", "127.0.0.1:0", "--api", "127.0.0.1:0", "--state", state, "--no-realtime"});
+    const auto udp = sim.value("on UDP 127.0.0.1:");
+    ASSERT_FALSE(udp.empty());
+    test_support::Daemon monitor({"monitor", "--addr", "127.0.0.1:" + udp, "--no-api", "--plain", "--display", "10"});
+    ASSERT_TRUE(has(monitor.readUntil("channel 1: "), "CS: ok")) << "running before the stall";
+    ::kill(monitor.pid(), SIGSTOP);
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    ::kill(monitor.pid(), SIGCONT);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+    EXPECT_EQ(monitor.stopWithin(std::chrono::seconds(5), SIGINT), 0);
+    const auto out = monitor.readUntil("no such line: to the end of its output");
+    // From the first screen that tells of the bite on, the channels run
+    // clean again (a later stall of a loaded machine may bite once more).
+    const auto told = out.find("watchdog: ");
+    ASSERT_NE(told, std::string::npos) << out;
+    const auto after = out.substr(told);
+    EXPECT_TRUE(has(after.substr(0, after.find('\n')), "channels restarted ")) << after;
+    EXPECT_TRUE(has(after, "channel 0: 7I77 field I/O (unit 0x12000AEE)  CS: ok")) << after;
+    EXPECT_TRUE(has(after, "channel 1: 7I77 analog (unit 0x11000AEE)  CS: ok")) << after;
+    EXPECT_EQ(sim.stop(), 0);
+  }
+  for (const char* suffix : {"", ".analog"}) std::filesystem::remove(state + suffix);
+}

@@ -11,12 +11,14 @@
 #include <memory>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "common.hpp"
 #include "lbpkit/encoders.hpp"
 #include "lbpkit/error.hpp"
 #include "lbpkit/faults.hpp"
 #include "lbpkit/lbp16_transport.hpp"
+#include "lbpkit/wire/seven_i77.hpp"
 #include "machine_view.hpp"
 
 namespace app {
@@ -117,7 +119,13 @@ int runMonitor(const MonitorOptions& o) {
   const auto output = ss.find(0, "Output");
   const auto analog0 = ss.find(1, "AnalogOut0");
   const auto ena = ss.find(1, "AnalogEna");
-  std::uint64_t failedCycles = 0, failedRecoveries = 0;
+  std::uint64_t failedCycles = 0, failedRecoveries = 0, watchdogBites = 0, watchdogRestarts = 0;
+  // A channel whose remote reports its watchdog bit (this process held
+  // back past the 7I77's 50 ms: a busy machine, a stall): the 7I77 has
+  // turned its outputs off and keeps the fault until the channel starts
+  // again (7I77 manual: FIELD I/O WATCHDOG AND FAULTS), so the monitor says
+  // so, counts it and restarts the channel.
+  std::vector<bool> bitten(ss.slots(), false);
   const auto wallStart = std::chrono::steady_clock::now();
   for (unsigned frame = 0; (o.frames == 0 || frame < o.frames) && !app::gStop.load(); ++frame) {
     // The stop flag is checked every cycle: a frame can be many cycles.
@@ -144,6 +152,17 @@ int runMonitor(const MonitorOptions& o) {
       (void)t.tryFlush();  // a lost reply shows in the cycle's status
       const auto st = ss.collectInputs();
       enc.update();
+      for (unsigned s = 0; s < ss.slots(); ++s) {
+        const bool bite = (ss.remoteFaults(s) & lbpkit::wire::i7i77::fault::kWatchdog) != 0;
+        if (bite && !bitten[s]) ++watchdogBites;
+        bitten[s] = bite;
+        if (!bite || !st.ok) continue;
+        try {
+          if (ss.recover(s)) ++watchdogRestarts;
+        } catch (const lbpkit::Error&) {
+          ++failedRecoveries;  // the next cycle tries again
+        }
+      }
       if (!st.ok) {
         ++failedCycles;
         for (unsigned s = 0; s < ss.slots(); ++s) {
@@ -170,6 +189,11 @@ int runMonitor(const MonitorOptions& o) {
     screen += fmt::format("link: {} cycles lost a reply, {} late or stray datagrams discarded, {} send failures{}\n",
                           ss.lostCycles(), link.discarded, link.sendFailures,
                           failedRecoveries ? fmt::format(", {} channel restarts failed", failedRecoveries) : "");
+    if (watchdogBites > 0)
+      screen += fmt::format("watchdog: {} bite{} (a remote found this host silent past the 7I77's {} ms and turned "
+                            "its outputs off); channels restarted {} time{}\n",
+                            watchdogBites, watchdogBites == 1 ? "" : "s", lbpkit::wire::i7i77::kDefaultWatchdogMs,
+                            watchdogRestarts, watchdogRestarts == 1 ? "" : "s");
     for (unsigned s = 0; s < ss.slots(); ++s) {
       const auto& id = ss.slotIdentity(s);
       const auto& d = ss.description(s);
