@@ -530,6 +530,14 @@ TEST(SimApi, RefusesForeignOriginsHostsAndNonJsonPosts) {
   Request get;
   get.host = "evil.example";
   EXPECT_EQ(sim.send(get).status, 403);
+  // A second Host or Origin after the good one: none is taken.
+  q = unplug;
+  q.headers = {"Host: evil.example"};
+  r = sim.send(q);
+  EXPECT_EQ(r.status, 400) << r.raw;
+  EXPECT_NE(r.body.value("error", "").find("Host is given more than once"), std::string::npos) << r.raw;
+  q.headers = {"Origin: http://" + own, "Origin: http://evil.example"};
+  EXPECT_EQ(sim.send(q).status, 400);
   q = unplug;
   q.contentType = "text/plain";
   r = sim.send(q);

@@ -501,6 +501,11 @@ httplib::Server::HandlerResponse refuse(httplib::Response& res, int status, cons
 
 void addChecks(httplib::Server& http, const ApiOptions& o, int port) {
   http.set_pre_routing_handler([o, port](const httplib::Request& req, httplib::Response& res) {
+    // Two of them would leave which one counts to whoever reads first: none
+    // is taken.
+    for (const char* once : {"Host", "Origin", "Authorization", "Cookie"})
+      if (req.get_header_value_count(once) > 1)
+        return refuse(res, 400, fmt::format("{} is given more than once: refused", once));
     const auto host = req.get_header_value("Host");
     if (!isOwnHost(host, o.address, req.local_addr, port))
       return refuse(res, 403,
