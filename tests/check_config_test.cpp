@@ -331,6 +331,40 @@ TEST(CheckConfig, FilesLinuxCncCannotLoadAreRefusedAndNothingCrashesOrHangs) {
       << r.out.substr(0, 2000);
 }
 
+// halcmd's `source FILE` reads FILE where the command stands, relative to
+// the INI's folder (where linuxcnc runs halcmd): a configuration split into
+// files joined by source is checked whole, a missing file is an error at
+// its source line, and a file that sources itself ends with an error.
+TEST(CheckConfig, SourcedHalFilesAreReadWhereTheySourceCommandStands) {
+  test_support::TempDir dir("lbpkit-check-source");
+  fs::create_directories(dir.path() / "parts");
+  std::ofstream(dir.path() / "machine.ini") << "[HAL]\nHALFILE = machine.hal\n";
+  std::ofstream(dir.path() / "parts/load.hal")
+      << "loadrt hostmot2\nloadrt hm2_eth board_ip=10.10.10.10 config=\"num_encoders=6 sserial_port_0=00xxxx\"\n";
+  std::ofstream(dir.path() / "machine.hal") << "source parts/load.hal\n"
+                                            << "loadrt threads name1=servo-thread period1=1000000\n"
+                                            << "addf hm2_7i92.0.read servo-thread\n"
+                                            << "net lube => hm2_7i92.0.7i77.0.0.ouput-01\n";
+  auto r = check(dir.path() / "machine.ini");
+  EXPECT_EQ(r.exit, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("hm2_7i92.0 by hm2_eth config=\"num_encoders=6 sserial_port_0=00xxxx\" (parts/load.hal:2)"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("machine.hal:4: error: the 7I77 on port 0 channel 0 has no ouput-01"), std::string::npos) << r.out;
+
+  std::ofstream(dir.path() / "missing.ini") << "[HAL]\nHALFILE = missing.hal\n";
+  std::ofstream(dir.path() / "missing.hal") << "# the second line\nsource no-such.hal\n";
+  r = check(dir.path() / "missing.ini");
+  EXPECT_EQ(r.exit, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("missing.hal:2: error: source no-such.hal: no such file"), std::string::npos) << r.out;
+
+  std::ofstream(dir.path() / "loop.ini") << "[HAL]\nHALFILE = loop.hal\n";
+  std::ofstream(dir.path() / "loop.hal") << "source loop.hal\n";
+  r = check(dir.path() / "loop.ini");
+  EXPECT_EQ(r.exit, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("loop.hal:1: error: source loop.hal: files sourced 16 deep"), std::string::npos) << r.out;
+}
+
 TEST(CheckConfig, TextOutputSaysFileLineReasonAndNearestName) {
   const auto r = check(corpus() / "broken/wrong_channel.hal");
   EXPECT_EQ(r.exit, 1);

@@ -158,6 +158,11 @@ class LinuxCncCommand : public ::testing::Test {
 
 TEST_F(LinuxCncCommand, CtrlCStopsLinuxCncAndTheSimAndRemovesTheNamespace) {
   ASSERT_TRUE(start()) << slurp(log_);
+  // LinuxCNC's lock file is in a /tmp of its own: another LinuxCNC on this
+  // PC neither finds it nor cleans this one up.
+  EXPECT_FALSE(fs::exists("/tmp/linuxcnc.lock"));
+  const auto own = fs::path("/tmp/lbpkit-linuxcnc-" + id_) / "tmp";
+  EXPECT_TRUE(fs::exists(own / "linuxcnc.lock")) << own;
   ::kill(pid_, SIGINT);
   EXPECT_EQ(end(), 130) << slurp(log_);
   expectNothingLeft();

@@ -172,6 +172,19 @@ TEST(MachineFromConfig, PublicConfigurationsGiveAMachineOrSayWhatIsMissing) {
         << errors(m);
   }
   {
+    // A 7I92 + 7I77 lathe split into files joined by halcmd's `source`: the
+    // card and its encoders in load.hal, the E-stop chain in inout.hal.
+    const auto m = machineFromConfig(dir / "7i92-7i77-lathe-dowerna/padovani.ini");
+    ASSERT_TRUE(m.ok()) << errors(m);
+    const auto d = load(m);
+    EXPECT_EQ(d.axes.size(), 2U);
+    EXPECT_NE(m.toml.find("encoder_input = 1           # hm2_7i92.0.encoder.01 (padovani.hal:98)"), std::string::npos)
+        << m.toml;
+    EXPECT_NE(m.toml.find("hm2_7i92.0.7i77.0.0.input-10 (inout.hal:20) reaches iocontrol.0.emc-enable-in"),
+              std::string::npos)
+        << m.toml;
+  }
+  {
     // Y on an STMBL drive through a custom component: not a 7I77 axis.
     const auto m = machineFromConfig(dir / "7i80-7i77-router-shulter/justinbieber.ini");
     EXPECT_FALSE(m.ok());

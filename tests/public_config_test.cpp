@@ -153,7 +153,21 @@ INSTANTIATE_TEST_SUITE_P(
                        "LinuxCNC 2.9's hostmot2 exports no pet_watchdog function (lbpkit check-config says so)"},
                       {"7i77v7.hal", "hal_manualtoolchange", "a Tk window: there is no X display here"},
                       {"custom.hal", "spindle-vfd", "gs2_vfd talks to a VFD on a serial port"},
-                      {"7i77v7.ini", "POSTGUI_HALFILE", "its PyVCP panel's pins exist only with AXIS"}}}),
+                      {"7i77v7.ini", "POSTGUI_HALFILE", "its PyVCP panel's pins exist only with AXIS"}}},
+        // A 7I92 + 7I77 lathe (X and Z servos, a spindle with an encoder),
+        // PNCconf-made then split by hand into files joined by `source`,
+        // mm. Its spindle goes through a custom component of the
+        // repository's own (gearchange32, built with halcompile), which
+        // Debian's LinuxCNC does not have: left out, and the spindle's
+        // analog output with it.
+        PublicConfig{"7i92-7i77-lathe-dowerna",
+                     "padovani.ini",
+                     {{"load.hal", "loadrt gearchange32", "a custom component: not in Debian's LinuxCNC"},
+                      {"load.hal", "addf gear", "the custom component's function"},
+                      {"padovani.hal", "gear.", "the custom component's pins"},
+                      {"inout.hal", "gear.", "the custom component's pins (its gear selector inputs)"},
+                      {"padovani.ini", "POSTGUI_HALFILE",
+                       "gmoccapy's pins and a 7I73 pendant on channel 2 (lbpkit has no 7I73)"}}}),
     [](const ::testing::TestParamInfo<PublicConfig>& i) {
       std::string name;
       for (char ch : i.param.folder)

@@ -22,6 +22,7 @@
 
 #include <fmt/core.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
@@ -159,6 +160,37 @@ void printLinuxCncLog() {
   for (std::size_t i = lines.size() > 12 ? lines.size() - 12 : 0; i < lines.size(); ++i) fmt::print("  {}\n", lines[i]);
 }
 
+// The words that run a command with `priv` as its /tmp, in a mount
+// namespace of its own (as root, before any change of user): what it needs
+// of the PC's /tmp stays there, bound in: the X server's sockets
+// (/tmp/.X11-unix, for the user's display) and the folder under /tmp of
+// every absolute path in `paths` (the configuration, a display program
+// and its files). The command follows these words.
+std::vector<std::string> privateTmp(const fs::path& priv, const std::vector<std::string>& paths) {
+  fs::create_directories(priv);
+  fs::permissions(priv, fs::perms::all | fs::perms::sticky_bit);  // as /tmp: LinuxCNC may run as another user
+  std::vector<std::string> keep;
+  auto add = [&](const std::string& name) {
+    if (!name.empty() && std::find(keep.begin(), keep.end(), name) == keep.end() && fs::exists("/tmp/" + name))
+      keep.push_back(name);
+  };
+  add(".X11-unix");
+  for (const auto& text : paths)
+    for (auto at = text.find("/tmp/"); at != std::string::npos; at = text.find("/tmp/", at + 1))
+      if (at == 0 || text[at - 1] == ' ' || text[at - 1] == '=') {
+        const auto name = text.substr(at + 5, text.find_first_of("/ \t", at + 5) - (at + 5));
+        add(name);
+      }
+  std::vector<std::string> argv = {"sh", "-c",
+                                   "priv=$1; shift; while [ \"$1\" != -- ]; do mkdir -p \"$priv/$1\" && "
+                                   "mount --bind \"/tmp/$1\" \"$priv/$1\" || exit 126; shift; done; shift; "
+                                   "mount --rbind \"$priv\" /tmp || exit 126; exec \"$@\"",
+                                   "sh", priv.string()};
+  argv.insert(argv.end(), keep.begin(), keep.end());
+  argv.push_back("--");
+  return argv;
+}
+
 // The card a board's HAL name is (hm2_7i92.0 -> 7I92), or empty.
 std::string cardOfBoard(const std::string& prefix) {
   const auto kind = prefix.substr(4, prefix.find('.') - 4);  // "hm2_7i92.0" -> "7i92"
@@ -287,7 +319,8 @@ int runLinuxCnc(const LinuxCncOptions& o) {
   const std::string card = !o.card.empty() ? o.card : pci ? std::string("7I92") : cardOfBoard(board->prefix);
 
   const auto id = std::to_string(::getpid() % 100000);
-  const std::string fifo = fmt::format("/tmp/lbpkit-linuxcnc-{}-rtapi", id);
+  // rtapi_app's socket, in LinuxCNC's own /tmp (privateTmp).
+  const std::string fifo = "/tmp/rtapi_fifo";
   // What this run makes: the machine file (--machine auto), the copy of a
   // configuration it changes; removed at the end.
   const fs::path runDir = fmt::format("/tmp/lbpkit-linuxcnc-{}", id);
@@ -376,8 +409,6 @@ int runLinuxCnc(const LinuxCncOptions& o) {
     }
     ::close(simOut);
     ns.remove();
-    std::error_code ec;
-    fs::remove(fifo, ec);
   };
   try {
     const auto deadline = std::chrono::steady_clock::now() + 15s;
@@ -389,12 +420,16 @@ int runLinuxCnc(const LinuxCncOptions& o) {
       readSim(100);
     }
 
-    // LinuxCNC in the namespace, and in PID and IPC namespaces of its own:
-    // whatever it starts ends with it, and its HAL's shared memory goes with
-    // it however it ends (a killed LinuxCNC leaves System V segments behind
-    // that the next start trips over).
+    // LinuxCNC in the namespace, and in PID, IPC and mount namespaces of
+    // its own: whatever it starts ends with it, its HAL's shared memory goes
+    // with it however it ends (a killed LinuxCNC leaves System V segments
+    // behind that the next start trips over), and its /tmp is the run's
+    // own, so that the linuxcnc script's lock file (/tmp/linuxcnc.lock)
+    // neither stops nor is stopped by another LinuxCNC on this PC.
     std::vector<std::string> argv = {"ip", "netns", "exec", ns.name(), "unshare", "--pid", "--fork",
-                                     "--kill-child=SIGKILL", "--mount-proc", "--ipc"};
+                                     "--kill-child=SIGKILL", "--mount-proc", "--ipc", "--mount"};
+    const auto tmp = privateTmp(runDir / "tmp", {ini.string(), run.string(), o.display});
+    argv.insert(argv.end(), tmp.begin(), tmp.end());
     const char* sudoUid = std::getenv("SUDO_UID");
     const char* sudoGid = std::getenv("SUDO_GID");
     if (sudoUid != nullptr && sudoGid != nullptr && std::string(sudoUid) != "0")

@@ -131,10 +131,14 @@ class ConfigDisplay(mill_display.Display):
 
     def start_up(self):
         n = len(self.messages)
-        ok_reset = self.set_state(linuxcnc.STATE_ESTOP_RESET)
+        # Out of E-stop: a configuration may turn the machine on by itself
+        # then (a panel's maintained machine-on switch into halui.machine.on).
+        self.c.state(linuxcnc.STATE_ESTOP_RESET)
+        self.c.wait_complete(5)
+        ok_reset = self.wait(lambda: self.s.task_state in (linuxcnc.STATE_ESTOP_RESET, linuxcnc.STATE_ON), 5)
         ok_on = self.set_state(linuxcnc.STATE_ON)
-        self.report("machine_on", ok=ok_reset and ok_on, task_state=self.s.task_state,
-                    messages=self.messages_since(n))
+        self.report("machine_on", ok=ok_reset and ok_on, estop_reset=ok_reset, on=ok_on,
+                    task_state=self.s.task_state, messages=self.messages_since(n))
 
     def home(self):
         n = len(self.messages)

@@ -83,6 +83,8 @@ Ini readIni(const std::filesystem::path& path) {
 struct Reader {
   HalConfig& hal;
   std::vector<Finding>& findings;
+  std::filesystem::path dir;  // where linuxcnc runs halcmd: the INI's folder
+  unsigned depth = 0;         // files being read, one inside another (source)
 
   void error(const Where& w, std::string name, std::string reason, std::string suggestion = {},
              const char* severity = "error") {
@@ -242,7 +244,32 @@ struct Reader {
       link(t[2], t[1], w, Use::Link);
     } else if (cmd == "addf" && t.size() >= 3) {
       hal.refs.push_back({w, t[1], Use::Addf, {}});
+    } else if (cmd == "source" && t.size() >= 2) {
+      source(t[1], w);
     }
+  }
+
+  // halcmd's `source FILE`: FILE's commands, read where the command stands,
+  // the path relative to halcmd's working folder (the INI's, as linuxcnc
+  // runs it). A file that sources itself, directly or not, would never end:
+  // halcmd keeps going until it runs out of file descriptors; here it is an
+  // error at the line that goes too deep.
+  void source(const std::string& name, const Where& w) {
+    constexpr unsigned kMaxDepth = 16;
+    const std::filesystem::path p = name;
+    const auto full = p.is_absolute() ? p : dir / p;
+    if (const auto why = unreadable(full); !why.empty()) {
+      error(w, name, fmt::format("source {}: {}: halcmd stops here", name, why));
+      return;
+    }
+    if (depth >= kMaxDepth) {
+      error(w, name, fmt::format("source {}: files sourced {} deep (one sources itself?): not read", name, depth));
+      return;
+    }
+    ++depth;
+    readHal(full, p.string());
+    --depth;
+    hal.files.push_back(full.string());
   }
 
   void link(const std::string& pin, const std::string& sig, const Where& w, Use use) {
@@ -257,12 +284,12 @@ struct Reader {
 
 HalConfig readConfiguration(const std::filesystem::path& file, std::vector<Finding>& findings) {
   HalConfig hal;
-  Reader r{hal, findings};
+  const auto dir = file.parent_path();
+  Reader r{hal, findings, dir};
   if (const auto why = unreadable(file); !why.empty()) {
     findings.push_back({file.string(), 0, "error", {}, why, {}});
     return hal;
   }
-  const auto dir = file.parent_path();
   if (file.extension() == ".ini") {
     hal.ini = readIni(file);
     hal.hasIni = true;
