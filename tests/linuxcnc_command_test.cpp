@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <fstream>
 #include <regex>
+#include <cstdio>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -86,12 +87,20 @@ class LinuxCncCommand : public ::testing::Test {
   }
 
   // lbpkit linuxcnc started, its output in a file; true once LinuxCNC's
-  // servo thread runs the card (the sim has counted DOITs).
-  bool start() {
+  // servo thread runs the card (the sim has counted DOITs). `display`: the X
+  // display LinuxCNC's own display program shows on (DISPLAY), or none.
+  bool start(const std::string& display = {}) {
     log_ = dir_.path() / "linuxcnc.log";
     pid_ = ::fork();
     id_ = std::to_string(pid_ % 100000);
     if (pid_ == 0) {
+      // LinuxCNC's files in its user's home (linuxcnc_debug.txt, AXIS's
+      // preferences) go to the test's folder.
+      ::setenv("HOME", dir_.path().c_str(), 1);
+      if (display.empty())
+        ::unsetenv("DISPLAY");
+      else
+        ::setenv("DISPLAY", display.c_str(), 1);
       const int fd = ::open(log_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
       ::dup2(fd, 1);
       ::dup2(fd, 2);
@@ -187,6 +196,113 @@ TEST_F(LinuxCncCommand, AKilledSimStopsLinuxCnc) {
   EXPECT_EQ(end(), 1) << slurp(log_);
   expectNothingLeft();
   EXPECT_NE(slurp(log_).find("lbpkit sim ended"), std::string::npos) << slurp(log_);
+}
+
+// The real AXIS on an X server of its own (Xvfb), the example mill's
+// configuration as it is: AXIS's own keys take the machine out of E-stop
+// (F1), turn it on (F2) and home all joints (Ctrl-Home), as an operator
+// does; HAL says every joint is homed, and a screenshot of AXIS is kept in
+// the build folder (screenshots/axis-mill-homed.png).
+class AxisGui : public LinuxCncCommand {
+ protected:
+  void SetUp() override {
+    LinuxCncCommand::SetUp();
+    if (IsSkipped()) return;
+    for (const char* tool : {"Xvfb", "xdotool", "import", "nsenter"})
+      if (!have(tool)) GTEST_SKIP() << tool << " is not installed (xvfb, xdotool, imagemagick, util-linux)";
+    // The configuration as published: its display is AXIS.
+    fs::copy_file(fs::path(LBPKIT_SOURCE_DIR) / "examples/linuxcnc/mill/mill.ini", config_ / "mill.ini",
+                  fs::copy_options::overwrite_existing);
+    // A display number no X server on this PC uses.
+    for (int n = 90; n < 190 && display_.empty(); ++n)
+      if (!fs::exists("/tmp/.X11-unix/X" + std::to_string(n)) && !fs::exists("/tmp/.X" + std::to_string(n) + "-lock"))
+        display_ = ":" + std::to_string(n);
+    ASSERT_FALSE(display_.empty());
+    xvfb_ = ::fork();
+    if (xvfb_ == 0) {
+      const int null = ::open("/dev/null", O_WRONLY);
+      ::dup2(null, 1);
+      ::dup2(null, 2);
+      ::execlp("Xvfb", "Xvfb", display_.c_str(), "-screen", "0", "1024x768x24", "-nolisten", "tcp",
+               static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    ASSERT_TRUE(test_support::waitFor([&] { return x("xdotool getdisplaygeometry").exit == 0; }, 10s))
+        << "Xvfb " << display_ << " did not start";
+  }
+  void TearDown() override {
+    LinuxCncCommand::TearDown();
+    if (xvfb_ > 0) {
+      ::kill(xvfb_, SIGTERM);
+      ::waitpid(xvfb_, nullptr, 0);
+    }
+  }
+  // A command on the X display.
+  interop::Shell x(const std::string& command) { return sh("DISPLAY=" + display_ + " " + command); }
+  // A HAL pin's value in the running LinuxCNC (halcmd in its namespaces).
+  std::string pin(const std::string& name) {
+    const auto pids = sh("ip netns pids lbpkit-linuxcnc-" + id_).out;
+    const auto first = pids.substr(0, pids.find('\n'));
+    if (first.empty()) return {};
+    auto value = sh("nsenter -t " + first + " -i -m -n halcmd -s getp " + name).out;
+    while (!value.empty() && (value.back() == '\n' || value.back() == ' ')) value.pop_back();
+    return value;
+  }
+
+  std::string display_;
+  pid_t xvfb_ = -1;
+};
+
+TEST_F(AxisGui, AxisHomesTheMillThroughItsOwnControls) {
+  ASSERT_TRUE(start(display_)) << slurp(log_);
+  // AXIS's main window: "mill.ini - AXIS <version> on lbpkit-mill"
+  // ([EMC]MACHINE), once AXIS has loaded the configuration.
+  std::string window;
+  ASSERT_TRUE(test_support::waitFor(
+      [&] {
+        window = x("xdotool search --onlyvisible --name ' - AXIS .* on '").out;
+        return !window.empty();
+      },
+      60s, 250ms))
+      << slurp(log_);
+  window = window.substr(0, window.find('\n'));
+  // AXIS takes keys once its HAL component is ready (its setup done).
+  ASSERT_TRUE(test_support::waitFor([&] { return pin("axisui.error") == "FALSE" || pin("axisui.abort") == "FALSE"; },
+                                    30s, 250ms))
+      << sh("ip netns pids lbpkit-linuxcnc-" + id_).out << slurp(log_);
+  ASSERT_EQ(x("xdotool windowfocus --sync " + window).exit, 0);
+  // One key press each, as an operator's: F1 E-stop off, F2 machine on.
+  auto press = [&](const std::string& key, const std::string& pinName, const std::string& value) {
+    x("xdotool key " + key);
+    return test_support::waitFor([&] { return pin(pinName) == value; }, 10s, 100ms);
+  };
+  ASSERT_TRUE(press("F1", "halui.estop.is-activated", "FALSE")) << "AXIS's F1: still in E-stop\n" << slurp(log_);
+  ASSERT_TRUE(press("F2", "halui.machine.is-on", "TRUE")) << "AXIS's F2: the machine is not on\n" << slurp(log_);
+  x("xdotool key ctrl+Home");
+  const bool homed = test_support::waitFor(
+      [&] { return pin("joint.0.homed") == "TRUE" && pin("joint.1.homed") == "TRUE" && pin("joint.2.homed") == "TRUE"; },
+      60s, 250ms);
+  // What AXIS shows, kept whatever the outcome.
+  const fs::path shots = LBPKIT_SCREENSHOT_DIR;
+  fs::create_directories(shots);
+  const auto shot = shots / "axis-mill-homed.png";
+  std::this_thread::sleep_for(1s);  // AXIS redraws its DRO and homed marks every 100 ms or so
+  EXPECT_EQ(x("import -window root " + shot.string()).exit, 0);
+  EXPECT_GT(fs::exists(shot) ? fs::file_size(shot) : 0, 10'000U);
+  std::printf("AXIS screenshot: %s\n", shot.c_str());
+  EXPECT_TRUE(homed) << "joints homed: " << pin("joint.0.homed") << " " << pin("joint.1.homed") << " "
+                     << pin("joint.2.homed") << "\n" << slurp(log_);
+  // Homed where the mill's configuration puts home, each joint's feedback
+  // within one count (1/1000 mm) of its command.
+  for (int j = 0; j < 3; ++j) {
+    const auto n = "joint." + std::to_string(j);
+    const double cmd = std::atof(pin(n + ".motor-pos-cmd").c_str());
+    const double fb = std::atof(pin(n + ".motor-pos-fb").c_str());
+    EXPECT_NEAR(fb, cmd, 0.0011) << n;
+  }
+  ::kill(pid_, SIGINT);
+  EXPECT_EQ(end(), 130) << slurp(log_);
+  expectNothingLeft();
 }
 
 }  // namespace

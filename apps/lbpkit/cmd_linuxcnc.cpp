@@ -143,14 +143,20 @@ int stopLinuxCnc(pid_t unshare) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+// The home of the user LinuxCNC runs as: the one who ran sudo (sudo sets
+// HOME to root's), or root's own HOME.
+std::string linuxCncHome() {
+  if (const char* user = std::getenv("SUDO_USER"); user != nullptr && std::string(user) != "root")
+    if (const passwd* pw = ::getpwnam(user); pw != nullptr && pw->pw_dir != nullptr) return pw->pw_dir;
+  const char* home = std::getenv("HOME");
+  return home != nullptr && *home == '/' ? home : "/root";
+}
+
 // What LinuxCNC said before it failed: started without a terminal, the
 // linuxcnc script writes its messages to linuxcnc_debug.txt in the home of
-// the user it runs as (the one who ran sudo, or root).
+// the user it runs as.
 void printLinuxCncLog() {
-  std::string home = "/root";
-  if (const char* user = std::getenv("SUDO_USER"); user != nullptr && std::string(user) != "root")
-    if (const passwd* pw = ::getpwnam(user); pw != nullptr && pw->pw_dir != nullptr) home = pw->pw_dir;
-  const fs::path log = fs::path(home) / "linuxcnc_debug.txt";
+  const fs::path log = fs::path(linuxCncHome()) / "linuxcnc_debug.txt";
   std::ifstream in(log);
   std::vector<std::string> lines;
   for (std::string line; std::getline(in, line);)
@@ -434,7 +440,7 @@ int runLinuxCnc(const LinuxCncOptions& o) {
     const char* sudoGid = std::getenv("SUDO_GID");
     if (sudoUid != nullptr && sudoGid != nullptr && std::string(sudoUid) != "0")
       argv.insert(argv.end(), {"setpriv", std::string("--reuid=") + sudoUid, std::string("--regid=") + sudoGid,
-                               "--init-groups", "env", "RTAPI_FIFO_PATH=" + fifo});
+                               "--init-groups", "env", "HOME=" + linuxCncHome(), "RTAPI_FIFO_PATH=" + fifo});
     else
       argv.insert(argv.end(), {"env", "RTAPI_UID=65534", "RTAPI_FIFO_PATH=" + fifo});
     argv.insert(argv.end(), {"linuxcnc", run.string()});
