@@ -4,7 +4,6 @@
 // AFTER START and LBP LOCAL READ 0xC3), and the ways to ask for them: the
 // control API (POST/GET /api/link), `lbpkit fault link` and a fault script.
 #include <gtest/gtest.h>
-#include <httplib.h>
 
 #include <chrono>
 #include <filesystem>
@@ -182,15 +181,10 @@ class SimLink : public ::testing::Test {
   }
   void TearDown() override { sim_.reset(); }
   std::pair<int, json> post(const json& body) {
-    httplib::Client http("127.0.0.1", api_);
-    auto r = http.Post("/api/link", body.dump(), "application/json");
-    return r ? std::make_pair(r->status, json::parse(r->body, nullptr, false)) : std::make_pair(0, json());
+    auto r = sim_->post("/api/link", body);
+    return {r.status, r.body};
   }
-  json get() {
-    httplib::Client http("127.0.0.1", api_);
-    auto r = http.Get("/api/link");
-    return r ? json::parse(r->body, nullptr, false) : json();
-  }
+  json get() { return sim_->get("/api/link"); }
   const std::string address_ = "127.95." + std::to_string(::getpid() % 250) + ".1";
   std::unique_ptr<test_support::SimChild> sim_;
   int api_ = 0, port_ = 0;

@@ -10,7 +10,6 @@
 #include <unistd.h>
 
 #include <gtest/gtest.h>
-#include <httplib.h>
 
 #include <algorithm>
 #include <chrono>
@@ -27,6 +26,7 @@
 #include <nlohmann/json.hpp>
 
 #include "support/interop.hpp"
+#include "support/sim_child.hpp"
 #include "support/temp_dir.hpp"
 #include "support/wait.hpp"
 
@@ -55,11 +55,8 @@ int leftovers() {
 unsigned long doits(const std::string& url) {
   std::smatch m;
   if (!std::regex_match(url, m, std::regex(R"(http://([0-9.]+):(\d+))"))) return 0;
-  httplib::Client c(m[1].str(), std::stoi(m[2]));
-  c.set_read_timeout(2, 0);
-  const auto r = c.Get("/api/state");
-  if (!r || r->status != 200) return 0;
-  const auto j = nlohmann::json::parse(r->body, nullptr, false);
+  const auto j = test_support::httpGetJson(m[1].str(), std::stoi(m[2]), "/api/state", std::chrono::seconds(2));
+  if (!j.is_object()) return 0;
   const auto& n = j["sserial"]["doits"];
   return n.is_number() ? n.get<unsigned long>() : 0;
 }

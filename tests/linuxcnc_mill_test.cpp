@@ -8,7 +8,8 @@
 // The network is the interop tests' (support/interop.hpp): Debian's hm2_eth
 // cannot use loopback, so LinuxCNC runs in a network namespace joined to the
 // card by a veth pair, the card at the 7I92's usual 10.10.10.10 as the INI
-// names it. hm2_eth's iptables rules refuse any other traffic to the card's
+// names it (the stepper mill's copy at 10.10.10.11, so that the two can run
+// side by side). hm2_eth's iptables rules refuse any other traffic to the card's
 // link, so the control API is on a second link, as a PC's office network
 // would be. LinuxCNC also gets PID, IPC and mount namespaces of its own: its
 // /tmp is the test's directory, its HAL shared memory and NML segments go with
@@ -22,7 +23,6 @@
 #include <unistd.h>
 
 #include <gtest/gtest.h>
-#include <httplib.h>
 
 #include <atomic>
 #include <cctype>
@@ -78,17 +78,20 @@ int shell(const std::string& command) {
 bool installed(const char* tool) { return shell(std::string("command -v ") + tool) == 0; }
 
 // The network: a namespace for LinuxCNC, the card's link (10.10.10.0/24, the
-// card at .10 on our side) and the API's link. Removed with the object.
+// card at `card` on our side, LinuxCNC at `host` inside) and the API's link.
+// Removed with the object. Two mills side by side (scripts/test: ctest -j)
+// take different addresses for both: the card's is where its sim answers on
+// this PC, and LinuxCNC's has a route of its own here.
 class Network {
  public:
-  Network() {
+  Network(const std::string& card, const std::string& host) {
     const auto id = std::to_string(::getpid() % 100000);
     const auto api = "10.214." + std::to_string(::getpid() % 250) + ".";
     apiAddress_ = api + "1";
     try {
       ns_ = std::make_unique<lbpkit::linuxcnc::NetworkNamespace>(
           "lbpkit-mill-" + id,
-          std::vector<lbpkit::linuxcnc::VethLink>{{"lbm" + id + "c", "10.10.10.10/32", "10.10.10.2/24", "10.10.10.2/32"},
+          std::vector<lbpkit::linuxcnc::VethLink>{{"lbm" + id + "c", card + "/32", host + "/24", host + "/32"},
                                                   {"lbm" + id + "a", apiAddress_ + "/30", api + "2/30", {}}});
     } catch (const std::exception& e) {
       problem_ = e.what();
@@ -190,8 +193,8 @@ int processesIn(unsigned long pidNs, unsigned long netNs) {
 // (examples/linuxcnc/<config>), our display given `displayArguments` more.
 class LinuxCncRun {
  public:
-  LinuxCncRun(const Network& net, const std::string& apiUrl, const std::string& config = "mill",
-              const std::string& displayArguments = "") {
+  LinuxCncRun(const Network& net, const std::string& apiUrl, const std::string& config,
+              const std::string& displayArguments, const std::string& cardAddress) {
     char tmpl[] = "/tmp/lbpkit-mill-XXXXXX";
     dir_ = ::mkdtemp(tmpl);
     fs::permissions(dir_, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
@@ -218,7 +221,10 @@ class LinuxCncRun {
     const std::string ini = slurp(tmp / "config/mill.ini");
     const std::regex line(R"(^DISPLAY = .*$)", std::regex::multiline);
     displayLines_ = static_cast<int>(std::distance(std::sregex_iterator(ini.begin(), ini.end(), line), {}));
-    std::ofstream(tmp / "config/mill.ini") << std::regex_replace(ini, line, display);
+    // And the card's address ([HM2]IPADDRESS, hm2_eth's board_ip).
+    const std::regex address(R"(^IPADDRESS = 10\.10\.10\.10$)", std::regex::multiline);
+    std::ofstream(tmp / "config/mill.ini")
+        << std::regex_replace(std::regex_replace(ini, line, display), address, "IPADDRESS = " + cardAddress);
 
     const std::string inside = "mount --bind " + tmp.string() +
                                " /tmp && exec env -u DISPLAY HOME=/tmp RTAPI_UID=65534 "
@@ -501,6 +507,8 @@ struct Scenario {
   std::string displayArguments;
   const char* last;
   std::function<void(LinuxCncRun&, test_support::SimChild&)> atLast;
+  std::string cardAddress = "10.10.10.10";  // the INI's; tests/CMakeLists.txt locks each mill's
+  std::string hostAddress = "10.10.10.2";   // LinuxCNC's side of the link
 };
 struct Outcome {
   std::map<std::string, json> reports;  // by step
@@ -523,7 +531,7 @@ std::vector<std::string> withCardCpu(std::vector<std::string> arguments) {
 // sim, the network namespace (checked).
 Outcome runScenario(const Scenario& scenario) {
   Outcome o;
-  Network net;
+  Network net(scenario.cardAddress, scenario.hostAddress);
   if (!net.ok()) {
     ADD_FAILURE() << net.problem();
     return o;
@@ -531,7 +539,7 @@ Outcome runScenario(const Scenario& scenario) {
   // The card at the INI's address on hm2_eth's port, its API on the test's
   // own link, at the priority a user runs it; its state in a folder of its own.
   test_support::SimChild sim(
-      test_support::SimOptions{"10.10.10.10", -1, net.apiAddress(), false, {}, withCardCpu(scenario.simArguments)});
+      test_support::SimOptions{scenario.cardAddress, -1, net.apiAddress(), false, {}, withCardCpu(scenario.simArguments)});
   if (!sim.up()) {
     ADD_FAILURE() << "lbpkit sim did not start";
     return o;
@@ -539,7 +547,7 @@ Outcome runScenario(const Scenario& scenario) {
   unsigned long pidNs = 0, netNs = 0;
   {
     ServoThreadPriority priority(net.inode());
-    LinuxCncRun run(net, sim.url(""), scenario.config, scenario.displayArguments);
+    LinuxCncRun run(net, sim.url(""), scenario.config, scenario.displayArguments, scenario.cardAddress);
     o.setUp = run.displayLines() == 1;
     EXPECT_EQ(run.displayLines(), 1) << scenario.config << "/mill.ini should have one DISPLAY line";
     const bool reached = o.setUp && run.waitForKillPoint(kRunLimit, scenario.last);
@@ -686,7 +694,13 @@ TEST(LinuxCncMill, StepperZOnADpllTimedStepGenHomesAndRunsGcode) {
   const auto started = Clock::now();
   const std::string machine = std::string(LBPKIT_SOURCE_DIR) + "/examples/machines/mill-7i76.toml";
   const Outcome o =
-      runScenario({{"--card", "7I92T", "--machine", machine, "--clock", "host=1ms"}, "mill-7i76", " --scenario stepper-z", "finished", {}});
+      runScenario({{"--card", "7I92T", "--machine", machine, "--clock", "host=1ms"},
+                   "mill-7i76",
+                   " --scenario stepper-z",
+                   "finished",
+                   {},
+                   "10.10.10.11",
+                   "10.10.10.3"});
   ASSERT_TRUE(o.setUp);
   auto r = o.reports;
   const std::string context =

@@ -8,7 +8,6 @@
 #include <unistd.h>
 
 #include <gtest/gtest.h>
-#include <httplib.h>
 
 #include <atomic>
 #include <chrono>
@@ -257,10 +256,9 @@ TEST(SimNetwork, TheApiSetsTheNetworkAndCountsWhatItDid) {
   const int api = sim.apiPort();
   const int port = lbpkit::wire::lbp16::kPort;
   ASSERT_GT(api, 0);
-  httplib::Client http("127.0.0.1", api);
   auto post = [&](const json& body) {
-    auto r = http.Post("/api/network", body.dump(), "application/json");
-    return r ? std::make_pair(r->status, json::parse(r->body, nullptr, false)) : std::make_pair(0, json());
+    auto r = sim.post("/api/network", body);
+    return std::make_pair(r.status, r.body);
   };
   const auto bad = post({{"drop", 2}});
   EXPECT_EQ(bad.first, 400);

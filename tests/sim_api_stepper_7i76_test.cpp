@@ -11,7 +11,6 @@
 #include <gtest/gtest.h>
 
 #include <unistd.h>
-#include <httplib.h>
 
 #include <chrono>
 #include <cmath>
@@ -226,15 +225,12 @@ TEST_F(StepperAnd7I76Api, The7I76IsListedAfterThe7I77AndTheApiReachesIt) {
 TEST(StepperAnd7I76ApiWithout, AFirmwareWithoutA7I76ListsOnlyThe7I77s) {
   test_support::SimChild sim("127.0.0.1");
   ASSERT_GT(sim.apiPort(), 0);
-  httplib::Client c("127.0.0.1", sim.apiPort());
-  const auto r = c.Get("/api/state");
-  ASSERT_TRUE(r);
-  const auto s = json::parse(r->body);
+  const auto s = sim.get("/api/state");
+  ASSERT_TRUE(s.is_object());
   for (const auto& d : s["daughtercards"]) EXPECT_NE(d["type"], "7I76");
-  const auto p = c.Post("/api/input", R"({"connector": 1, "input": 2, "on": true})", "application/json");
-  ASSERT_TRUE(p);
-  EXPECT_EQ(p->status, 400);
-  EXPECT_NE(p->body.find("no 7I77 on connector 1"), std::string::npos) << p->body;
+  const auto p = sim.post("/api/input", {{"connector", 1}, {"input", 2}, {"on", true}});
+  EXPECT_EQ(p.status, 400);
+  EXPECT_NE(p.body.dump().find("no 7I77 on connector 1"), std::string::npos) << p.body.dump();
   EXPECT_EQ(sim.stopWithin(10s), 0);
 }
 

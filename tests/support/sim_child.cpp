@@ -34,12 +34,16 @@ long SimChild::residentKb() const {
   return -1;
 }
 
-nlohmann::json SimChild::get(const std::string& path, std::chrono::seconds limit) const {
-  httplib::Client c(apiAddress_, apiPort_);
+nlohmann::json httpGetJson(const std::string& host, int port, const std::string& path, std::chrono::seconds limit) {
+  httplib::Client c(host, port);
   c.set_read_timeout(limit);
   const auto r = c.Get(path);
   if (!r || r->status != 200) return nlohmann::json();
   return nlohmann::json::parse(r->body, nullptr, false);
+}
+
+nlohmann::json SimChild::get(const std::string& path, std::chrono::seconds limit) const {
+  return httpGetJson(apiAddress_, apiPort_, path, limit);
 }
 
 HttpReply SimChild::post(const std::string& path, const nlohmann::json& body, std::chrono::seconds limit) const {

@@ -38,6 +38,11 @@ struct HttpReply {
   nlohmann::json body;
 };
 
+// GET http://HOST:PORT/PATH: the JSON of a 200 answer, null otherwise (a
+// sim's API that a test did not start itself, such as lbpkit linuxcnc's).
+[[nodiscard]] nlohmann::json httpGetJson(const std::string& host, int port, const std::string& path,
+                                         std::chrono::seconds limit = std::chrono::seconds(5));
+
 class SimChild {
  public:
   explicit SimChild(SimOptions options);
