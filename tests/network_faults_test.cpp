@@ -287,9 +287,8 @@ TEST(SimNetwork, TheApiSetsTheNetworkAndCountsWhatItDid) {
   }
   ::close(fd);
   EXPECT_EQ(answered, 5);
-  auto r = http.Get("/api/network");
-  ASSERT_TRUE(r);
-  const auto j = json::parse(r->body);
+  const auto j = sim.get("/api/network");
+  ASSERT_TRUE(j.is_object());
   EXPECT_EQ(j["did"]["reply"]["dropped"], 5);
   EXPECT_EQ(j["did"]["reply"]["passed"], 5);
   EXPECT_EQ(j["did"]["request"]["passed"], 10);
