@@ -6,6 +6,7 @@
 // (scripts/test installs it).
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -25,6 +26,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "support/card_cpu.hpp"
 #include "support/interop.hpp"
 #include "support/sim_child.hpp"
 #include "support/temp_dir.hpp"
@@ -44,11 +46,21 @@ std::string slurp(const fs::path& p) {
   return s.str();
 }
 
-// The processes of LinuxCNC and of a sim on the example's board_ip (the
-// brackets keep the pattern from matching the shell that runs pgrep).
-int leftovers() {
-  const auto r = sh("pgrep -c -f 'rtapi_ap[p]|milltas[k]|linuxcncsv[r]|sim --bind 10[.]10[.]10[.]10'");
-  return std::atoi(r.out.c_str());
+// The PID namespace a process is in (an inode number), or 0.
+unsigned long pidNamespaceOf(const std::string& pid) {
+  struct stat st {};
+  return ::stat(("/proc/" + pid + "/ns/pid").c_str(), &st) == 0 ? static_cast<unsigned long>(st.st_ino) : 0;
+}
+
+// The processes in PID namespace `ns` (LinuxCNC's: everything it started).
+int processesIn(unsigned long ns) {
+  int n = 0;
+  std::error_code ec;
+  for (const auto& p : fs::directory_iterator("/proc", ec)) {
+    const auto name = p.path().filename().string();
+    if (name.find_first_not_of("0123456789") == std::string::npos && pidNamespaceOf(name) == ns) ++n;
+  }
+  return n;
 }
 
 // The sim's SSLBP DOIT count, from its control API at `url`; 0 without an answer.
@@ -61,12 +73,13 @@ unsigned long doits(const std::string& url) {
   return n.is_number() ? n.get<unsigned long>() : 0;
 }
 
+constexpr const char* kCardAddress = "10.10.10.12";
+
 class LinuxCncCommand : public ::testing::Test {
  protected:
   void SetUp() override {
     if (::geteuid() != 0) GTEST_SKIP() << "lbpkit linuxcnc needs root";
     if (!have("linuxcnc") || !have("ip")) GTEST_SKIP() << "linuxcnc-uspace or iproute2 is not installed";
-    ASSERT_EQ(leftovers(), 0) << "LinuxCNC or a sim on 10.10.10.10 is already running";
     shmBefore_ = sh("ipcs -m | grep -c -E '^0x'").out;
     // The example configuration, its display a script that waits (LinuxCNC
     // runs `DISPLAY -ini FILE`); readable by rtapi_app's user (nobody).
@@ -81,6 +94,14 @@ class LinuxCncCommand : public ::testing::Test {
     const auto ini = slurp(config_ / "mill.ini");
     std::ofstream(config_ / "mill.ini")
         << std::regex_replace(ini, std::regex(R"(^DISPLAY = .*$)", std::regex::multiline), "DISPLAY = " + display.string());
+    atAddressOfItsOwn();
+  }
+  // The card at 10.10.10.12 ([HM2]IPADDRESS), apart from the mills' (tests/CMakeLists.txt).
+  void atAddressOfItsOwn() {
+    const auto ini = slurp(config_ / "mill.ini");
+    std::ofstream(config_ / "mill.ini")
+        << std::regex_replace(ini, std::regex(R"(^IPADDRESS = 10\.10\.10\.10$)", std::regex::multiline),
+                              "IPADDRESS = " + std::string(kCardAddress));
   }
 
   // lbpkit linuxcnc started, its output in a file; true once LinuxCNC's
@@ -106,8 +127,11 @@ class LinuxCncCommand : public ::testing::Test {
       // On the sim's host clock (docs/clocks.md): a servo thread held back
       // here still finds each DoIt done, and hostmot2 keeps the smart-serial
       // port running.
-      ::execl(LBPKIT_BINARY, LBPKIT_BINARY, "linuxcnc", ini.c_str(), "--machine", "mill", "--", "--state", state.c_str(),
-              "--clock", "host=1ms", static_cast<char*>(nullptr));
+      // On the CPU before the last (tests/CMakeLists.txt locks it): one
+      // LinuxCNC a CPU beside the other end-to-end runs.
+      const auto cpu = std::to_string(test_support::cardCpu(1));
+      ::execl(LBPKIT_BINARY, LBPKIT_BINARY, "linuxcnc", ini.c_str(), "--machine", "mill", "--cpu", cpu.c_str(), "--",
+              "--state", state.c_str(), "--clock", "host=1ms", static_cast<char*>(nullptr));
       ::_exit(127);
     }
     std::string url;
@@ -127,7 +151,15 @@ class LinuxCncCommand : public ::testing::Test {
           return !url.empty() && doits(url) > 3000;
         },
         60s, 200ms);
-    return up && pid_ > 0;
+    if (!up || pid_ <= 0) return false;
+    // What to look for afterwards: LinuxCNC's PID namespace, the sim.
+    // (in the network namespace, unshare itself is still in ours).
+    std::istringstream pids(sh("ip netns pids lbpkit-linuxcnc-" + id_).out);
+    for (std::string p; std::getline(pids, p) && linuxCncNs_ == 0;)
+      if (const auto ns = pidNamespaceOf(p); ns != 0 && ns != pidNamespaceOf("self")) linuxCncNs_ = ns;
+    const auto sim = sh("pgrep -P " + std::to_string(pid_) + " -f 'sim --bind'").out;
+    simPid_ = std::atoi(sim.c_str());
+    return linuxCncNs_ != 0 && simPid_ > 0;
   }
   // Waits for lbpkit linuxcnc to end: its exit status, -2 if it did not in 30 s.
   int end() {
@@ -146,7 +178,10 @@ class LinuxCncCommand : public ::testing::Test {
     EXPECT_EQ(sh("ipcs -m | grep -c -E '^0x'").out, shmBefore_) << sh("ipcs -m").out;
     EXPECT_FALSE(fs::exists("/run/netns/lbpkit-linuxcnc-" + id_)) << slurp(log_);
     EXPECT_FALSE(fs::exists("/sys/class/net/lbl" + id_));
-    EXPECT_TRUE(test_support::waitFor([] { return leftovers() == 0; }, 5s)) << sh("ps -ef").out;
+    // Nothing of LinuxCNC's (its PID namespace is empty) and no sim.
+    EXPECT_TRUE(test_support::waitFor(
+        [&] { return processesIn(linuxCncNs_) == 0 && ::kill(simPid_, 0) != 0; }, 5s))
+        << sh("ps -ef").out;
   }
   void TearDown() override {
     if (pid_ > 0) {
@@ -159,6 +194,8 @@ class LinuxCncCommand : public ::testing::Test {
   fs::path config_, log_;
   pid_t pid_ = -1;
   std::string id_;  // what lbpkit linuxcnc names its namespace and link after
+  unsigned long linuxCncNs_ = 0;  // LinuxCNC's PID namespace while it ran
+  pid_t simPid_ = -1;             // lbpkit linuxcnc's sim
   std::string shmBefore_;  // System V shared memory segments before the test
 };
 
@@ -189,7 +226,7 @@ TEST_F(LinuxCncCommand, AKilledLinuxCncStopsTheSim) {
 
 TEST_F(LinuxCncCommand, AKilledSimStopsLinuxCnc) {
   ASSERT_TRUE(start()) << slurp(log_);
-  sh("pkill -9 -P " + std::to_string(pid_) + " -f 'sim --bind 10[.]10[.]10[.]10'");
+  ASSERT_EQ(::kill(simPid_, SIGKILL), 0);
   EXPECT_EQ(end(), 1) << slurp(log_);
   expectNothingLeft();
   EXPECT_NE(slurp(log_).find("lbpkit sim ended"), std::string::npos) << slurp(log_);
@@ -207,9 +244,11 @@ class AxisGui : public LinuxCncCommand {
     if (IsSkipped()) return;
     for (const char* tool : {"Xvfb", "xdotool", "import", "nsenter"})
       if (!have(tool)) GTEST_SKIP() << tool << " is not installed (xvfb, xdotool, imagemagick, util-linux)";
-    // The configuration as published: its display is AXIS.
+    // The configuration as published (its display is AXIS), but for the
+    // card's address.
     fs::copy_file(fs::path(LBPKIT_SOURCE_DIR) / "examples/linuxcnc/mill/mill.ini", config_ / "mill.ini",
                   fs::copy_options::overwrite_existing);
+    atAddressOfItsOwn();
     // A display number no X server on this PC uses.
     for (int n = 90; n < 190 && display_.empty(); ++n)
       if (!fs::exists("/tmp/.X11-unix/X" + std::to_string(n)) && !fs::exists("/tmp/.X" + std::to_string(n) + "-lock"))

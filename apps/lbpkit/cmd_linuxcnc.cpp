@@ -24,6 +24,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -205,10 +206,23 @@ std::string cardOfBoard(const std::string& prefix) {
   return {};
 }
 
-// An address in the card's /24 for LinuxCNC's side: .2, or .3 if the card is .2.
+// An address in the card's /24 for LinuxCNC's side: the first from .2 up
+// that is not the card's and that this PC does not route yet (another
+// lbpkit linuxcnc, with a card in the same /24, has its own); .2 when all are.
 std::string peerOf(const std::string& cardIp) {
   const auto dot = cardIp.rfind('.');
-  return cardIp.substr(0, dot + 1) + (cardIp.substr(dot + 1) == "2" ? "3" : "2");
+  const std::string net = cardIp.substr(0, dot + 1);
+  for (int host = 2; host < 255; ++host) {
+    const std::string candidate = net + std::to_string(host);
+    if (candidate == cardIp) continue;
+    FILE* p = ::popen(fmt::format("ip -4 route show exact {}/32 2>/dev/null", candidate).c_str(), "r");
+    if (p == nullptr) break;
+    char c = 0;
+    const bool routed = std::fread(&c, 1, 1, p) == 1;
+    ::pclose(p);
+    if (!routed) return candidate;
+  }
+  return net + (cardIp.substr(dot + 1) == "2" ? "3" : "2");
 }
 
 // A copy of the configuration in `into`, as LinuxCNC would run it on the
@@ -356,8 +370,9 @@ int runLinuxCnc(const LinuxCncOptions& o) {
 
   app::installSignalHandlers();
 
+  const std::string peer = peerOf(boardIp);
   lbpkit::linuxcnc::NetworkNamespace ns(
-      "lbpkit-linuxcnc-" + id, {{"lbl" + id, boardIp + "/32", peerOf(boardIp) + "/24", peerOf(boardIp) + "/32"}});
+      "lbpkit-linuxcnc-" + id, {{"lbl" + id, boardIp + "/32", peer + "/24", peer + "/32"}});
 
   // The sim on the configuration's board_ip, hm2_eth's port, its API and web
   // view on this PC's loopback.
