@@ -206,6 +206,12 @@ TEST_F(LinuxCncCommand, CtrlCStopsLinuxCncAndTheSimAndRemovesTheNamespace) {
   EXPECT_FALSE(fs::exists("/tmp/linuxcnc.lock"));
   const auto own = fs::path("/tmp/lbpkit-linuxcnc-" + id_) / "tmp";
   EXPECT_TRUE(fs::exists(own / "linuxcnc.lock")) << own;
+  // rtapi_app's threads at SCHED_FIFO 30, as on a real-time kernel.
+  const auto classes = sh("for p in $(ip netns pids lbpkit-linuxcnc-" + id_ +
+                          "); do [ \"$(cat /proc/$p/comm)\" = rtapi_app ] && ps -L -o cls=,rtprio= -p $p; done").out;
+  EXPECT_NE(classes.find("FF"), std::string::npos) << classes;
+  EXPECT_EQ(classes.find("TS"), std::string::npos) << classes;
+  EXPECT_NE(classes.find("30"), std::string::npos) << classes;
   ::kill(pid_, SIGINT);
   EXPECT_EQ(end(), 130) << slurp(log_);
   expectNothingLeft();

@@ -43,6 +43,7 @@
 #include <vector>
 
 #include "linuxcnc/network_namespace.hpp"
+#include "linuxcnc/servo_priority.hpp"
 #include "support/card_cpu.hpp"
 #include "support/process.hpp"
 #include "support/sim_child.hpp"
@@ -119,57 +120,11 @@ unsigned long namespaceOf(const std::string& proc, const char* kind) {
   return ::stat(("/proc/" + proc + "/ns/" + kind).c_str(), &st) == 0 ? static_cast<unsigned long>(st.st_ino) : 0;
 }
 
-// LinuxCNC's uspace servo thread runs SCHED_OTHER on a kernel without
-// PREEMPT_RT, and rtapi_app cannot raise its own priority here (no
-// RLIMIT_RTPRIO). With the machine's other work it is then late by tens of
-// milliseconds often enough for hm2's watchdog to bite, and hm2_eth's
-// set-up, which gives each queued read 1.6 ms in rtapi_app's main thread
-// before its HAL parameters exist (LinuxCNC: hm2_eth.c), can miss that
-// deadline though the card answered at once. We give rtapi_app's threads
-// (rtapi_app, rtapi_app:T#n) SCHED_FIFO from outside, as the real-time
-// kernel would, below the card thread's priority (40): the card answers
-// first. Only the rtapi_app in our network namespace: another LinuxCNC on
-// this PC is not ours.
-class ServoThreadPriority {
- public:
-  explicit ServoThreadPriority(unsigned long netNs) : netNs_(netNs), thread_([this] { run(); }) {}
-  ~ServoThreadPriority() {
-    stop_ = true;
-    thread_.join();
-  }
-  ServoThreadPriority(const ServoThreadPriority&) = delete;
-  ServoThreadPriority& operator=(const ServoThreadPriority&) = delete;
-
- private:
-  void run() {
-    std::set<long> done;
-    while (!stop_) {
-      std::error_code ec;
-      for (const auto& p : fs::directory_iterator("/proc", ec)) {
-        const auto name = p.path().filename().string();
-        if (name.empty() || !std::isdigit(static_cast<unsigned char>(name[0]))) continue;
-        std::ifstream comm(p.path() / "comm");
-        std::string c;
-        std::getline(comm, c);
-        if (c != "rtapi_app" || namespaceOf(name, "net") != netNs_) continue;
-        for (const auto& t : fs::directory_iterator(p.path() / "task", ec)) {
-          std::ifstream tc(t.path() / "comm");
-          std::string task;
-          std::getline(tc, task);
-          const long tid = std::atol(t.path().filename().c_str());
-          if ((task != "rtapi_app" && task.rfind("rtapi_app:T", 0) != 0) || done.count(tid)) continue;
-          sched_param sp{};
-          sp.sched_priority = 30;
-          if (::sched_setscheduler(static_cast<pid_t>(tid), SCHED_FIFO, &sp) == 0) done.insert(tid);
-        }
-      }
-      std::this_thread::sleep_for(5ms);
-    }
-  }
-  unsigned long netNs_;
-  std::atomic<bool> stop_{false};
-  std::thread thread_;
-};
+// LinuxCNC's uspace servo thread runs SCHED_OTHER here (rtapi_app cannot
+// raise its own priority: no RLIMIT_RTPRIO): lbpkit_linuxcnc's
+// ServoThreadPriority gives the namespace's rtapi_app threads SCHED_FIFO
+// from outside, below the card thread, as the real-time kernel would.
+using lbpkit::linuxcnc::ServoThreadPriority;
 
 std::string slurp(const fs::path& p) {
   std::ifstream f(p);

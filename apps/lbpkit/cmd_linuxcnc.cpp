@@ -40,6 +40,7 @@
 #include "lbpkit/error.hpp"
 #include "linuxcnc/config_check.hpp"
 #include "linuxcnc/network_namespace.hpp"
+#include "linuxcnc/servo_priority.hpp"
 
 namespace app {
 extern std::function<int()> gRun;
@@ -463,6 +464,9 @@ int runLinuxCnc(const LinuxCncOptions& o) {
                run.string(), ns.name(), card, boardIp,
                cpu ? fmt::format(", both on CPU {}", *cpu) : std::string());
     std::fflush(stdout);
+    // Its servo thread SCHED_FIFO below the card thread, as on a real-time
+    // kernel (linuxcnc/servo_priority.hpp).
+    lbpkit::linuxcnc::ServoThreadPriority servoPriority(ns.inode());
     lcnc = spawn(argv, -1, cpu);
 
     while (true) {

@@ -1,0 +1,61 @@
+#include "linuxcnc/servo_priority.hpp"
+
+#include <sched.h>
+#include <sys/stat.h>
+
+#include <cctype>
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <string>
+
+namespace lbpkit::linuxcnc {
+
+namespace {
+namespace fs = std::filesystem;
+
+unsigned long networkNamespaceOf(const fs::path& proc) {
+  struct stat st {};
+  return ::stat((proc / "ns/net").c_str(), &st) == 0 ? static_cast<unsigned long>(st.st_ino) : 0;
+}
+
+std::string commandOf(const fs::path& proc) {
+  std::ifstream comm(proc / "comm");
+  std::string c;
+  std::getline(comm, c);
+  return c;
+}
+}  // namespace
+
+ServoThreadPriority::ServoThreadPriority(unsigned long networkNamespace)
+    : networkNamespace_(networkNamespace), thread_([this] { run(); }) {}
+
+ServoThreadPriority::~ServoThreadPriority() {
+  stop_ = true;
+  thread_.join();
+}
+
+void ServoThreadPriority::run() {
+  std::set<long> done;
+  while (!stop_) {
+    std::error_code ec;
+    for (const auto& p : fs::directory_iterator("/proc", ec)) {
+      const auto name = p.path().filename().string();
+      if (name.empty() || std::isdigit(static_cast<unsigned char>(name[0])) == 0) continue;
+      if (commandOf(p.path()) != "rtapi_app" || networkNamespaceOf(p.path()) != networkNamespace_) continue;
+      for (const auto& t : fs::directory_iterator(p.path() / "task", ec)) {
+        const auto task = commandOf(t.path());
+        const long tid = std::atol(t.path().filename().c_str());
+        if ((task != "rtapi_app" && task.rfind("rtapi_app:T", 0) != 0) || done.count(tid) != 0) continue;
+        sched_param sp{};
+        sp.sched_priority = kPriority;
+        if (::sched_setscheduler(static_cast<pid_t>(tid), SCHED_FIFO, &sp) == 0) done.insert(tid);
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+}
+
+}  // namespace lbpkit::linuxcnc
