@@ -4,12 +4,13 @@
 // Debian 12's hm2_eth cannot use a board on loopback, so LinuxCNC runs in a
 // network namespace of its own (lbpkit_linuxcnc's NetworkNamespace) joined
 // by a veth pair to this PC's, where the sim answers at the configuration's
-// own board_ip. LinuxCNC runs in PID and IPC namespaces as well, so that
-// whatever it starts (rtapi_app, the display, halcmd) and its shared memory
-// end with it; as the user who
-// ran sudo (SUDO_UID), with that user's DISPLAY, or as nobody (RTAPI_UID)
-// when root ran it. On every way out (LinuxCNC closed or killed, the sim
-// gone, Ctrl-C) everything started is stopped and the namespace removed.
+// own board_ip. LinuxCNC runs in PID, IPC and mount namespaces as well, so
+// that whatever it starts (rtapi_app, the display, halcmd) and its shared
+// memory end with it and its /tmp is its own; as the user who ran sudo
+// (SUDO_UID), with that user's home and DISPLAY, or as nobody (RTAPI_UID)
+// when root ran it; its servo thread SCHED_FIFO, as on a real-time kernel.
+// On every way out (LinuxCNC closed or killed, the sim gone, Ctrl-C)
+// everything started is stopped and the namespace removed.
 #include <fcntl.h>
 #include <poll.h>
 #include <pwd.h>
