@@ -299,7 +299,7 @@ int runSim(const SimCommandOptions& o) {
              s.bindAddress == "0.0.0.0" ? "ADDRESS (this machine's address on the host's network)" : s.bindAddress,
              hm2EthConfig(s.card));
   std::fflush(stdout);
-  daemon.run(app::gStop);
+  daemon.run(app::gStop, app::stopFd());
   fmt::print("lbpkit sim: stopped; server time per datagram: {}\n", daemon.latencySummary());
   fmt::print("lbpkit sim: the 7I77's EEPROM state is in {}, the {}'s configuration flash in {}\n", state.string(),
              (s.card.card != nullptr ? *s.card.card : hm2::cards::defaultCard()).name, s.flashFile.string());

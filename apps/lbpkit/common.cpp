@@ -1,10 +1,13 @@
 #include "common.hpp"
 
 #include <sched.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
 
 #include <fmt/core.h>
 
 #include <csignal>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 
@@ -16,10 +19,19 @@ namespace app {
 
 std::atomic<bool> gStop{false};
 namespace {
-extern "C" void onSignal(int) { gStop.store(true); }
+int gStopFd = -1;
+extern "C" void onSignal(int) {
+  gStop.store(true);
+  // write(2) is async-signal-safe: a thread asleep on this descriptor wakes.
+  const std::uint64_t one = 1;
+  if (gStopFd >= 0) (void)!::write(gStopFd, &one, sizeof one);
+}
 }  // namespace
 
+int stopFd() { return gStopFd; }
+
 void installSignalHandlers() {
+  if (gStopFd < 0) gStopFd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
   struct sigaction sa{};
   sa.sa_handler = onSignal;
   sigemptyset(&sa.sa_mask);

@@ -21,6 +21,9 @@ namespace app {
 
 extern std::atomic<bool> gStop;
 void installSignalHandlers();
+// Readable once SIGINT or SIGTERM came (an eventfd; -1 before
+// installSignalHandlers()): a thread asleep in poll() wakes on it.
+int stopFd();
 
 // --sim (the in-process virtual card, the default) or --addr IP.
 struct CardOptions {

@@ -46,6 +46,8 @@ class FaultScript {
   }
   [[nodiscard]] std::size_t size() const { return entries_.size(); }
   [[nodiscard]] std::size_t done() const { return done_; }  // entries carried out so far
+  // Whether an entry or an undo is still to come.
+  [[nodiscard]] bool pending() const { return next_ != lbp::SimTime::max(); }
 
  private:
   void run(lbp::SimTime now, const ApiTarget& target, const std::function<void(const std::string&)>& log);

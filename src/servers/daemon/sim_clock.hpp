@@ -92,6 +92,11 @@ class SimClock {
   // paused, or driven by a host's cycles, nothing is behind: the rest is
   // caught up on the next call.
   static constexpr lbp::SimTime kSlice = std::chrono::milliseconds(1);
+  // A card alone (no machine behind it) is event-driven: each part's
+  // advance() is a comparison until something is due, and counting is
+  // exact over any span, so it is caught up in long slices: after a
+  // sleep of an hour, a few thousand comparisons.
+  static constexpr lbp::SimTime kCardSlice = std::chrono::seconds(1);
   static constexpr std::chrono::microseconds kBudget{2000};
   // Driven by a host's cycles, each datagram is answered at the cycle's
   // time, whatever the wall clock did meanwhile: a period of simulation
@@ -103,14 +108,15 @@ class SimClock {
   lbp::SimTime catchUp(lbp::SimTime from, Advance&& advance, std::chrono::microseconds budget = kBudget) {
     return catchUpTo(from, now(), std::forward<Advance>(advance), budget);
   }
-  // The same towards `target`, a simulated time at most now().
+  // The same towards `target`, a simulated time at most now(), in slices
+  // of at most `slice`.
   template <typename Advance>
   lbp::SimTime catchUpTo(lbp::SimTime from, lbp::SimTime target, Advance&& advance,
-                         std::chrono::microseconds budget = kBudget) {
+                         std::chrono::microseconds budget = kBudget, lbp::SimTime slice = kSlice) {
     const auto start = Wall::now();
     lbp::SimTime t = from;
     while (t < target) {
-      t = std::min(target, t + kSlice);
+      t = std::min(target, t + slice);
       advance(t);
       if (Wall::now() - start > budget) break;
     }

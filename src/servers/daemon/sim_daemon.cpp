@@ -3,6 +3,7 @@
 #include <arpa/inet.h>
 #include <pthread.h>
 #include <sched.h>
+#include <sys/eventfd.h>
 #include <sys/syscall.h>
 #include <unistd.h>
 #include <fmt/format.h>
@@ -45,6 +46,9 @@ SimDaemon::SimDaemon(SimOptions options)
     throw std::invalid_argument("a trace needs a machine to record");
   }
   udp_ = std::make_unique<UdpServer>(options_.bindAddress, options_.port);
+  jobsReady_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  if (jobsReady_ < 0) throw std::runtime_error("cannot create an eventfd for the card thread's jobs");
+  udp_->alsoWakeOn(jobsReady_);
   Lbp16Card::Identity id;
   id.name = std::string(card_.description().name);  // the card's LBP16 board name (hm2_eth, mesaflash)
   std::array<std::uint8_t, 6> mac{};
@@ -111,6 +115,11 @@ SimDaemon::~SimDaemon() {
   }
   // Stop the API first: its threads may be waiting on jobs for this daemon.
   api_.reset();
+  if (jobsReady_ >= 0) ::close(jobsReady_);
+}
+
+bool SimDaemon::ticks() const {
+  return machine_ || options_.demo || !ptyChannels_.empty() || (script_ && script_->pending());
 }
 
 std::uint16_t SimDaemon::port() const { return udp_->port(); }
@@ -135,7 +144,7 @@ lbp::SimTime SimDaemon::catchUpTo(lbp::SimTime target, std::chrono::microseconds
         if (machine_) machine_->advance(t);
         card_.advance(t);
       },
-      budget);
+      budget, machine_ ? SimClock::kSlice : SimClock::kCardSlice);
 }
 
 void SimDaemon::traceDatagram(std::span<const std::uint8_t> request, std::span<const std::uint8_t> reply) {
@@ -301,6 +310,9 @@ std::string SimDaemon::runJob(std::function<Answer()> job) {
     std::lock_guard<std::mutex> lock(jobsMutex_);
     if (jobsClosed_) throw std::runtime_error("the sim is stopping");
     jobs_.push_back(std::move(task));
+    // Set under the lock, so it is set exactly while jobs wait.
+    const std::uint64_t one = 1;
+    (void)!::write(jobsReady_, &one, sizeof one);
   }
   if (result.wait_for(std::chrono::seconds(5)) != std::future_status::ready)
     throw std::runtime_error("the card thread is busy: the request is queued and will still be applied");
@@ -316,6 +328,9 @@ void SimDaemon::drainJobs() {
   {
     std::unique_lock<std::mutex> lock(jobsMutex_, std::try_to_lock);
     if (!lock.owns_lock() || jobs_.empty()) return;
+    // Cleared with the queue, under the lock: set exactly while jobs wait.
+    std::uint64_t count = 0;
+    (void)!::read(jobsReady_, &count, sizeof count);
     ready_.swap(jobs_);
   }
   for (auto& task : ready_) task();
@@ -403,7 +418,8 @@ bool requestShortSlice() {
 
 }  // namespace
 
-void SimDaemon::run(const std::atomic<bool>& stop) {
+void SimDaemon::run(const std::atomic<bool>& stop, int stopFd) {
+  if (stopFd >= 0) udp_->alsoWakeOn(stopFd);
   if (options_.realtime) {
     sched_param p{};
     p.sched_priority = 40;
@@ -442,7 +458,12 @@ void SimDaemon::run(const std::atomic<bool>& stop) {
     // servo cycle (hostmot2 and lbpkit's host library write one a cycle,
     // after the cycle's outputs): time moves one period on, so the host's
     // next cycle finds the DOIT done and the plant moved under its outputs.
-    const bool served = udp_->serveOnce(std::chrono::milliseconds(1),
+    //
+    // Between datagrams it sleeps until the next job, or the next
+    // millisecond when something moves on its own (ticks()): the card
+    // alone is caught up exactly when next looked at.
+    constexpr std::chrono::milliseconds kTick{1}, kSleep{std::chrono::hours(1)};
+    const bool served = udp_->serveOnce(ticks() ? kTick : kSleep,
                                         [&](std::span<const std::uint8_t> req, std::span<std::uint8_t> reply) {
                                           const std::uint64_t doits = card_.part<hm2::SmartSerial>().counters().doits;
                                           const std::size_t n = lbp16.handle(

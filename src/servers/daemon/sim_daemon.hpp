@@ -100,8 +100,12 @@ class SimDaemon {
 
   // What `lbpkit sim` prints at start: where it listens, what it carries.
   [[nodiscard]] std::string banner() const;
-  // Serves until `stop` is set.
-  void run(const std::atomic<bool>& stop);
+  // Serves until `stop` is set. The card thread sleeps until the next
+  // datagram, API job or (with a machine, the demo world, a fault script
+  // or an external remote) the next millisecond; `stopFd`, when given,
+  // is a descriptor that becomes readable when `stop` is set (a signal
+  // handler's eventfd), so a sleeping card thread hears of it at once.
+  void run(const std::atomic<bool>& stop, int stopFd = -1);
 
   [[nodiscard]] std::uint16_t port() const;
   [[nodiscard]] int apiPort() const { return apiPort_; }
@@ -129,6 +133,12 @@ class SimDaemon {
   [[nodiscard]] std::chrono::microseconds budget() const {
     return clock_.drivenByHost() ? SimClock::kHostBudget : SimClock::kBudget;
   }
+  // Whether anything moves on the card thread's own account between
+  // datagrams and jobs: a machine, the demo world, a fault script still to
+  // run, an external remote's pseudo-terminal. Without, the card thread
+  // sleeps until a datagram or a job comes, and a sim nobody talks to
+  // costs nothing.
+  [[nodiscard]] bool ticks() const;
   // A trace row when the host has run a servo cycle since the last look.
   void record();
   // --trace: the datagram just served and the reply to it (card thread).
@@ -163,6 +173,8 @@ class SimDaemon {
   std::string interface_;
   std::string schedule_ = "normal scheduling";
   bool macFromInterface_ = false;
+  // Readable while jobs wait: wakes the card thread from its sleep.
+  int jobsReady_ = -1;
   std::mutex jobsMutex_;
   std::deque<std::packaged_task<Answer()>> jobs_;
   std::deque<std::packaged_task<Answer()>> ready_;  // the jobs being run (card thread only)

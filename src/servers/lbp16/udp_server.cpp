@@ -42,13 +42,26 @@ UdpServer::~UdpServer() {
   if (fd_ >= 0) ::close(fd_);
 }
 
+void UdpServer::alsoWakeOn(int fd) {
+  for (int& w : wakers_)
+    if (w < 0) {
+      w = fd;
+      return;
+    }
+  throw std::logic_error("UdpServer::alsoWakeOn: more than kWakers descriptors");
+}
+
 long UdpServer::receive(std::chrono::nanoseconds timeout) {
-  pollfd p{fd_, POLLIN, 0};
+  std::array<pollfd, 1 + kWakers> p{};
+  nfds_t n = 0;
+  p[n++] = {fd_, POLLIN, 0};
+  for (const int w : wakers_)
+    if (w >= 0) p[n++] = {w, POLLIN, 0};
   // ppoll: a delayed datagram's time is kept to the microsecond, not
   // rounded up to poll()'s millisecond.
   const auto ns = std::max<std::int64_t>(timeout.count(), 0);
   const timespec ts{static_cast<time_t>(ns / 1'000'000'000), static_cast<long>(ns % 1'000'000'000)};
-  if (::ppoll(&p, 1, &ts, nullptr) <= 0) return -1;
+  if (::ppoll(p.data(), n, &ts, nullptr) <= 0 || (p[0].revents & POLLIN) == 0) return -1;
   // MSG_TRUNC gives the datagram's real length; one bigger than the buffer
   // is passed on as a full buffer, which the handler refuses as oversized.
   iovec iov{in_.data(), in_.size()};
@@ -60,8 +73,8 @@ long UdpServer::receive(std::chrono::nanoseconds timeout) {
   msg.msg_iovlen = 1;
   msg.msg_control = control;
   msg.msg_controllen = sizeof control;
-  const ssize_t n = ::recvmsg(fd_, &msg, MSG_TRUNC);
-  if (n < 0) return -1;
+  const ssize_t got = ::recvmsg(fd_, &msg, MSG_TRUNC);
+  if (got < 0) return -1;
   timespec now{};
   ::clock_gettime(CLOCK_REALTIME, &now);
   const std::int64_t readNs = now.tv_sec * 1'000'000'000LL + now.tv_nsec;
@@ -73,8 +86,8 @@ long UdpServer::receive(std::chrono::nanoseconds timeout) {
     receivedNs_ = stamp.tv_sec * 1'000'000'000LL + stamp.tv_nsec;
   }
   queued_ = std::chrono::nanoseconds(readNs > receivedNs_ ? readNs - receivedNs_ : 0);
-  if (static_cast<std::size_t>(n) > in_.size()) return static_cast<long>(in_.size());
-  return static_cast<long>(n);
+  if (static_cast<std::size_t>(got) > in_.size()) return static_cast<long>(in_.size());
+  return static_cast<long>(got);
 }
 
 std::chrono::nanoseconds UdpServer::sinceReceived() const {

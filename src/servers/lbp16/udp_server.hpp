@@ -85,6 +85,12 @@ class UdpServer {
     return true;
   }
 
+  // A descriptor (an eventfd) whose readiness also ends serveOnce()'s wait,
+  // so a thread that sleeps until the next datagram still hears of other
+  // work at once. Its owner clears it. At most kWakers.
+  static constexpr std::size_t kWakers = 3;
+  void alsoWakeOn(int fd);
+
   // The network between host and card (set on the serving thread only).
   NetworkFaults& faults() { return faults_; }
   [[nodiscard]] const NetworkFaults& faults() const { return faults_; }
@@ -127,6 +133,7 @@ class UdpServer {
   NetworkFaults faults_;
 
   int fd_ = -1;
+  std::array<int, kWakers> wakers_{-1, -1, -1};
   std::string address_;
   std::uint16_t port_ = 0;
   std::array<std::uint8_t, kBuffer> in_{};
