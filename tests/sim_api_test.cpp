@@ -421,6 +421,43 @@ TEST(SimApi, ACardNobodyTalksToSleepsUntilADatagramOrARequest) {
   EXPECT_EQ(sim.stopWithin(2000ms), 0);
 }
 
+// `lbpkit sim --bind A --bind B`: a card on each address, one process and
+// one card thread for both, each card with its own API on its own address
+// and its own EEPROM (in --state's folder, named by its address).
+TEST(SimApi, OneProcessServesACardOnEachBindAddress) {
+  test_support::TempDir folder("lbpkit-cards");
+  const std::string a = loopback(40), b = loopback(41);
+  test_support::Daemon sim({"sim", "--bind", a + ":0", "--bind", b + ":0", "--api", "0", "--no-realtime", "--state",
+                            folder.path().string()});
+  const int portA = std::atoi(sim.value("on UDP " + a + ":").c_str());
+  const int apiA = std::atoi(sim.value("control API: http://" + a + ":").c_str());
+  const int portB = std::atoi(sim.value("on UDP " + b + ":").c_str());
+  const int apiB = std::atoi(sim.value("control API: http://" + b + ":").c_str());
+  ASSERT_NE(sim.readUntil("2 cards, served by one thread").find("served by one thread"), std::string::npos);
+  ASSERT_GT(portA, 0);
+  ASSERT_GT(portB, 0);
+  // Each answers LBP16 on its own socket, and its API says which it is.
+  for (const auto& [address, port, api] : {std::tuple{a, portA, apiA}, std::tuple{b, portB, apiB}}) {
+    const auto r = test_support::run({"info", "--addr", address + ":" + std::to_string(port)});
+    EXPECT_EQ(r.exit, 0) << r.err;
+    EXPECT_NE(r.out.find("MESA7I92 (LBP16 at " + address), std::string::npos) << r.out;
+    const auto state = test_support::httpGetJson(address, api, "/api/state");
+    ASSERT_FALSE(state.is_null()) << address;
+    EXPECT_EQ(state["card"]["address"], address);
+    EXPECT_EQ(state["server"]["datagrams"].get<std::uint64_t>() > 0, true) << address;
+  }
+  // Both stop on one signal; each kept its own EEPROM.
+  EXPECT_EQ(sim.stopWithin(5000ms), 0);
+  std::size_t eeproms = 0;
+  for (const auto& f : std::filesystem::directory_iterator(folder.path()))
+    if (f.path().extension() == ".eeprom") ++eeproms;
+  EXPECT_EQ(eeproms, 2U);
+  // What names one file or terminal is refused with several cards.
+  const auto refused = test_support::run({"sim", "--bind", a + ":0", "--bind", b + ":0", "--record", "x.csv"});
+  EXPECT_NE(refused.exit, 0);
+  EXPECT_NE(refused.err.find("--record names one card's file"), std::string::npos) << refused.err;
+}
+
 // --- The card thread never locks up -------------------------------------
 
 // An index every count (1 count per revolution) at 2 MHz with latch on

@@ -43,17 +43,22 @@ const std::filesystem::path& scratch();
 // (SIGTERM, then SIGKILL) by the destructor.
 class SimProcess {
  public:
-  explicit SimProcess(const std::string& address, std::vector<std::string> extra = {});
+  explicit SimProcess(const std::string& address, std::vector<std::string> extra = {})
+      : SimProcess(std::vector<std::string>{address}, std::move(extra)) {}
+  // One process serving a card on each address (`lbpkit sim --bind A
+  // --bind B ...`); address() and state() are the first card's.
+  SimProcess(std::vector<std::string> addresses, std::vector<std::string> extra);
   ~SimProcess();
   SimProcess(const SimProcess&) = delete;
   SimProcess& operator=(const SimProcess&) = delete;
   // GET /api/state; null when the sim does not answer.
   [[nodiscard]] nlohmann::json state() const;
   [[nodiscard]] pid_t pid() const { return pid_; }
-  [[nodiscard]] const std::string& address() const { return address_; }
+  [[nodiscard]] const std::string& address() const { return addresses_.front(); }
+  [[nodiscard]] const std::vector<std::string>& addresses() const { return addresses_; }
 
  private:
-  std::string address_;
+  std::vector<std::string> addresses_;
   std::filesystem::path stateFile_;
   pid_t pid_ = -1;
   int out_ = -1;

@@ -1,8 +1,9 @@
-// `lbpkit bench --only boards`: N `lbpkit sim` processes on N loopback
-// addresses (a CI farm's boards), their memory and CPU per board at idle and
-// while a client drives all of them at 1 kHz, and what that client saw: each
-// cycle one hm2_eth-shaped read to every board at once, replies awaited for
-// 80 % of the period (hm2_eth's read timeout); late and lost replies counted.
+// `lbpkit bench --only boards`: N boards on N loopback addresses (a CI
+// farm's), as N `lbpkit sim` processes and as one process serving N cards,
+// side by side: their memory and CPU per board at idle and while a client
+// drives all of them at 1 kHz, and what that client saw: each cycle one
+// hm2_eth-shaped read to every board at once, replies awaited for 80 % of
+// the period (hm2_eth's read timeout); late and lost replies counted.
 // N = 1 is the comparison: what one board costs alone.
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -41,19 +42,20 @@ struct Driven {
 Driven drive(const std::vector<std::unique_ptr<SimProcess>>& sims, double seconds) {
   Driven d;
   std::vector<int> fds;
-  for (const auto& s : sims) {
-    const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    sockaddr_in sa{};
-    sa.sin_family = AF_INET;
-    sa.sin_port = htons(lbp16::kPort);
-    ::inet_pton(AF_INET, s->address().c_str(), &sa.sin_addr);
-    if (fd < 0 || ::connect(fd, reinterpret_cast<sockaddr*>(&sa), sizeof sa) != 0) {
-      for (const int f : fds) ::close(f);
-      if (fd >= 0) ::close(fd);
-      throw lbpkit::Error("cannot open a UDP socket to " + s->address());
+  for (const auto& s : sims)
+    for (const auto& address : s->addresses()) {
+      const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+      sockaddr_in sa{};
+      sa.sin_family = AF_INET;
+      sa.sin_port = htons(lbp16::kPort);
+      ::inet_pton(AF_INET, address.c_str(), &sa.sin_addr);
+      if (fd < 0 || ::connect(fd, reinterpret_cast<sockaddr*>(&sa), sizeof sa) != 0) {
+        for (const int f : fds) ::close(f);
+        if (fd >= 0) ::close(fd);
+        throw lbpkit::Error("cannot open a UDP socket to " + address);
+      }
+      fds.push_back(fd);
     }
-    fds.push_back(fd);
-  }
   std::thread worker([&] {
     sched_param sp{};
     sp.sched_priority = 30;
@@ -132,25 +134,33 @@ Driven drive(const std::vector<std::unique_ptr<SimProcess>>& sims, double second
   return d;
 }
 
-// CPU of every sim over `seconds` (of which `seconds` is the window), per board.
+// CPU of every sim while `during` runs (`wall`: how long that took), per board.
 template <typename During>
-double cpuPerBoard(const std::vector<std::unique_ptr<SimProcess>>& sims, During&& during, double& wall) {
+double cpuPerBoard(const std::vector<std::unique_ptr<SimProcess>>& sims, unsigned boards, During&& during,
+                   double& wall) {
   double before = 0, after = 0;
   for (const auto& s : sims) before += cpuSeconds(s->pid());
   const auto t0 = std::chrono::steady_clock::now();
   during();
   wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   for (const auto& s : sims) after += cpuSeconds(s->pid());
-  return (after - before) / static_cast<double>(sims.size());
+  return (after - before) / static_cast<double>(boards);
 }
 
-json boardsPoint(unsigned n, double seconds) {
+// N boards: N processes, or one process of N cards (`oneProcess`).
+json boardsPoint(unsigned n, bool oneProcess, double seconds) {
   std::vector<std::unique_ptr<SimProcess>> sims;
-  for (unsigned i = 0; i < n; ++i) sims.push_back(std::make_unique<SimProcess>(boardAddress(i)));
+  if (oneProcess) {
+    std::vector<std::string> addresses;
+    for (unsigned i = 0; i < n; ++i) addresses.push_back(boardAddress(i));
+    sims.push_back(std::make_unique<SimProcess>(addresses, std::vector<std::string>{}));
+  } else {
+    for (unsigned i = 0; i < n; ++i) sims.push_back(std::make_unique<SimProcess>(boardAddress(i)));
+  }
   sleepFor(std::chrono::seconds(1));  // past their start
-  json p{{"boards", n}, {"seconds", seconds}};
+  json p{{"boards", n}, {"processes", sims.size()}, {"seconds", seconds}};
   double wall = 0;
-  const double idle = cpuPerBoard(sims, [&] { sleepFor(std::chrono::duration<double>(seconds)); }, wall);
+  const double idle = cpuPerBoard(sims, n, [&] { sleepFor(std::chrono::duration<double>(seconds)); }, wall);
   long rss = 0, pss = 0;
   for (const auto& s : sims) {
     const auto m = memory(s->pid());
@@ -160,7 +170,7 @@ json boardsPoint(unsigned n, double seconds) {
   p["memory_kb_per_board"] = {{"rss", rss / static_cast<long>(n)}, {"pss", pss / static_cast<long>(n)}};
   p["idle_cpu_percent_per_board"] = 100.0 * idle / wall;
   Driven d;
-  const double busy = cpuPerBoard(sims, [&] { d = drive(sims, seconds); }, wall);
+  const double busy = cpuPerBoard(sims, n, [&] { d = drive(sims, seconds); }, wall);
   p["driven_cpu_percent_per_board"] = 100.0 * busy / wall;
   p["client"] = {{"scheduling", d.scheduling},
                  {"requests", d.sent},
@@ -177,17 +187,22 @@ json boardsPoint(unsigned n, double seconds) {
 
 json runBoards(const Options& o) {
   json j{{"points", json::array()}, {"goal", "50 boards at 1 kHz on this machine with no lost or late replies"}};
-  for (const unsigned n : o.boards) j["points"].push_back(boardsPoint(n, o.seconds));
+  for (const unsigned n : o.boards) {
+    j["points"].push_back(boardsPoint(n, false, o.seconds));
+    if (n > 1) j["points"].push_back(boardsPoint(n, true, o.seconds));
+  }
   return j;
 }
 
 void printBoards(const json& j) {
-  fmt::print("Many boards: N `lbpkit sim` processes on loopback addresses, a lbpkit client reading every one at 1 kHz\n"
-             "(reply timeout 800 us, as hm2_eth's):\n");
-  fmt::print("  {:>6} {:>10} {:>10} {:>10} {:>12} | {:>10} {:>8} {:>8} {:>10}\n", "boards", "RSS kB/bd", "PSS kB/bd",
-             "idle CPU%", "1 kHz CPU%", "requests", "late", "lost", "own late");
+  fmt::print("Many boards: N boards on loopback addresses as N `lbpkit sim` processes and as one process of N cards\n"
+             "(`lbpkit sim --bind A --bind B ...`), a lbpkit client reading every board at 1 kHz (reply timeout 800 us,\n"
+             "as hm2_eth's):\n");
+  fmt::print("  {:>6} {:>5} {:>10} {:>10} {:>10} {:>12} | {:>10} {:>8} {:>8} {:>10}\n", "boards", "procs", "RSS kB/bd",
+             "PSS kB/bd", "idle CPU%", "1 kHz CPU%", "requests", "late", "lost", "own late");
   for (const auto& p : j["points"])
-    fmt::print("  {:>6} {:>10} {:>10} {:>10.2f} {:>12.2f} | {:>10} {:>8} {:>8} {:>10}\n", p["boards"].get<unsigned>(),
+    fmt::print("  {:>6} {:>5} {:>10} {:>10} {:>10.2f} {:>12.2f} | {:>10} {:>8} {:>8} {:>10}\n",
+               p["boards"].get<unsigned>(), p.value("processes", 0U),
                p["memory_kb_per_board"]["rss"].get<long>(), p["memory_kb_per_board"]["pss"].get<long>(),
                p["idle_cpu_percent_per_board"].get<double>(), p["driven_cpu_percent_per_board"].get<double>(),
                p["client"]["requests"].get<std::uint64_t>(), p["client"]["late"].get<std::uint64_t>(),

@@ -112,10 +112,16 @@ Shell sh(const std::string& command) {
 
 bool have(const char* tool) { return sh(std::string("command -v ") + tool).exit == 0; }
 
-SimProcess::SimProcess(const std::string& address, std::vector<std::string> extra) : address_(address) {
+SimProcess::SimProcess(std::vector<std::string> addresses, std::vector<std::string> extra)
+    : addresses_(std::move(addresses)) {
   static int serial = 0;
   stateFile_ = scratch() / fmt::format("sim-{}", serial++);
-  std::vector<std::string> args = {self(), "sim", "--bind", address, "--api", "0", "--state", stateFile_.string()};
+  const bool several = addresses_.size() > 1;
+  std::vector<std::string> args = {self(), "sim"};
+  for (const auto& a : addresses_) args.insert(args.end(), {"--bind", a});
+  args.insert(args.end(), {"--api", "0"});
+  // Several cards keep their EEPROMs in a folder of their own.
+  args.insert(args.end(), {"--state", several ? stateFile_.string() + ".d" : stateFile_.string()});
   args.insert(args.end(), extra.begin(), extra.end());
   int out[2];
   if (::pipe2(out, O_CLOEXEC) != 0) throw lbpkit::Error("pipe failed");
@@ -135,11 +141,13 @@ SimProcess::SimProcess(const std::string& address, std::vector<std::string> extr
   }
   ::close(out[1]);
   out_ = out[0];
-  // Its banner names the control API's port; it is serving by then.
+  // Its banner names the control API's port; it is serving by then (with
+  // several cards, once it says so).
   std::string text;
-  const std::string marker = "control API: http://127.0.0.1:";
+  const std::string marker = fmt::format("control API: http://{}:", several ? addresses_.front() : "127.0.0.1");
+  const std::string served = several ? "served by one thread" : marker;
   const auto end = std::chrono::steady_clock::now() + 15s;
-  while (std::chrono::steady_clock::now() < end && text.find(marker) == std::string::npos) {
+  while (std::chrono::steady_clock::now() < end && text.find(served) == std::string::npos) {
     pollfd p{out_, POLLIN, 0};
     if (::poll(&p, 1, 100) <= 0) {
       if (app::gStop.load()) break;
@@ -160,7 +168,7 @@ SimProcess::SimProcess(const std::string& address, std::vector<std::string> extr
     ::close(out_);
     out_ = -1;
     checkStop();
-    throw lbpkit::Error(fmt::format("lbpkit sim on {} did not start: {}", address, why.empty() ? text : why));
+    throw lbpkit::Error(fmt::format("lbpkit sim on {} did not start: {}", addresses_.front(), why.empty() ? text : why));
   }
 }
 
@@ -171,10 +179,12 @@ SimProcess::~SimProcess() {
     std::error_code ec;
     std::filesystem::remove(stateFile_.string() + suffix, ec);
   }
+  std::error_code ec;
+  std::filesystem::remove_all(stateFile_.string() + ".d", ec);
 }
 
 nlohmann::json SimProcess::state() const {
-  httplib::Client c("127.0.0.1", apiPort_);
+  httplib::Client c(addresses_.size() > 1 ? addresses_.front() : std::string("127.0.0.1"), apiPort_);
   c.set_connection_timeout(2);
   c.set_read_timeout(5);
   auto r = c.Get("/api/state");

@@ -33,7 +33,8 @@ extern std::function<int()> gRun;
 namespace {
 
 struct SimCommandOptions {
-  std::string bind = "127.0.0.1";
+  // --bind, repeatable: a card on each (one process, one card thread).
+  std::vector<std::string> bind{"127.0.0.1"};
   std::string config;
   std::string state;
   std::string api = "127.0.0.1:27182";
@@ -149,11 +150,12 @@ std::pair<std::string, int> hostPort(const std::string& text, int defaultPort, c
 
 // The default EEPROM file: one per bind address, so that sims side by side
 // never share one (two writers would lose each other's writes).
-std::filesystem::path defaultStatePath(const std::string& host, int port) {
+// With several cards, `dir` is --state's folder.
+std::filesystem::path defaultStatePath(const std::string& host, int port,
+                                       const std::filesystem::path& dir = app::defaultStateDir()) {
   std::string name = fmt::format("7i77-{}-{}.eeprom", host, port);
   for (auto& c : name)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
-  const auto dir = app::defaultStateDir();
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);  // lbpkit's own directory: created on first use
   const auto file = dir / name;
@@ -171,15 +173,38 @@ std::filesystem::path defaultStatePath(const std::string& host, int port) {
   return file;
 }
 
-int runSim(const SimCommandOptions& o) {
+// One card's options: the card on `bind`, its API as --api says (with
+// several cards, on the card's own address: `card` of `cards`), its EEPROM
+// and flash files its own.
+struct CardRun {
+  servers::SimOptions options;
+  std::filesystem::path state;
+};
+
+CardRun cardOptions(const SimCommandOptions& o, const std::string& bind, std::size_t card, std::size_t cards) {
   servers::SimOptions s;
-  const auto [bindHost, bindPort] = hostPort(o.bind, servers::lbp16::kPort, "--bind");
+  const auto [bindHost, bindPort] = hostPort(bind, servers::lbp16::kPort, "--bind");
   s.bindAddress = bindHost;
   s.port = static_cast<std::uint16_t>(bindPort);
   if (o.noApi) {
     s.apiPort = -1;
   } else {
-    const auto [apiHost, apiPort] = hostPort(o.api, 27182, "--api");
+    auto [apiHost, apiPort] = hostPort(o.api, 27182, "--api");
+    if (cards > 1) {
+      // Each card's API on the card's own address: the port hm2_eth users
+      // know, one address a card. On one address, the ports after it.
+      if (apiHost != "127.0.0.1")
+        throw lbpkit::Error(fmt::format("--api \"{}\": with several cards each card's API is on its own address; give "
+                                        "--api PORT",
+                                        o.api));
+      apiHost = bindHost;
+      if (apiPort != 0) {
+        std::size_t sameHost = 0;
+        for (std::size_t i = 0; i < card; ++i)
+          if (hostPort(o.bind[i], servers::lbp16::kPort, "--bind").first == bindHost) ++sameHost;
+        apiPort += static_cast<int>(sameHost);
+      }
+    }
     s.apiAddress = apiHost;
     s.apiPort = apiPort;
     s.apiToken = o.apiToken;
@@ -227,7 +252,9 @@ int runSim(const SimCommandOptions& o) {
   s.logLevel = kLevels.at(o.logLevel);
   // A --state FILE is taken as given: a missing directory is the user's
   // typo to hear about, not something to create (the store says so).
-  const std::filesystem::path state = o.state.empty() ? defaultStatePath(bindHost, bindPort) : std::filesystem::path(o.state);
+  const std::filesystem::path state = o.state.empty() ? defaultStatePath(bindHost, bindPort)
+                                      : cards > 1  ? defaultStatePath(bindHost, bindPort, o.state)
+                                                   : std::filesystem::path(o.state);
   s.card.first.fieldIo.nvFile = state;
   s.card.first.analog.nvFile = state.string() + ".analog";
   if (!o.card.empty()) {  // before the TOML, whose pinout must be one this card has
@@ -291,20 +318,49 @@ int runSim(const SimCommandOptions& o) {
     if (loaded.status == servers::FlashFileLoad::Status::Corrupt && warn)
       fmt::print(stderr, "lbpkit sim: warning: {}\n", loaded.message);
   }
-  servers::SimDaemon daemon(s);
+  return {std::move(s), state};
+}
+
+int runSim(const SimCommandOptions& o) {
+  if (o.bind.empty()) throw lbpkit::Error("--bind: give ADDR[:PORT]");
+  if (o.bind.size() > 1) {
+    // What names one file, or one pseudo-terminal, cannot serve several cards.
+    for (const auto& [given, what] : {std::pair{!o.record.empty(), "--record"}, {!o.trace.empty(), "--trace"},
+                                      {!o.remotes.empty(), "--remote"}})
+      if (given)
+        throw lbpkit::Error(fmt::format("{} names one card's file or terminal: give it with one --bind (here {} "
+                                        "cards)",
+                                        what, o.bind.size()));
+  }
+  std::vector<CardRun> runs;
+  for (std::size_t i = 0; i < o.bind.size(); ++i) runs.push_back(cardOptions(o, o.bind[i], i, o.bind.size()));
+  std::vector<std::unique_ptr<servers::SimDaemon>> daemons;
+  for (auto& r : runs) daemons.push_back(std::make_unique<servers::SimDaemon>(r.options));
   app::installSignalHandlers();
-  fmt::print("{}", daemon.banner());
-  // 0.0.0.0 is where the sim listens, not an address a host can reach.
-  fmt::print("  point LinuxCNC at it: loadrt hm2_eth board_ip={} config=\"{}\"\n",
-             s.bindAddress == "0.0.0.0" ? "ADDRESS (this machine's address on the host's network)" : s.bindAddress,
-             hm2EthConfig(s.card));
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const auto& s = runs[i].options;
+    fmt::print("{}", daemons[i]->banner());
+    // 0.0.0.0 is where the sim listens, not an address a host can reach.
+    fmt::print("  point LinuxCNC at it: loadrt hm2_eth board_ip={} config=\"{}\"\n",
+               s.bindAddress == "0.0.0.0" ? "ADDRESS (this machine's address on the host's network)" : s.bindAddress,
+               hm2EthConfig(s.card));
+  }
+  if (runs.size() > 1) fmt::print("lbpkit sim: {} cards, served by one thread\n", runs.size());
   std::fflush(stdout);
-  daemon.run(app::gStop, app::stopFd());
-  fmt::print("lbpkit sim: stopped; server time per datagram: {}\n", daemon.latencySummary());
-  fmt::print("lbpkit sim: the 7I77's EEPROM state is in {}, the {}'s configuration flash in {}\n", state.string(),
-             (s.card.card != nullptr ? *s.card.card : hm2::cards::defaultCard()).name, s.flashFile.string());
+  std::vector<servers::SimDaemon*> cards;
+  for (auto& d : daemons) cards.push_back(d.get());
+  servers::SimDaemon::runAll(cards, app::gStop, app::stopFd());
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const auto& s = runs[i].options;
+    const auto& daemon = *daemons[i];
+    const std::string which = runs.size() > 1 ? fmt::format(" ({})", o.bind[i]) : "";
+    fmt::print("lbpkit sim: stopped{}; server time per datagram: {}\n", which, daemon.latencySummary());
+    fmt::print("lbpkit sim: the 7I77's EEPROM state is in {}, the {}'s configuration flash in {}\n",
+               runs[i].state.string(), (s.card.card != nullptr ? *s.card.card : hm2::cards::defaultCard()).name,
+               s.flashFile.string());
+  }
   if (!o.record.empty()) fmt::print("lbpkit sim: the servo-cycle trace is in {}\n", o.record);
-  if (!o.trace.empty()) fmt::print("lbpkit sim: {}\n", daemon.packetTraceSummary());
+  if (!o.trace.empty()) fmt::print("lbpkit sim: {}\n", daemons.front()->packetTraceSummary());
   return 0;
 }
 
@@ -313,12 +369,16 @@ int runSim(const SimCommandOptions& o) {
 void addSimCommand(CLI::App& app) {
   auto o = std::make_shared<SimCommandOptions>();
   auto* cmd = app.add_subcommand("sim", "Run a virtual 7I92 with a 7I77 on the network (LBP16, UDP port 27181)");
-  cmd->add_option("--bind", o->bind, "ADDR[:PORT] to serve LBP16 on (127.0.0.1:27181 unless you say otherwise)")
+  cmd->add_option("--bind", o->bind,
+                  "ADDR[:PORT] to serve LBP16 on (127.0.0.1:27181 unless you say otherwise); repeated, a card on each "
+                  "address, all served by one thread")
       ->capture_default_str();
   cmd->add_option("--card", o->card, "Which Mesa card: " + hm2::cards::names() + " (default 7I92; docs/cards.md)");
   cmd->add_option("--config", o->config,
                   "TOML file: firmware pinout, daughtercards, field voltage, 7I77 or 7I77D, jumpers, unit numbers");
-  cmd->add_option("--state", o->state, "EEPROM file of the 7I77 (non-volatile parameters)");
+  cmd->add_option("--state", o->state,
+                  "EEPROM file of the 7I77 (non-volatile parameters); with several --bind, a folder: each card's "
+                  "files in it, named by its address");
   cmd->add_option("--api", o->api, "[ADDR:]PORT of the HTTP control API (0: any free port)")->capture_default_str();
   cmd->add_flag("--no-api", o->noApi, "No control API");
   cmd->add_option("--log-level", o->logLevel, "error, warn, info or debug")->capture_default_str();

@@ -1,6 +1,7 @@
 #include "daemon/sim_daemon.hpp"
 
 #include <arpa/inet.h>
+#include <poll.h>
 #include <pthread.h>
 #include <sched.h>
 #include <sys/eventfd.h>
@@ -418,15 +419,15 @@ bool requestShortSlice() {
 
 }  // namespace
 
-void SimDaemon::run(const std::atomic<bool>& stop, int stopFd) {
-  if (stopFd >= 0) udp_->alsoWakeOn(stopFd);
+std::string SimDaemon::takeCardThread() {
+  std::string schedule = "normal scheduling";
   if (options_.realtime) {
     sched_param p{};
     p.sched_priority = 40;
     if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0) {
-      schedule_ = "SCHED_FIFO priority 40";
+      schedule = "SCHED_FIFO priority 40";
     } else if (requestShortSlice()) {
-      schedule_ = "normal scheduling, 100 us slice";
+      schedule = "normal scheduling, 100 us slice";
       log(LogLevel::Info,
           "real-time scheduling not permitted: running at normal priority with a 100 us time slice "
           "(SCHED_FIFO needs CAP_SYS_NICE)");
@@ -441,87 +442,132 @@ void SimDaemon::run(const std::atomic<bool>& stop, int stopFd) {
     if (pthread_setaffinity_np(pthread_self(), sizeof set, &set) != 0)
       log(LogLevel::Warn, fmt::format("the card thread cannot run on CPU {} alone: it runs on any", *options_.cpu));
     else
-      schedule_ += fmt::format(", on CPU {}", *options_.cpu);
+      schedule += fmt::format(", on CPU {}", *options_.cpu);
   }
-  auto& lbp16 = *lbp16_;
-  std::uint64_t errorsSeen = 0;
-  if (options_.demo) card_.part<hm2::MuxedEncoder>().setVelocity(0, 10000, card_.now());
-  while (!stop.load()) {
-    // The card answers at the simulated time the datagram arrived (its
-    // kernel receive timestamp), caught up to it with bounded work. Normally
-    // that is microseconds ago; when this thread was held up (descheduled,
-    // a long API job) and datagrams queued, each is still taken at its own
-    // time, so a host that kept its period is not seen falling silent by the
-    // 7I77's 50 ms watchdog, which a stall here must not bite.
-    //
-    // On the host clock, a datagram that carried a DOIT ends the host's
-    // servo cycle (hostmot2 and lbpkit's host library write one a cycle,
-    // after the cycle's outputs): time moves one period on, so the host's
-    // next cycle finds the DOIT done and the plant moved under its outputs.
-    //
-    // Between datagrams it sleeps until the next job, or the next
-    // millisecond when something moves on its own (ticks()): the card
-    // alone is caught up exactly when next looked at.
-    constexpr std::chrono::milliseconds kTick{1}, kSleep{std::chrono::hours(1)};
-    const bool served = udp_->serveOnce(ticks() ? kTick : kSleep,
-                                        [&](std::span<const std::uint8_t> req, std::span<std::uint8_t> reply) {
-                                          const std::uint64_t doits = card_.part<hm2::SmartSerial>().counters().doits;
-                                          const std::size_t n = lbp16.handle(
-                                              req, reply, catchUpTo(clock_.ago(udp_->sinceReceived()), budget()));
-                                          if (card_.part<hm2::SmartSerial>().counters().doits != doits)
-                                            clock_.hostCycle(udp_->sinceReceived());
-                                          if (packetTrace_) traceDatagram(req, reply.first(n));
-                                          return n;
-                                        });
-    // From the kernel's receive timestamp, so time queued in the socket
-    // counts: that is what the host waits.
-    if (served) {
-      latency_.add(udp_->sinceReceived());
-      queueing_.add(udp_->lastQueueing());
-    }
-    // A reply the network would not take: the card's TX error (space 6).
-    for (; sendFailuresSeen_ < udp_->sendFailures(); ++sendFailuresSeen_) lbp16.noteSendFailed();
-    // A datagram that queued for long says more may be waiting: they come
-    // first, each at its own time, before the card runs on to the clock.
-    constexpr std::chrono::milliseconds kBacklog{1};
-    if (!served || udp_->lastQueueing() < kBacklog) catchUp(budget());
-    if (machine_) record();
-    if (script_) script_->runDue(card_.now(), *target_, scriptLog_);
-    if (options_.demo) {
-      auto& io = card_.daughtercard(0).fieldIo;
-      for (unsigned i = 0; i < remote::FieldIoProcessor::kOutputs; ++i) {
-        const double v = io.outputOn(i) ? io.fieldVoltage() : 0.0;
-        if (io.inputVoltage(i) != v) io.setInputVoltage(i, v);
-      }
-    }
-    drainJobs();
-    for (auto& p : ptyChannels_) p->pump(card_, card_.now());
-    // Bad datagrams: logged, at most once a second, with how many.
-    const auto& c = lbp16.counters();
-    const std::uint64_t errors = c.parseErrors + c.memoryErrors + c.writeErrors;
-    if (errors != errorsSeen && options_.logLevel >= LogLevel::Warn) {
-      const auto wall = std::chrono::steady_clock::now();
-      if (wall - lastBadLog_ > std::chrono::seconds(1)) {
-        log(LogLevel::Warn, fmt::format("{} bad LBP16 requests so far ({} malformed, {} bad addresses, {} refused writes)",
-                                        errors, c.parseErrors, c.memoryErrors, c.writeErrors));
-        lastBadLog_ = wall;
-        errorsSeen = errors;
-      }
-    }
-    // Simulated time falling behind: logged, at most once a second.
-    if (clock_.slips() != slipsLogged_ && options_.logLevel >= LogLevel::Warn) {
-      const auto wall = std::chrono::steady_clock::now();
-      if (wall - lastSlipLog_ > std::chrono::seconds(1)) {
-        log(LogLevel::Warn,
-            fmt::format("the card cannot keep up at speed {:g}: simulated time has fallen {:.0f} ms behind the wall "
-                        "clock so far ({} slips)",
-                        clock_.speed(), std::chrono::duration<double, std::milli>(clock_.behind()).count(),
-                        clock_.slips()));
-        lastSlipLog_ = wall;
-        slipsLogged_ = clock_.slips();
-      }
+  return schedule;
+}
+
+void SimDaemon::serve(std::chrono::milliseconds wait) {
+  // The card answers at the simulated time the datagram arrived (its
+  // kernel receive timestamp), caught up to it with bounded work. Normally
+  // that is microseconds ago; when this thread was held up (descheduled,
+  // a long API job) and datagrams queued, each is still taken at its own
+  // time, so a host that kept its period is not seen falling silent by the
+  // 7I77's 50 ms watchdog, which a stall here must not bite.
+  //
+  // On the host clock, a datagram that carried a DOIT ends the host's
+  // servo cycle (hostmot2 and lbpkit's host library write one a cycle,
+  // after the cycle's outputs): time moves one period on, so the host's
+  // next cycle finds the DOIT done and the plant moved under its outputs.
+  const bool served = udp_->serveOnce(wait,
+                                      [&](std::span<const std::uint8_t> req, std::span<std::uint8_t> reply) {
+                                        const std::uint64_t doits = card_.part<hm2::SmartSerial>().counters().doits;
+                                        const std::size_t n = lbp16_->handle(
+                                            req, reply, catchUpTo(clock_.ago(udp_->sinceReceived()), budget()));
+                                        if (card_.part<hm2::SmartSerial>().counters().doits != doits)
+                                          clock_.hostCycle(udp_->sinceReceived());
+                                        if (packetTrace_) traceDatagram(req, reply.first(n));
+                                        return n;
+                                      });
+  // From the kernel's receive timestamp, so time queued in the socket
+  // counts: that is what the host waits.
+  if (served) {
+    latency_.add(udp_->sinceReceived());
+    queueing_.add(udp_->lastQueueing());
+  }
+  // A reply the network would not take: the card's TX error (space 6).
+  for (; sendFailuresSeen_ < udp_->sendFailures(); ++sendFailuresSeen_) lbp16_->noteSendFailed();
+  // A datagram that queued for long says more may be waiting: they come
+  // first, each at its own time, before the card runs on to the clock.
+  constexpr std::chrono::milliseconds kBacklog{1};
+  if (!served || udp_->lastQueueing() < kBacklog) catchUp(budget());
+  if (machine_) record();
+  if (script_) script_->runDue(card_.now(), *target_, scriptLog_);
+  if (options_.demo) {
+    auto& io = card_.daughtercard(0).fieldIo;
+    for (unsigned i = 0; i < remote::FieldIoProcessor::kOutputs; ++i) {
+      const double v = io.outputOn(i) ? io.fieldVoltage() : 0.0;
+      if (io.inputVoltage(i) != v) io.setInputVoltage(i, v);
     }
   }
+  drainJobs();
+  for (auto& p : ptyChannels_) p->pump(card_, card_.now());
+  // Bad datagrams: logged, at most once a second, with how many.
+  const auto& c = lbp16_->counters();
+  const std::uint64_t errors = c.parseErrors + c.memoryErrors + c.writeErrors;
+  if (errors != errorsSeen_ && options_.logLevel >= LogLevel::Warn) {
+    const auto wall = std::chrono::steady_clock::now();
+    if (wall - lastBadLog_ > std::chrono::seconds(1)) {
+      log(LogLevel::Warn, fmt::format("{} bad LBP16 requests so far ({} malformed, {} bad addresses, {} refused writes)",
+                                      errors, c.parseErrors, c.memoryErrors, c.writeErrors));
+      lastBadLog_ = wall;
+      errorsSeen_ = errors;
+    }
+  }
+  // Simulated time falling behind: logged, at most once a second.
+  if (clock_.slips() != slipsLogged_ && options_.logLevel >= LogLevel::Warn) {
+    const auto wall = std::chrono::steady_clock::now();
+    if (wall - lastSlipLog_ > std::chrono::seconds(1)) {
+      log(LogLevel::Warn,
+          fmt::format("the card cannot keep up at speed {:g}: simulated time has fallen {:.0f} ms behind the wall "
+                      "clock so far ({} slips)",
+                      clock_.speed(), std::chrono::duration<double, std::milli>(clock_.behind()).count(),
+                      clock_.slips()));
+      lastSlipLog_ = wall;
+      slipsLogged_ = clock_.slips();
+    }
+  }
+}
+
+void SimDaemon::run(const std::atomic<bool>& stop, int stopFd) {
+  SimDaemon* self = this;
+  runAll(std::span<SimDaemon* const>(&self, 1), stop, stopFd);
+}
+
+void SimDaemon::runAll(std::span<SimDaemon* const> cards, const std::atomic<bool>& stop, int stopFd) {
+  if (cards.empty()) return;
+  const std::string schedule = cards.front()->takeCardThread();
+  for (SimDaemon* d : cards) {
+    d->schedule_ = schedule;
+    if (d->options_.demo) d->card_.part<hm2::MuxedEncoder>().setVelocity(0, 10000, d->card_.now());
+  }
+  // Between datagrams the thread sleeps until the next one, a job or the
+  // stop, or the next millisecond when something moves on its own
+  // (ticks()): a card alone is caught up exactly when next looked at.
+  constexpr std::chrono::milliseconds kTick{1}, kSleep{std::chrono::hours(1)};
+  if (cards.size() == 1) {
+    SimDaemon& d = *cards.front();
+    if (stopFd >= 0) d.udp_->alsoWakeOn(stopFd);
+    while (!stop.load()) d.serve(d.ticks() ? kTick : kSleep);
+  } else {
+    // Several cards, one thread: one wait for all their sockets and job
+    // queues, then each card with something to do is served. Datagrams
+    // that came together cost one wake-up, not one each.
+    std::vector<pollfd> fds;
+    for (SimDaemon* d : cards) {
+      fds.push_back({d->udp_->fd(), POLLIN, 0});
+      fds.push_back({d->jobsReady_, POLLIN, 0});
+    }
+    if (stopFd >= 0) fds.push_back({stopFd, POLLIN, 0});
+    while (!stop.load()) {
+      auto wait = std::chrono::nanoseconds(kSleep);
+      const auto now = NetworkFaults::Clock::now();
+      for (SimDaemon* d : cards) wait = std::min(wait, d->ticks() ? kTick : d->udp_->untilDue(now));
+      const timespec ts{static_cast<time_t>(wait.count() / 1'000'000'000),
+                        static_cast<long>(wait.count() % 1'000'000'000)};
+      const int ready = ::ppoll(fds.data(), fds.size(), &ts, nullptr);
+      for (std::size_t i = 0; i < cards.size(); ++i) {
+        SimDaemon& d = *cards[i];
+        const bool readable = ready > 0 && ((fds[2 * i].revents | fds[2 * i + 1].revents) & POLLIN) != 0;
+        if (readable || d.ticks() || d.udp_->untilDue(NetworkFaults::Clock::now()) <= std::chrono::nanoseconds(0))
+          d.serve(std::chrono::milliseconds(0));
+      }
+    }
+  }
+  for (SimDaemon* d : cards) d->closeJobs();
+}
+
+void SimDaemon::closeJobs() {
   // No job is taken after this one last round: the API's threads get their
   // answers (or "stopping") at once instead of waiting for a thread that is
   // gone.

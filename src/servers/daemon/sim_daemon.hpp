@@ -106,6 +106,11 @@ class SimDaemon {
   // is a descriptor that becomes readable when `stop` is set (a signal
   // handler's eventfd), so a sleeping card thread hears of it at once.
   void run(const std::atomic<bool>& stop, int stopFd = -1);
+  // The same for several cards on one thread (`lbpkit sim --bind A
+  // --bind B ...`): one wait for all their sockets and job queues, each
+  // card served when it has something to do. The thread's scheduling is
+  // the first card's options'.
+  static void runAll(std::span<SimDaemon* const> cards, const std::atomic<bool>& stop, int stopFd = -1);
 
   [[nodiscard]] std::uint16_t port() const;
   [[nodiscard]] int apiPort() const { return apiPort_; }
@@ -122,6 +127,14 @@ class SimDaemon {
 
  private:
   std::string runJob(std::function<Answer()> job);
+  // The calling thread becomes the card thread: SCHED_FIFO (or a short
+  // slice) and the CPU the options ask for; what it got, in words.
+  std::string takeCardThread();
+  // One round of the card thread: waits up to `wait` for a datagram and
+  // answers it, then lets time pass, runs what is due and the API's jobs.
+  void serve(std::chrono::milliseconds wait);
+  // The card thread has stopped: queued jobs get their answers at once.
+  void closeJobs();
   void drainJobs();
   // Brings the card up to the clock, with bounded work (SimClock::catchUp);
   // returns the card's time, the time everything happens at.
@@ -168,6 +181,7 @@ class SimDaemon {
   // they go first).
   std::vector<std::unique_ptr<PtyChannel>> ptyChannels_;
   std::uint64_t sendFailuresSeen_ = 0;
+  std::uint64_t errorsSeen_ = 0;  // bad datagrams logged so far
   std::function<void(const std::string&)> scriptLog_;
   SimClock clock_;
   std::string interface_;

@@ -26,6 +26,12 @@ class UdpServer {
   UdpServer& operator=(const UdpServer&) = delete;
 
   [[nodiscard]] std::uint16_t port() const { return port_; }
+  [[nodiscard]] int fd() const { return fd_; }
+  // How long until a held datagram (network faults) is due; max() when
+  // none is held.
+  [[nodiscard]] std::chrono::nanoseconds untilDue(NetworkFaults::Clock::time_point now) const {
+    return heldCount_ == 0 ? std::chrono::nanoseconds::max() : untilNextDue(now);
+  }
   [[nodiscard]] const std::string& address() const { return address_; }
 
   // How long ago the kernel received the last datagram served (its
