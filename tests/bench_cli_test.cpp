@@ -1,4 +1,4 @@
-// `lbpkit bench` as a user runs it: the in-process part's JSON
+// `lbpkit bench` as a user runs it: the in-process and replies parts' JSON
 // has the figures docs/performance.md quotes, and bad options are refused by name.
 // No timing is asserted here (benchmarks/ and the command itself measure).
 #include <gtest/gtest.h>
@@ -41,6 +41,28 @@ TEST(BenchCli, TextOutputNamesTheComparison) {
   EXPECT_NE(r.out.find("board alone"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("board + mill"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("x real time"), std::string::npos) << r.out;
+}
+
+// The replies part: the same client's round trips to the Python echo
+// server and to the sim, on any CPU and on one, idle and loaded: eight
+// points, each with one datagram sent a millisecond.
+TEST(BenchCli, RepliesPutTheSimBesideAnEchoServer) {
+  const auto r = test_support::run({"bench", "--only", "replies", "--seconds", "0.3", "--json"});
+  ASSERT_EQ(r.exit, 0) << r.err;
+  const auto j = json::parse(r.out, nullptr, false);
+  ASSERT_FALSE(j.is_discarded()) << r.out;
+  const auto& points = j["replies"]["points"];
+  ASSERT_EQ(points.size(), 8U) << j;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const auto& p = points[i];
+    EXPECT_EQ(p["server"], i % 2 == 0 ? "echo" : "sim") << p;
+    EXPECT_EQ(p["load"], (i / 2) % 2 == 0 ? "idle" : "loaded") << p;
+    EXPECT_EQ(p["cpus"], i < 4 ? "any" : "one") << p;
+    EXPECT_EQ(p["sent"].get<unsigned>(), 300U) << p;
+    EXPECT_LE(p["late"].get<unsigned>() + p["lost"].get<unsigned>(), 300U) << p;
+    EXPECT_LE(p["us"]["median"].get<double>(), p["us"]["max"].get<double>()) << p;
+  }
+  EXPECT_NE(j["replies"]["goal"].get<std::string>().find("echo server"), std::string::npos);
 }
 
 TEST(BenchCli, RefusesUnknownPartsAndBadDurations) {

@@ -98,9 +98,11 @@ nlohmann::json runInProcess(const Options& o);
 nlohmann::json runNetwork(const Options& o);
 nlohmann::json runDiscovery(const Options& o);
 nlohmann::json runBoards(const Options& o);
+nlohmann::json runReplies(const Options& o);
 void printInProcess(const nlohmann::json& j);
 void printNetwork(const nlohmann::json& j);
 void printDiscovery(const nlohmann::json& j);
 void printBoards(const nlohmann::json& j);
+void printReplies(const nlohmann::json& j);
 
 }  // namespace bench

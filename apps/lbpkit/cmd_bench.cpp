@@ -18,7 +18,7 @@ namespace {
 
 struct BenchCommand {
   bench::Options options;
-  std::string only = "inprocess,network,discovery,boards";
+  std::string only = "inprocess,network,replies,discovery,boards";
   std::string rates = "1000,2000,4000,10000";
   std::string boards = "1,10,50";
 };
@@ -45,11 +45,11 @@ std::vector<unsigned> numbers(const std::string& text, const char* option, unsig
 }
 
 int runBench(BenchCommand& c) {
-  static const std::vector<std::string> kParts = {"inprocess", "network", "discovery", "boards"};
+  static const std::vector<std::string> kParts = {"inprocess", "network", "replies", "discovery", "boards"};
   std::set<std::string> parts;
   for (const auto& p : list(c.only)) {
     if (std::find(kParts.begin(), kParts.end(), p) == kParts.end())
-      throw lbpkit::Error(fmt::format("--only: \"{}\" is not a part (inprocess, network, discovery, boards)", p));
+      throw lbpkit::Error(fmt::format("--only: \"{}\" is not a part (inprocess, network, replies, discovery, boards)", p));
     parts.insert(p);
   }
   if (parts.empty()) throw lbpkit::Error("--only: name at least one part");
@@ -75,6 +75,7 @@ int runBench(BenchCommand& c) {
   };
   const Part all[] = {{"inprocess", bench::runInProcess, bench::printInProcess},
                       {"network", bench::runNetwork, bench::printNetwork},
+                      {"replies", bench::runReplies, bench::printReplies},
                       {"discovery", bench::runDiscovery, bench::printDiscovery},
                       {"boards", bench::runBoards, bench::printBoards}};
   for (const auto& part : all) {
@@ -97,8 +98,8 @@ void addBenchCommand(CLI::App& app) {
   auto c = std::make_shared<BenchCommand>();
   auto* cmd = app.add_subcommand(
       "bench", "Measure the performance figures on this machine, each beside its comparison: in process, "
-               "LinuxCNC on the network (root), discovery (root), many boards");
-  cmd->add_option("--only", c->only, "Parts to run, comma-separated: inprocess, network, discovery, boards")
+               "LinuxCNC on the network (root), replies beside an echo server, discovery (root), many boards");
+  cmd->add_option("--only", c->only, "Parts to run, comma-separated: inprocess, network, replies, discovery, boards")
       ->capture_default_str();
   cmd->add_option("--seconds", c->options.seconds,
                   "Seconds per measured point (in process: simulated seconds per row)")
