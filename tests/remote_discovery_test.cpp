@@ -377,7 +377,8 @@ TEST(Discovery, IdentityLocalsAndSpecialRpcs) {
     std::string name;
     for (std::uint8_t c = 0xD0; c <= 0xD3; ++c) name.push_back(static_cast<char>(h.local(c)));
     EXPECT_EQ(name, "7I77");
-    EXPECT_EQ(h.local(lbp::local_read::kCapability), 0x05);
+    // CRC, EEPROM and flash: the firmware is updated over LBP (manual: UFLBP).
+    EXPECT_EQ(h.local(lbp::local_read::kCapability), 0x0D);
     auto unit = h.transact({lbp::special_rpc::kUnitNumber}, 4);
     ASSERT_TRUE(unit.has_value());
     const std::uint32_t u = std::uint32_t{(*unit)[0]} | (std::uint32_t{(*unit)[1]} << 8) |

@@ -175,7 +175,7 @@ SimProcess::SimProcess(std::vector<std::string> addresses, std::vector<std::stri
 SimProcess::~SimProcess() {
   stopProcess(pid_);
   if (out_ >= 0) ::close(out_);
-  for (const char* suffix : {"", ".analog", ".flash", ".log"}) {
+  for (const char* suffix : {"", ".analog", ".program", ".analog.program", ".flash", ".log"}) {
     std::error_code ec;
     std::filesystem::remove(stateFile_.string() + suffix, ec);
   }

@@ -307,6 +307,10 @@ CardRun cardOptions(const SimCommandOptions& o, const std::string& bind, std::si
     remote::NvStore probe(remote::memory::kEepromSize, file);
     probe.load();
     if (!probe.refusal().empty()) throw lbpkit::Error(probe.refusal());
+    // Its program flash beside it (remote/program_flash.hpp).
+    remote::NvStore program(remote::ProgramFlash::kSize, file.string() + ".program");
+    program.load();
+    if (!program.refusal().empty()) throw lbpkit::Error(program.refusal());
   }
   // The 7I92's configuration flash (what mesaflash --write programs), next
   // to the EEPROM: FILE.flash. Checked the same way.

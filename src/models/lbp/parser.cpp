@@ -204,8 +204,9 @@ void Parser::executeData(DataCommand cmd, const std::uint8_t*& stream, std::uint
       continue;
     }
     const std::uint8_t value = inlineData ? inlineData[i] : *stream++;
-    // The RPC table is protected unless the RPCMEM flag is set (manual: RPC COMMANDS).
-    const bool allowed = (a >= config_.rpcSize || rpcMem_) && target_.writeMemory(a, value);
+    // The RPC table is protected unless the RPCMEM flag is set (manual: RPC
+    // COMMANDS), or something else is at its addresses.
+    const bool allowed = (a >= config_.rpcSize || rpcMem_ || target_.rpcTableOverlaid()) && target_.writeMemory(a, value);
     if (!allowed) raiseStatus(status::kInvalidWrite);
   }
   if (cmd.autoInc) address_ = static_cast<std::uint16_t>(address_ + cmd.dataSize);

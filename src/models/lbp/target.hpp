@@ -19,6 +19,11 @@ class Target {
   // off): the parser then raises the Invalid write status bit.
   virtual bool writeMemory(std::uint16_t address, std::uint8_t value) = 0;
 
+  // Whether the RPC table's addresses are something else right now (a
+  // program flash's page buffer while NV access is flash): then writes
+  // there need no RPCMEM flag.
+  [[nodiscard]] virtual bool rpcTableOverlaid() const { return false; }
+
   // Device-specific local registers (card name, modes, faults, NV access...).
   // The parser itself keeps the protocol's own ones (status, CRC, RPCMEM,
   // timeout, address pointer, version, unit ID, RPC pitch/size, cookie).

@@ -59,7 +59,10 @@ RemoteDevice::RemoteDevice(Identity identity, std::span<const ProcessDataDescrip
       modes_(modes),
       ownElements_(elements.size()),
       parser_(*this, parserConfig(false, kBaudRates[kDefaultBaudIndex])),
-      nv_(memory::kEepromSize, std::move(nvFile), std::move(nvOwner), std::move(nvReport)) {
+      nv_(memory::kEepromSize, nvFile, nvOwner, nvReport),
+      // The program flash beside the EEPROM: FILE.program.
+      flash_(nvFile.empty() ? std::filesystem::path() : std::filesystem::path(nvFile.string() + ".program"),
+             std::move(nvOwner), std::move(nvReport)) {
   if (modes_.empty()) throw std::logic_error("a remote needs at least one software mode");
   buildTables(elements);
 }
@@ -195,6 +198,10 @@ void RemoteDevice::powerUp(SimTime now) {
     std::copy(image.begin(), image.end(), eeprom_.begin());
   }
   eepromDirty_ = false;
+  // The boot block checks the program: a good one for this processor runs
+  // (lbpkit's image; a blank flash file holds the factory program).
+  flash_.load(ProgramFlash::image(identity_.cardName, identity_.processor, identity_.swRevision, {}));
+  program_ = ProgramFlash::programRevision(flash_.contents(), identity_.cardName, identity_.processor);
   // NV values become working values only here (manual: NON-VOLATILE FIELD I/O PARAMETERS).
   const auto baudIndex = raw(standard(Standard::NvBaudRate));
   const std::uint32_t baud = setupJumper_                      ? kSetupBaud
@@ -204,7 +211,7 @@ void RemoteDevice::powerUp(SimTime now) {
   parser_.reset();
   setRaw(standard(Standard::UnitNumber), raw(standard(Standard::NvUnitNumber)));
   setRaw(standard(Standard::WatchdogTime), raw(standard(Standard::NvWatchdogTimeout)));
-  setRaw(standard(Standard::SwRevision), identity_.swRevision);
+  setRaw(standard(Standard::SwRevision), softwareRevision());
   swMode_ = 0;
   nvAccess_ = 0;
   // Startup condition: the watchdog fault is set until the host clears it
@@ -318,7 +325,10 @@ const std::uint8_t* RemoteDevice::storage(std::uint16_t address) const {
   return nullptr;
 }
 
+bool RemoteDevice::rpcTableOverlaid() const { return nvAccess_ == lbp::nonvolatile::kFlash; }
+
 std::uint8_t RemoteDevice::readMemory(std::uint16_t address) {
+  if (nvAccess_ == lbp::nonvolatile::kFlash && ProgramFlash::maps(address)) return flash_.read(address);
   if (address < memory::kRpcSize) return rpcTable_[address];
   if (const auto* p = storage(address)) return *p;
   if (address >= memory::kRom && address - memory::kRom < static_cast<int>(rom_.size())) return rom_[address - memory::kRom];
@@ -326,6 +336,7 @@ std::uint8_t RemoteDevice::readMemory(std::uint16_t address) {
 }
 
 bool RemoteDevice::writeMemory(std::uint16_t address, std::uint8_t value) {
+  if (nvAccess_ == lbp::nonvolatile::kFlash && ProgramFlash::maps(address)) return flash_.write(address, value);
   if (address < memory::kRpcSize) {  // the parser has checked the RPCMEM flag
     rpcTable_[address] = value;
     return true;
@@ -358,8 +369,8 @@ std::optional<std::uint8_t> RemoteDevice::readLocal(std::uint8_t command) {
     case r::kRemoteSwMode: return swMode_;
     case r::kClearFault: return 0;  // the clear is done by the time it can be read
     case r::kNonVolatile: return nvAccess_;
-    case r::kCapability: return lbp::capability::kCrc | lbp::capability::kEeprom;
-    case r::kSwRevision: return identity_.swRevision;
+    case r::kCapability: return lbp::capability::kCrc | lbp::capability::kEeprom | lbp::capability::kFlash;
+    case r::kSwRevision: return softwareRevision();
     case r::kHwMode: return identity_.hwMode;
     case r::kFaultStatus: return faults_;
     default: break;
@@ -382,8 +393,11 @@ bool RemoteDevice::writeLocal(std::uint8_t command, std::uint8_t value) {
       if (value != 0) clearFaults();
       return true;
     case w::kNonVolatile:
-      // This remote has an EEPROM and no flash (capability 0x05).
-      if (value != lbp::nonvolatile::kNone && value != lbp::nonvolatile::kEeprom) return false;
+      // EEPROM always; the program flash in setup mode only (manual: RPD,
+      // WPD, AND UFLBP: "the 7I77 MUST be in setup mode for UFLBP").
+      if (value == lbp::nonvolatile::kFlash && !setupJumper_) return false;
+      if (value != lbp::nonvolatile::kNone && value != lbp::nonvolatile::kEeprom && value != lbp::nonvolatile::kFlash)
+        return false;
       nvAccess_ = value;
       return true;
     case w::kLeds:
@@ -409,6 +423,9 @@ RemoteDevice::Discovery RemoteDevice::discovery() const {
 
 std::optional<lbp::Target::RpcSizes> RemoteDevice::specialRpc(std::uint8_t command) {
   namespace rpc = lbp::special_rpc;
+  // The boot block alone answers LBP but has no process data: without a
+  // program the special RPCs are not there (SSLBP's start fails at them).
+  if (!program_) return std::nullopt;
   switch (command) {
     case rpc::kDiscovery: return RpcSizes{0, 6};
     case rpc::kUnitNumber: return RpcSizes{0, 4};

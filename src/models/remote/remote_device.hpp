@@ -14,6 +14,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -26,6 +27,7 @@
 #include "lbpkit/wire/seven_i77.hpp"
 #include "remote/gtoc_parameters.hpp"
 #include "remote/nv_store.hpp"
+#include "remote/program_flash.hpp"
 
 namespace remote {
 
@@ -142,12 +144,18 @@ class RemoteDevice : public lbp::Target {
     return static_cast<std::uint16_t>(ram_[watchdogOffset_] | (ram_[watchdogOffset_ + 1U] << 8));
   }
   [[nodiscard]] std::string_view cardName() const { return identity_.cardName; }
+  [[nodiscard]] const Identity& identity() const { return identity_; }
   // CR15 (activity: toggles every 512 process data transfers, about 1 Hz at
   // a 1 kHz update) and CR16 (fault) (manual: STATUS LEDs).
   [[nodiscard]] bool activityLed() const { return (processDataCount_ >> 9) & 1U; }
   [[nodiscard]] bool faultLed() const { return powered_ && faults_ != 0; }
   [[nodiscard]] std::uint32_t processDataCount() const { return processDataCount_; }
   [[nodiscard]] const NvStore& nvStore() const { return nv_; }
+  [[nodiscard]] const ProgramFlash& programFlash() const { return flash_; }
+  // Whether its program runs (a good image in its flash at power-up), and
+  // the software revision it reports.
+  [[nodiscard]] bool programRuns() const { return program_.has_value(); }
+  [[nodiscard]] std::uint8_t softwareRevision() const { return program_.value_or(0); }
   NvStore& nvStore() { return nv_; }
   [[nodiscard]] const lbp::Parser& parser() const { return parser_; }
 
@@ -194,6 +202,7 @@ class RemoteDevice : public lbp::Target {
   [[nodiscard]] std::size_t elementCount() const { return elements_.size(); }
 
   // --- lbp::Target ---------------------------------------------------------
+  [[nodiscard]] bool rpcTableOverlaid() const override;
   std::uint8_t readMemory(std::uint16_t address) override;
   bool writeMemory(std::uint16_t address, std::uint8_t value) override;
   std::optional<std::uint8_t> readLocal(std::uint8_t command) override;
@@ -306,6 +315,10 @@ class RemoteDevice : public lbp::Target {
 
   lbp::Parser parser_;
   NvStore nv_;
+  ProgramFlash flash_;
+  // The program flash holds a good program for this processor: it runs,
+  // with this revision. Otherwise only the boot block runs (program_flash.hpp).
+  std::optional<std::uint8_t> program_;
 
   bool setupJumper_ = false;
   std::uint8_t faults_ = 0;

@@ -129,6 +129,19 @@ inline constexpr std::uint8_t kEeprom = 0x01;
 inline constexpr std::uint8_t kFlash = 0x02;
 }  // namespace nonvolatile
 
+// The program flash, with non-volatile access set to flash (LBP.INC:
+// LBPFLASHOFFSET, LBPFLASHERASESIZE, LBPFLASHWRITESIZE, LBPFLASHCOMMIT,
+// LBPFLASHERASE, LBPFLASHWRITE). The sizes read as powers of two
+// (LinuxCNC's setsserial: 1 << the byte read).
+namespace flash {
+inline constexpr std::uint16_t kOffset = 0x8000;     // 32 bits: where the next erase or write goes
+inline constexpr std::uint16_t kEraseSize = 0x8004;  // log2 of the erase block's bytes
+inline constexpr std::uint16_t kWriteSize = 0x8005;  // log2 of the write page's bytes
+inline constexpr std::uint16_t kCommit = 0x8007;     // write kErase or kWrite: done at kOffset
+inline constexpr std::uint8_t kErase = 0xFE;
+inline constexpr std::uint8_t kWrite = 0xFD;
+}  // namespace flash
+
 inline constexpr std::uint8_t kCookie = 0x5A;
 inline constexpr std::uint8_t kResetKey = 0x5A;
 
