@@ -2,12 +2,17 @@
 // Mesa's RPD and WPD (manual: RPD, WPD, AND UFLBP).
 #include <fmt/core.h>
 
+#include <fstream>
 #include <functional>
+#include <iterator>
 #include <memory>
+#include <optional>
+#include <vector>
 
 #include "common.hpp"
 #include "lbpkit/error.hpp"
 #include "lbpkit/parameters.hpp"
+#include "lbpkit/remote_flash.hpp"
 #include "lbpkit/serial_remote.hpp"
 
 namespace app {
@@ -23,17 +28,38 @@ struct ParamOptions {
   std::string hex;  // "H" as RPD/WPD take it
   unsigned channel = 0;
   std::string serial;
+  std::string file;     // flash-remote: the firmware image
+  bool noVerify = false;
 };
 
 // The remote to talk to and its description, from a card or a serial line.
 struct Target {
+  Target() = default;
+  Target(Target&&) = default;
+  Target& operator=(Target&&) = delete;
+  Target(const Target&) = delete;
+  // The channel's baud rate as it was, when a firmware update changed it:
+  // SSLBP keeps what it is given until the FPGA is reset, and the next
+  // tool (or LinuxCNC) expects the card as it found it.
+  ~Target() {
+    if (!restoreBaud || !ss) return;
+    try {
+      ss->setBaudRate(channel, *restoreBaud);
+      ss->stopAll();
+    } catch (const std::exception&) {  // the card is gone: nothing to restore
+    }
+  }
   app::Card card;
   std::unique_ptr<lbpkit::SmartSerial> ss;
   std::unique_ptr<lbpkit::RemoteAccess> access;
   lbpkit::RemoteDescription description;
+  unsigned channel = 0;
+  std::optional<std::uint32_t> restoreBaud;
 };
 
-Target open(const ParamOptions& o) {
+// `setupBaud`: the channel at setup mode's 115200 baud first (a 7I77 with
+// W4/W12 set answers only there), for a firmware update.
+Target open(const ParamOptions& o, bool setupBaud = false) {
   Target t;
   if (!o.serial.empty()) {
     auto sr = std::make_unique<lbpkit::SerialRemote>(o.serial);
@@ -49,13 +75,44 @@ Target open(const ParamOptions& o) {
   auto options = o.card.serialOptions();
   options.channelMask = static_cast<std::uint8_t>(1U << o.channel);
   t.ss = std::make_unique<lbpkit::SmartSerial>(*t.card.transport, t.card.info, options);
+  t.channel = o.channel;
+  if (setupBaud) {
+    t.restoreBaud = t.ss->baudRate(o.channel);
+    t.ss->setBaudRate(o.channel, lbpkit::wire::i7i77::kSetupBaud);
+  }
   t.ss->stopAll();
   if (t.ss->start(options.channelMask, true))
-    throw lbpkit::Error(fmt::format("no remote answers on channel {} (setup START failed)", o.channel));
+    throw lbpkit::Error(fmt::format("no remote answers on channel {} (setup START failed{})", o.channel,
+                                    setupBaud ? " at 115200 baud: is the remote in setup mode, W12 or W4?" : ""));
   const auto id = t.ss->identity(o.channel);
   t.access = t.ss->remote(o.channel);
-  t.description = lbpkit::discover(*t.access, id.ptoc, id.gtoc);
+  if (!setupBaud) t.description = lbpkit::discover(*t.access, id.ptoc, id.gtoc);
   return t;
+}
+
+// lbpkit flash-remote FILE: UFLBP's update, with each commit checked and the
+// flash read back (docs/tools.md#a-remotes-firmware-flash-remote).
+int runFlashRemote(const ParamOptions& o) {
+  std::ifstream in(o.file, std::ios::binary);
+  if (!in) throw lbpkit::Error(fmt::format("{}: cannot read it", o.file));
+  const std::vector<std::uint8_t> image((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (image.empty()) throw lbpkit::Error(fmt::format("{}: the file is empty", o.file));
+  auto t = open(o, true);
+  const auto g = lbpkit::flashGeometry(*t.access);
+  fmt::print("{}: {} bytes to {}: flash of {}-byte blocks in {}-byte pages\n", o.file, image.size(), t.access->where(),
+             g.eraseBytes, g.writeBytes);
+  const auto written = lbpkit::flashRemote(*t.access, image, !o.noVerify, [](const lbpkit::FlashProgress& p) {
+    using Step = lbpkit::FlashProgress::Step;
+    const char* what = p.step == Step::Erased    ? "erased"
+                       : p.step == Step::Written ? "written"
+                       : p.step == Step::Skipped ? "skipped (all zero)"
+                                                 : "verified";
+    fmt::print("  block {}/{} {}\n", p.block, p.blocks - 1, what);
+    std::fflush(stdout);
+  });
+  fmt::print("{} blocks written{}: the remote runs the new firmware after a power cycle (setup jumper back first)\n",
+             written, o.noVerify ? "" : " and read back as the file");
+  return 0;
 }
 
 const lbpkit::ProcessDataElement& lookup(const Target& t, const std::string& name) {
@@ -122,4 +179,13 @@ void addParameterCommands(CLI::App& app) {
   wpd->add_option("format", w->hex, "H for hexadecimal");
   common(wpd, *w);
   wpd->callback([w] { app::gRun = [w] { return runWpd(*w); }; });
+
+  auto f = std::make_shared<ParamOptions>();
+  auto* flash = app.add_subcommand(
+      "flash-remote", "Update a remote's firmware, like Mesa's UFLBP and LinuxCNC's setsserial flash, and read it back "
+                      "(the remote in setup mode: W12 or W4)");
+  flash->add_option("file", f->file, "The firmware image (.BIN)")->required();
+  flash->add_flag("--no-verify", f->noVerify, "Do not read the flash back (setsserial does not)");
+  common(flash, *f);
+  flash->callback([f] { app::gRun = [f] { return runFlashRemote(*f); }; });
 }

@@ -163,6 +163,27 @@ void SmartSerial::localWrite(std::uint16_t address, std::uint8_t value) {
 
 std::uint8_t SmartSerial::stopAll() { return command(kStop); }
 
+namespace {
+// Where a channel's baud rate is among SSLBP's local parameters.
+std::uint16_t baudAddress(SmartSerial& ss, unsigned channel) {
+  if (channel >= ss.channels()) throw Error("no smart-serial channel " + std::to_string(channel) + " on this card");
+  return static_cast<std::uint16_t>(ss.localRead(local::kChannelStart) + channel * ss.localRead(local::kChannelStride) +
+                                    local::kBaudOffset);
+}
+}  // namespace
+
+void SmartSerial::setBaudRate(unsigned channel, std::uint32_t baud) {
+  const std::uint16_t at = baudAddress(*this, channel);
+  for (unsigned i = 0; i < 4; ++i) localWrite(static_cast<std::uint16_t>(at + i), static_cast<std::uint8_t>(baud >> (8 * i)));
+}
+
+std::uint32_t SmartSerial::baudRate(unsigned channel) {
+  const std::uint16_t at = baudAddress(*this, channel);
+  std::uint32_t baud = 0;
+  for (unsigned i = 0; i < 4; ++i) baud |= std::uint32_t{localRead(static_cast<std::uint16_t>(at + i))} << (8 * i);
+  return baud;
+}
+
 std::uint8_t SmartSerial::start(std::uint8_t mask, bool setup) {
   mask = static_cast<std::uint8_t>(mask & options_.channelMask & ((1U << channels_) - 1));
   for (unsigned ch = 0; ch < channels_; ++ch) {

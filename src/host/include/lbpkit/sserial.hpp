@@ -151,6 +151,11 @@ class SmartSerial {
   std::uint8_t localRead(std::uint16_t address);
   void localWrite(std::uint16_t address, std::uint8_t value);
   std::uint8_t stopAll();
+  // A channel's baud rate (SSLBP's local parameter, as hostmot2's
+  // sserial_baudrate sets it): 115200 reaches a 7I77 in setup mode
+  // (W4/W12). SSLBP takes it at the next STOP ALL (its global init).
+  void setBaudRate(unsigned channel, std::uint32_t baud);
+  [[nodiscard]] std::uint32_t baudRate(unsigned channel);
   // START (setup or normal) of the channels in `mask` with their modes.
   // Returns the mask of channels that failed.
   std::uint8_t start(std::uint8_t mask, bool setup);
