@@ -47,7 +47,7 @@ TEST(BenchCli, TextOutputNamesTheComparison) {
 // server and to the sim, on any CPU and on one, idle and loaded: eight
 // points, each with one datagram sent a millisecond.
 TEST(BenchCli, RepliesPutTheSimBesideAnEchoServer) {
-  const auto r = test_support::run({"bench", "--only", "replies", "--seconds", "0.3", "--json"});
+  const auto r = test_support::run({"bench", "--only", "replies", "--seconds", "0.2", "--json"});
   ASSERT_EQ(r.exit, 0) << r.err;
   const auto j = json::parse(r.out, nullptr, false);
   ASSERT_FALSE(j.is_discarded()) << r.out;
@@ -58,8 +58,8 @@ TEST(BenchCli, RepliesPutTheSimBesideAnEchoServer) {
     EXPECT_EQ(p["server"], i % 2 == 0 ? "echo" : "sim") << p;
     EXPECT_EQ(p["load"], (i / 2) % 2 == 0 ? "idle" : "loaded") << p;
     EXPECT_EQ(p["cpus"], i < 4 ? "any" : "one") << p;
-    EXPECT_EQ(p["sent"].get<unsigned>(), 300U) << p;
-    EXPECT_LE(p["late"].get<unsigned>() + p["lost"].get<unsigned>(), 300U) << p;
+    EXPECT_EQ(p["sent"].get<unsigned>(), 200U) << p;
+    EXPECT_LE(p["late"].get<unsigned>() + p["lost"].get<unsigned>(), 200U) << p;
     EXPECT_LE(p["us"]["median"].get<double>(), p["us"]["max"].get<double>()) << p;
   }
   EXPECT_NE(j["replies"]["goal"].get<std::string>().find("echo server"), std::string::npos);
