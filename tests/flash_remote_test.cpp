@@ -11,6 +11,7 @@
 #include "remote/gtoc_parameters.hpp"
 #include "remote/program_flash.hpp"
 #include "support/process.hpp"
+#include "support/remote_image.hpp"
 #include "support/sim_child.hpp"
 #include "support/temp_dir.hpp"
 
@@ -30,11 +31,7 @@ struct Files {
     for (const bool w12 : {true, false})
       std::ofstream(w12 ? setup : operate) << "[card]\nname = \"7I92\"\n[[daughtercard]]\ntype = \"7I77\"\nw12_setup = "
                                            << (w12 ? "true" : "false") << "\n";
-    std::vector<std::uint8_t> program(2500);
-    for (std::size_t i = 0; i < program.size(); ++i) program[i] = static_cast<std::uint8_t>((i * 13 + 5) | 1);
-    const auto bytes = remote::ProgramFlash::image("7I77", remote::kFieldIoProcessor, 0x3C, program);
-    std::ofstream(image, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
-                                                 static_cast<std::streamsize>(bytes.size()));
+    test_support::writeRemoteImage(image, 2500, 0x3C);
   }
   test_support::SimOptions sim(const std::string& address, bool w12) const {
     return {address, 0, {}, true, state.string(), {"--config", (w12 ? setup : operate).string()}};

@@ -10,6 +10,7 @@
 #include "remote/field_io.hpp"
 #include "remote/program_flash.hpp"
 #include "support/lbp_host.hpp"
+#include "support/remote_image.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {
@@ -25,13 +26,6 @@ FieldIoProcessor::Options setupMode(const std::filesystem::path& nvFile = {}) {
   o.setupMode = true;  // W12
   o.nvFile = nvFile;
   return o;
-}
-
-// A program of `n` bytes that is not all zero in any erase block.
-std::vector<std::uint8_t> program(std::size_t n, std::uint8_t seed) {
-  std::vector<std::uint8_t> p(n);
-  for (std::size_t i = 0; i < n; ++i) p[i] = static_cast<std::uint8_t>((i * 131 + seed) | 1);
-  return p;
 }
 
 bool invalidWrite(remote::RemoteDevice& d) { return (d.lbpStatus() & lbp::status::kInvalidWrite) != 0; }
@@ -107,7 +101,7 @@ TEST(ProgramFlash, OperateModeRefusesFlashAccess) {
 TEST(ProgramFlash, SetsserialsUpdateIsKeptAndReadsBackAsTheFile) {
   test_support::TempDir dir("lbpkit-flash");
   const auto eeprom = dir.path() / "7i77.eeprom";
-  const auto file = ProgramFlash::image("7I77", remote::kFieldIoProcessor, 0x2A, program(3000, 7));
+  const auto file = ProgramFlash::image("7I77", remote::kFieldIoProcessor, 0x2A, test_support::remoteProgram(3000, 7));
   {
     FieldIoProcessor io(setupMode(eeprom));
     Host h(io);
@@ -141,7 +135,7 @@ TEST(ProgramFlash, SetsserialsUpdateIsKeptAndReadsBackAsTheFile) {
 TEST(ProgramFlash, AnUpdateCutShortLeavesTheBootBlockAndASecondUpdateRestoresIt) {
   FieldIoProcessor io(setupMode());
   Host h(io);
-  const auto file = ProgramFlash::image("7I77", remote::kFieldIoProcessor, 0x31, program(5000, 3));
+  const auto file = ProgramFlash::image("7I77", remote::kFieldIoProcessor, 0x31, test_support::remoteProgram(5000, 3));
   flashLikeSetsserial(h, file, 1);  // block 1 erased, never written: the header is gone
   powerCycle(io, h);
   EXPECT_FALSE(io.programRuns());
@@ -157,8 +151,8 @@ TEST(ProgramFlash, AnUpdateCutShortLeavesTheBootBlockAndASecondUpdateRestoresIt)
 }
 
 TEST(ProgramFlash, AnImageForAnotherProcessorOrCardDoesNotRun) {
-  for (const auto& file : {ProgramFlash::image("7I77", remote::kAnalogProcessor, 0x10, program(700, 1)),
-                           ProgramFlash::image("7I76", remote::kFieldIoProcessor, 0x10, program(700, 1))}) {
+  for (const auto& file : {ProgramFlash::image("7I77", remote::kAnalogProcessor, 0x10, test_support::remoteProgram(700, 1)),
+                           ProgramFlash::image("7I76", remote::kFieldIoProcessor, 0x10, test_support::remoteProgram(700, 1))}) {
     FieldIoProcessor io(setupMode());
     Host h(io);
     flashLikeSetsserial(h, file);

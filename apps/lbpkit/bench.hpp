@@ -92,6 +92,11 @@ Memory memory(pid_t pid);
 nlohmann::json machine();
 double loadAverage();
 
+// Stops a child process: SIGTERM, up to 3 s to go, then SIGKILL; reaped.
+void stopProcess(pid_t pid);
+// A part's "skipped" line, when it has one (and then true: nothing else to print).
+bool printedSkip(const nlohmann::json& j);
+
 // The parts: each returns its figures as JSON ({"skipped": why} when it
 // cannot run here) and prints them as text when not --json.
 nlohmann::json runInProcess(const Options& o);

@@ -317,10 +317,7 @@ std::string us(const json& v) { return v.is_number() ? fmt::format("{:.0f}", v.g
 
 void printNetwork(const json& j) {
   fmt::print("On the network: LinuxCNC hm2_eth (7I92 + 7I77, 6 encoders) against `lbpkit sim` over a veth pair:\n");
-  if (j.contains("skipped")) {
-    fmt::print("  skipped: {}\n\n", j["skipped"].get<std::string>());
-    return;
-  }
+  if (printedSkip(j)) return;
   fmt::print("  {} s per point; loaded = {} spinning processes at normal priority\n", j["seconds_per_point"].get<double>(),
              j.value("hog_processes", 0));
   fmt::print("  {:<7} {:>6} {:>9} {:>7} {:>8} | {:^26} | {:^26} | {:>6} | {:>9}\n", "load", "rate", "datagrams",
@@ -356,10 +353,7 @@ void printNetwork(const json& j) {
 
 void printDiscovery(const json& j) {
   fmt::print("Discovery and time to ready, same sim and veth link:\n");
-  if (j.contains("skipped")) {
-    fmt::print("  skipped: {}\n\n", j["skipped"].get<std::string>());
-    return;
-  }
+  if (printedSkip(j)) return;
   fmt::print("  {:<6} {:>14} {:>14} {:>8} | {:>16} {:>16} {:>8}\n", "mode", "LinuxCNC DOITs", "lbpkit DOITs", "ratio",
              "loadrt hm2_eth ms", "lbpkit ready ms", "ratio");
   for (const auto& p : j["points"]) {

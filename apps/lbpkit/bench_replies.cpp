@@ -99,9 +99,7 @@ class EchoServer {
 
  private:
   void stop() {
-    if (pid_ <= 0) return;
-    ::kill(pid_, SIGKILL);
-    ::waitpid(pid_, nullptr, 0);
+    stopProcess(pid_);
     pid_ = -1;
   }
   pid_t pid_ = -1;
@@ -225,10 +223,7 @@ json runReplies(const Options& o) {
 void printReplies(const json& j) {
   fmt::print("Replies: a client's round trip at 1 kHz over loopback, to a ten-line Python UDP echo server and to\n"
              "`lbpkit sim` (an LBP16 read of 8 words), each reply awaited 800 us:\n");
-  if (j.contains("skipped")) {
-    fmt::print("  skipped: {}\n\n", j["skipped"].get<std::string>());
-    return;
-  }
+  if (printedSkip(j)) return;
   fmt::print("  {:<5} {:<7} {:<5} {:>8} | {:>32} | {:>6} {:>6}\n", "CPUs", "load", "to", "sent",
              "round trip us med/99/99.9/max", "late", "lost");
   for (const auto& p : j["points"]) {

@@ -47,19 +47,6 @@ int reap(pid_t pid) {
   return status;
 }
 
-// SIGTERM, up to 3 s to go, then SIGKILL.
-void stopProcess(pid_t pid) {
-  if (pid <= 0) return;
-  ::kill(pid, SIGTERM);
-  for (int i = 0; i < 60; ++i) {
-    int status = 0;
-    if (::waitpid(pid, &status, WNOHANG) == pid) return;
-    std::this_thread::sleep_for(50ms);
-  }
-  ::kill(pid, SIGKILL);
-  reap(pid);
-}
-
 std::string self() {
   std::error_code ec;
   auto p = std::filesystem::read_symlink("/proc/self/exe", ec);
@@ -81,6 +68,24 @@ struct Scratch {
 };
 
 }  // namespace
+
+void stopProcess(pid_t pid) {
+  if (pid <= 0) return;
+  ::kill(pid, SIGTERM);
+  for (int i = 0; i < 60; ++i) {
+    int status = 0;
+    if (::waitpid(pid, &status, WNOHANG) == pid) return;
+    std::this_thread::sleep_for(50ms);
+  }
+  ::kill(pid, SIGKILL);
+  reap(pid);
+}
+
+bool printedSkip(const nlohmann::json& j) {
+  if (!j.contains("skipped")) return false;
+  fmt::print("  skipped: {}\n\n", j["skipped"].get<std::string>());
+  return true;
+}
 
 const std::filesystem::path& scratch() {
   static Scratch s;

@@ -19,6 +19,7 @@
 #include "remote/gtoc_parameters.hpp"
 #include "remote/program_flash.hpp"
 #include "support/interop.hpp"
+#include "support/remote_image.hpp"
 #include "support/temp_dir.hpp"
 
 namespace interop {
@@ -93,16 +94,6 @@ class Setsserial : public LinuxCnc {
   std::unique_ptr<test_support::SimChild> card_;
 };
 
-// A firmware file for the field I/O processor: `bytes` of program, software
-// revision `revision`, at the name setsserial is given.
-void writeImage(const std::filesystem::path& file, std::size_t bytes, std::uint8_t revision) {
-  std::vector<std::uint8_t> program(bytes);
-  for (std::size_t i = 0; i < program.size(); ++i) program[i] = static_cast<std::uint8_t>((i * 37 + revision) | 1);
-  const auto image = remote::ProgramFlash::image("7I77", remote::kFieldIoProcessor, revision, program);
-  std::ofstream(file, std::ios::binary).write(reinterpret_cast<const char*>(image.data()),
-                                              static_cast<std::streamsize>(image.size()));
-}
-
 // setsserial's own lines, as a figure of what it printed.
 void printSetsserialLines(const std::string& out, const std::string& err) {
   std::istringstream in(out + err);
@@ -114,7 +105,7 @@ void printSetsserialLines(const std::string& out, const std::string& err) {
 
 TEST_F(Setsserial, FlashProgramsTheFieldIoProcessorWhichRunsItAfterAPowerCycle) {
   if (!std::filesystem::is_directory("/lib/firmware")) GTEST_SKIP() << "no /lib/firmware";
-  writeImage(firmware_, 3000, 0x2A);
+  test_support::writeRemoteImage(firmware_, 3000, 0x2A);
   ASSERT_TRUE(startCard(true));
   const auto r = setsserial("flash hm2_7i92.0.7i77.0.0 " + firmware_.filename().string(), true);
   printSetsserialLines(r.out, r.err);
@@ -138,7 +129,7 @@ TEST_F(Setsserial, FlashProgramsTheFieldIoProcessorWhichRunsItAfterAPowerCycle) 
 // block as it was before or after the commit in progress).
 TEST_F(Setsserial, AnUpdateCutByKillingTheSimThenRepeatedEndsWithAWorkingRemote) {
   if (!std::filesystem::is_directory("/lib/firmware")) GTEST_SKIP() << "no /lib/firmware";
-  writeImage(firmware_, 16000, 0x33);
+  test_support::writeRemoteImage(firmware_, 16000, 0x33);
   ASSERT_TRUE(startCard(true));
   const std::string command = "flash hm2_7i92.0.7i77.0.0 " + firmware_.filename().string();
   Run cut;
