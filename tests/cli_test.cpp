@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "config/fault_script.hpp"
 #include "support/process.hpp"
 #include "remote/nv_store.hpp"
 #include "remote/remote_device.hpp"
@@ -180,6 +181,31 @@ TEST(Cli, SimConfigChoosesThePinout) {
             std::string::npos)
       << r.err;
   std::filesystem::remove(bad);
+}
+
+// `--script FILE` is a fault script of its own: [[fault]] entries and
+// nothing else, checked like --config's, so a scenario file cannot carry a
+// card that the user's --config does not have.
+TEST(Cli, SimScriptHoldsFaultEntriesOnly) {
+  const auto bad = tempPath("script.toml");
+  std::ofstream(bad) << "[card]\npinout = \"7I77x2\"\n";
+  auto r = run({"sim", "--script", bad, "--bind", "127.0.0.1:0", "--no-api"});
+  EXPECT_EQ(r.exit, 1);
+  EXPECT_NE(r.err.find(bad + ":"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("card: unknown key (known here: fault)"), std::string::npos) << r.err;
+  std::ofstream(bad) << "[[fault]]\nat = 1\nfault = \"lightning\"\n";
+  r = run({"sim", "--script", bad, "--bind", "127.0.0.1:0", "--no-api"});
+  EXPECT_EQ(r.exit, 1);
+  EXPECT_NE(r.err.find(bad + ":3:9: fault[0].fault"), std::string::npos) << r.err;
+  std::filesystem::remove(bad);
+  // Every scenario shipped in examples/scenarios/ is such a file.
+  int scenarios = 0;
+  for (const auto& e : std::filesystem::directory_iterator(std::string(LBPKIT_EXAMPLES_DIR) + "/scenarios")) {
+    if (e.path().extension() != ".toml") continue;
+    ++scenarios;
+    EXPECT_FALSE(config::loadFaultScript(e.path().string(), true).empty()) << e.path();
+  }
+  EXPECT_GE(scenarios, 5);
 }
 
 TEST(Cli, InfoAndMonitor) {

@@ -68,6 +68,60 @@ TEST(NetworkFaults, DropEveryNthLosesExactlyThoseInThatDirectionOnly) {
   EXPECT_EQ(f.counters().request.dropped, 0U);
 }
 
+TEST(NetworkFaults, DropNextLosesThatManyThenPassesEverything) {
+  NetworkFaults f;
+  servers::NetworkFaultSettings s;
+  s.reply.dropNext = 2;
+  f.set(s);
+  const auto now = NetworkFaults::Clock::now();
+  EXPECT_TRUE(f.active(now));
+  EXPECT_FALSE(f.decide(Kind::Request, 10, now).lost);  // the other direction keeps its own
+  EXPECT_TRUE(f.decide(Kind::Reply, 10, now).lost);
+  EXPECT_TRUE(f.decide(Kind::Reply, 10, now).lost);
+  for (int i = 0; i < 10; ++i) EXPECT_FALSE(f.decide(Kind::Reply, 10, now).lost) << i;
+  EXPECT_EQ(f.settings().reply.dropNext, 0U);  // spent, as /api/network then shows
+  EXPECT_FALSE(f.active(now));
+  EXPECT_EQ(f.counters().reply.dropped, 2U);
+  EXPECT_EQ(f.counters().reply.passed, 10U);
+}
+
+TEST(NetworkFaults, DelayEveryNthDelaysOnlyThoseASpike) {
+  NetworkFaults f;
+  servers::NetworkFaultSettings s;
+  s.reply.delayUs = 800;
+  s.reply.delayEvery = 3;
+  f.set(s);
+  const auto now = NetworkFaults::Clock::now();
+  for (int i = 1; i <= 12; ++i) EXPECT_EQ(f.decide(Kind::Reply, 10, now).delay, i % 3 == 0 ? 800us : 0us) << i;
+  EXPECT_EQ(f.counters().reply.delayed, 4U);
+}
+
+TEST(NetworkFaults, WritesOnlyLeavesRequestsThatAskForAReplyAlone) {
+  namespace lbp16 = lbpkit::wire::lbp16;
+  const std::uint16_t read = lbp16::hm2Read(1), write = lbp16::hm2Write(1);
+  // hm2_eth's write: write commands back to back, no reply wanted.
+  const std::vector<std::uint8_t> writes = {std::uint8_t(write), std::uint8_t(write >> 8), 0x00, 0x01, 1, 2, 3, 4,
+                                            std::uint8_t(write), std::uint8_t(write >> 8), 0x04, 0x01, 5, 6, 7, 8};
+  // A write then a read: the card answers the read.
+  const std::vector<std::uint8_t> both = {std::uint8_t(write), std::uint8_t(write >> 8), 0x00, 0x01, 1, 2, 3, 4,
+                                          std::uint8_t(read), std::uint8_t(read >> 8), 0x00, 0x01};
+  EXPECT_FALSE(NetworkFaults::asksForReply(writes));
+  EXPECT_TRUE(NetworkFaults::asksForReply(both));
+  EXPECT_FALSE(NetworkFaults::asksForReply({}));
+
+  NetworkFaults f;
+  servers::NetworkFaultSettings s;
+  s.request.dropNext = 1;
+  s.request.writesOnly = true;
+  f.set(s);
+  const auto now = NetworkFaults::Clock::now();
+  EXPECT_FALSE(f.decide(Kind::Request, both.size(), now, NetworkFaults::asksForReply(both)).lost);
+  EXPECT_TRUE(f.decide(Kind::Request, writes.size(), now, NetworkFaults::asksForReply(writes)).lost);
+  EXPECT_FALSE(f.decide(Kind::Request, writes.size(), now, NetworkFaults::asksForReply(writes)).lost);
+  EXPECT_EQ(f.counters().request.dropped, 1U);
+  EXPECT_EQ(f.counters().request.passed, 2U);
+}
+
 TEST(NetworkFaults, TheSameSeedLosesTheSameDatagrams) {
   servers::NetworkFaultSettings s;
   s.request.drop = 0.3;
@@ -128,6 +182,8 @@ TEST(NetworkApi, ABadFieldChangesNothingAndSaysWhich) {
   EXPECT_NE(refused({{"drop", 1.5}}).find("from 0 to 1"), std::string::npos);
   EXPECT_NE(refused({{"direction", "up"}}).find("\"direction\""), std::string::npos);
   EXPECT_NE(refused({{"delay_ms", 5}}).find("unknown key \"delay_ms\""), std::string::npos);
+  EXPECT_NE(refused({{"writes_only", true}, {"drop_next", 1}}).find("\"direction\": \"request\""), std::string::npos);
+  EXPECT_EQ(f.settings().request.dropNext, 0U);
   servers::applyNetwork(f, {{"direction", "reply"}, {"drop", 0.25}, {"delay_us", 900}}, now);
   EXPECT_EQ(f.settings().reply.drop, 0.25);
   EXPECT_EQ(f.settings().reply.delayUs, 900U);

@@ -36,6 +36,7 @@ struct SimCommandOptions {
   // --bind, repeatable: a card on each (one process, one card thread).
   std::vector<std::string> bind{"127.0.0.1"};
   std::string config;
+  std::string script;  // --script FILE: [[fault]] entries of their own
   std::string state;
   std::string api = "127.0.0.1:27182";
   bool noApi = false;
@@ -262,14 +263,24 @@ CardRun cardOptions(const SimCommandOptions& o, const std::string& bind, std::si
     if (s.card.card == nullptr)
       throw lbpkit::Error(fmt::format("--card \"{}\": the cards lbpkit models are {}", o.card, hm2::cards::names()));
   }
+  // The [[fault]] entries of --config and of --script, in time order (the
+  // sim checks each against the card at start).
+  auto addFaults = [&s](const std::string& file, bool scriptOnly) {
+    for (auto& f : config::loadFaultScript(file, scriptOnly))
+      s.faultScript.push_back({f.at, f.fault, nlohmann::json::parse(f.body),
+                               f.lasts ? std::optional<lbp::SimTime>(*f.lasts) : std::nullopt, f.where});
+  };
   if (!o.config.empty()) {
     config::loadConfig(o.config, s.card);
     s.configDescription = o.config;
-    // Its [[fault]] entries: the sim checks each against the card at start.
-    for (auto& f : config::loadFaultScript(o.config))
-      s.faultScript.push_back({f.at, f.fault, nlohmann::json::parse(f.body),
-                               f.lasts ? std::optional<lbp::SimTime>(*f.lasts) : std::nullopt, f.where});
-  } else {
+    addFaults(o.config, false);
+  }
+  if (!o.script.empty()) {
+    addFaults(o.script, true);
+    std::stable_sort(s.faultScript.begin(), s.faultScript.end(),
+                     [](const auto& a, const auto& b) { return a.at < b.at; });
+  }
+  if (o.config.empty()) {
     s.configDescription = s.card.card == nullptr
                               ? "built-in default: a 7I92 (Mesa's two-7I77 firmware) with one 7I77, 24 V field power"
                               : fmt::format("built-in default: a {} ({} firmware, {}) with one 7I77, 24 V field power",
@@ -380,6 +391,9 @@ void addSimCommand(CLI::App& app) {
   cmd->add_option("--card", o->card, "Which Mesa card: " + hm2::cards::names() + " (default 7I92; docs/cards.md)");
   cmd->add_option("--config", o->config,
                   "TOML file: firmware pinout, daughtercards, field voltage, 7I77 or 7I77D, jumpers, unit numbers");
+  cmd->add_option("--script", o->script,
+                  "TOML file of [[fault]] entries, a fault script of its own (after --config's entries; "
+                  "examples/scenarios/, docs/faults.md)");
   cmd->add_option("--state", o->state,
                   "EEPROM file of the 7I77 (non-volatile parameters); with several --bind, a folder: each card's "
                   "files in it, named by its address");

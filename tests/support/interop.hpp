@@ -207,14 +207,18 @@ class LinuxCnc : public ::testing::Test {
   // Loads hostmot2 + hm2_eth with the servo thread running; `patient`:
   // hm2_eth waits up to patientDeadlines for each reply (else its own
   // 80 % of the period, which the measurements count against).
-  Shell load(const std::string& sserialPort, bool patient = true) {
+  // `messages`: a file that collects rtapi_app's messages (hostmot2's and
+  // hm2_eth's complaints) while it runs, else they go with halcmd's output;
+  // `extraHal`: HAL commands of the test's own before the thread starts.
+  Shell load(const std::string& sserialPort, bool patient = true, const std::string& messages = "",
+             const std::string& extraHal = "") {
     const auto file = fifo_ + ".hal";
     std::ofstream(file) << "loadrt hostmot2\n"
                         << "loadrt hm2_eth board_ip=" << cardIp_ << " config=\"num_encoders=6 sserial_port_0="
                         << sserialPort << "\"\n"
                         << (patient ? patientDeadlines("hm2_7i92.0") : "") << "loadrt threads name1=servo period1=1000000\n"
-                        << "addf hm2_7i92.0.read servo\naddf hm2_7i92.0.write servo\nstart\n";
-    auto r = hal("halcmd -f " + file);
+                        << "addf hm2_7i92.0.read servo\n" << extraHal << "addf hm2_7i92.0.write servo\nstart\n";
+    auto r = hal(messages.empty() ? "halcmd -f " + file : "sh -c 'exec halcmd -f " + file + " >>" + messages + " 2>&1'");
     std::filesystem::remove(file);
     return r;
   }

@@ -59,9 +59,10 @@ std::chrono::nanoseconds parseDuration(const std::string& text) {
   return seconds(s);
 }
 
-std::vector<ScriptedFault> loadFaultScript(const std::string& path) {
-  const toml::table t = parseFile(path, "a TOML configuration file");
+std::vector<ScriptedFault> loadFaultScript(const std::string& path, bool scriptOnly) {
+  const toml::table t = parseFile(path, scriptOnly ? "a TOML fault script" : "a TOML configuration file");
   const ConfigReader r(path);
+  if (scriptOnly) r.onlyKeys(t, "", {"fault"});
   std::vector<ScriptedFault> script;
   const toml::array* entries = r.tables(t, "", "fault");
   if (entries == nullptr) return script;

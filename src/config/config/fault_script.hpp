@@ -1,5 +1,6 @@
 // A fault script: `[[fault]]` entries in the sim's TOML
-// (`lbpkit sim --config FILE`), each a control-API request carried out at a
+// (`lbpkit sim --config FILE`) or in a file of their own (`--script FILE`:
+// examples/scenarios/), each a control-API request carried out at a
 // set simulated time, and perhaps undone a while later, so that a user or a
 // test replays the same bad day every run:
 //
@@ -33,8 +34,10 @@ struct ScriptedFault {
 inline constexpr const char* kUndoableFaultKinds[] = {"network", "link", "cable", "overtemp"};
 
 // The `[[fault]]` entries of `path`, in time order (entries at the same time
-// in file order). Throws FileError (config/toml_reader.hpp).
-std::vector<ScriptedFault> loadFaultScript(const std::string& path);
+// in file order). Throws FileError (config/toml_reader.hpp). `scriptOnly`:
+// the file is a fault script of its own (`lbpkit sim --script`), so any key
+// but `fault` at its top is an error, where a card's TOML has its card too.
+std::vector<ScriptedFault> loadFaultScript(const std::string& path, bool scriptOnly = false);
 
 // "2.5s", "200ms" or "150us" (a bare number is seconds), up to a day.
 // Throws std::invalid_argument saying what a duration looks like.

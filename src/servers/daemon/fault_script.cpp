@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <string_view>
 
 #include "daemon/network_api.hpp"
 #include "daemon/sim_clock.hpp"
@@ -28,11 +29,14 @@ networkFields() {
   static const std::vector<std::pair<const char*, std::function<json(const D&)>>> f = {
       {"drop", [](const D& d) { return json(d.drop); }},
       {"drop_every", [](const D& d) { return json(d.dropEvery); }},
+      {"drop_next", [](const D& d) { return json(d.dropNext); }},
       {"duplicate", [](const D& d) { return json(d.duplicate); }},
       {"corrupt", [](const D& d) { return json(d.corrupt); }},
       {"reorder", [](const D& d) { return json(d.reorder); }},
       {"delay_us", [](const D& d) { return json(d.delayUs); }},
-      {"jitter_us", [](const D& d) { return json(d.jitterUs); }}};
+      {"jitter_us", [](const D& d) { return json(d.jitterUs); }},
+      {"delay_every", [](const D& d) { return json(d.delayEvery); }},
+      {"writes_only", [](const D& d) { return json(d.writesOnly); }}};
   return f;
 }
 
@@ -59,6 +63,7 @@ std::vector<Touched> touchedBy(const ScriptedFault& f, const ApiTarget& t) {
       const bool request = std::string(dir) == "request";
       for (const auto& [name, read] : networkFields()) {
         if (!clear && !b.contains(name)) continue;
+        if (!request && std::string_view(name) == "writes_only") continue;  // sorts requests only
         out.push_back({fmt::format("network.{}.{}", dir, name),
                        [request, read = read](const ApiTarget& target) {
                          const auto s = target.udp->faults().settings();

@@ -19,9 +19,10 @@ constexpr std::uint64_t kMaxEvery = 1'000'000'000;
 double probability(const json& j, const char* key) { return fields::number(j, key, 0, 1, "from 0 to 1"); }
 
 json directionJson(const NetworkFaultSettings::Direction& d) {
-  return {{"drop", d.drop},           {"drop_every", d.dropEvery}, {"duplicate", d.duplicate},
-          {"corrupt", d.corrupt},     {"reorder", d.reorder},      {"delay_us", d.delayUs},
-          {"jitter_us", d.jitterUs}};
+  return {{"drop", d.drop},           {"drop_every", d.dropEvery}, {"drop_next", d.dropNext},
+          {"duplicate", d.duplicate}, {"corrupt", d.corrupt},      {"reorder", d.reorder},
+          {"delay_us", d.delayUs},    {"jitter_us", d.jitterUs},   {"delay_every", d.delayEvery},
+          {"writes_only", d.writesOnly}};
 }
 
 json countersJson(const NetworkFaultCounters::Direction& c) {
@@ -33,8 +34,8 @@ json countersJson(const NetworkFaultCounters::Direction& c) {
 }  // namespace
 
 void applyNetwork(NetworkFaults& faults, const json& j, NetworkFaults::Clock::time_point now) {
-  fields::onlyKnown(j, {"clear", "direction", "drop", "drop_every", "duplicate", "corrupt", "reorder", "delay_us",
-                        "jitter_us", "silent_ms", "seed"});
+  fields::onlyKnown(j, {"clear", "direction", "drop", "drop_every", "drop_next", "duplicate", "corrupt", "reorder",
+                        "delay_us", "jitter_us", "delay_every", "writes_only", "silent_ms", "seed"});
   NetworkFaultSettings s = fields::flag(j, "clear", false) ? NetworkFaultSettings{} : faults.settings();
   const std::string direction = j.contains("direction") ? fields::text(j, "direction") : "both";
   if (direction != "request" && direction != "reply" && direction != "both")
@@ -49,6 +50,12 @@ void applyNetwork(NetworkFaults& faults, const json& j, NetworkFaults::Clock::ti
     if (j.contains("drop_every"))
       d.dropEvery = static_cast<std::uint32_t>(
           fields::whole(j, "drop_every", kMaxEvery, "from 0 (none) to 1000000000"));
+    if (j.contains("drop_next"))
+      d.dropNext = static_cast<std::uint32_t>(
+          fields::whole(j, "drop_next", kMaxEvery, "from 0 (none) to 1000000000"));
+    if (j.contains("delay_every"))
+      d.delayEvery = static_cast<std::uint32_t>(
+          fields::whole(j, "delay_every", kMaxEvery, "from 0 (every datagram) to 1000000000"));
     if (j.contains("delay_us"))
       d.delayUs = static_cast<std::uint32_t>(
           fields::whole(j, "delay_us", kMaxDelayUs, "from 0 to 10000000 (microseconds)"));
@@ -56,6 +63,11 @@ void applyNetwork(NetworkFaults& faults, const json& j, NetworkFaults::Clock::ti
       d.jitterUs = static_cast<std::uint32_t>(
           fields::whole(j, "jitter_us", kMaxDelayUs, "from 0 to 10000000 (microseconds)"));
   };
+  if (j.contains("writes_only")) {
+    if (direction != "request")
+      throw std::invalid_argument("\"writes_only\" sorts requests: it needs \"direction\": \"request\"");
+    s.request.writesOnly = fields::flag(j, "writes_only");
+  }
   if (direction != "reply") change(s.request);
   if (direction != "request") change(s.reply);
   if (j.contains("seed")) s.seed = fields::whole(j, "seed", UINT64_MAX, "from 0 to 2^64-1");

@@ -25,7 +25,11 @@ struct NetworkSnapshot {
 //                        the following apply
 //   drop, duplicate, corrupt, reorder   probabilities 0..1
 //   drop_every           every Nth datagram lost (0: none)
+//   drop_next            the next N datagrams lost (one read timeout: 1)
 //   delay_us, jitter_us  a fixed delay plus up to jitter more
+//   delay_every          that delay for every Nth datagram only (spikes; 0: all)
+//   writes_only          with "direction": "request": the request settings
+//                        apply only to requests that ask for no reply
 //   silent_ms            the cable out for this long from now (0: back in)
 //   seed                 the random sequence's seed (repeatable runs)
 void applyNetwork(NetworkFaults& faults, const nlohmann::json& body, NetworkFaults::Clock::time_point now);

@@ -17,6 +17,7 @@
 #include <chrono>
 #include <cstdint>
 #include <random>
+#include <span>
 
 namespace servers {
 
@@ -25,13 +26,17 @@ struct NetworkFaultSettings {
   struct Direction {
     double drop = 0;                // probability that a datagram is lost, 0..1
     std::uint32_t dropEvery = 0;    // and every Nth one (0: none)
+    std::uint32_t dropNext = 0;     // and the next N, whatever else is set (counts down as they go)
     double duplicate = 0;           // probability that it arrives twice
     double corrupt = 0;             // probability that one of its bytes is damaged
     double reorder = 0;             // probability that it is held back behind the next one
     std::uint32_t delayUs = 0;      // every datagram arrives this much later
     std::uint32_t jitterUs = 0;     // plus up to this much more (uniform)
+    std::uint32_t delayEvery = 0;   // the delay for every Nth datagram only, a spike (0: every one)
+    bool writesOnly = false;        // requests: only those that ask for no reply (hm2_eth's writes)
     [[nodiscard]] bool active() const {
-      return drop > 0 || dropEvery > 0 || duplicate > 0 || corrupt > 0 || reorder > 0 || delayUs > 0 || jitterUs > 0;
+      return drop > 0 || dropEvery > 0 || dropNext > 0 || duplicate > 0 || corrupt > 0 || reorder > 0 ||
+             delayUs > 0 || jitterUs > 0;
     }
     bool operator==(const Direction&) const = default;
   };
@@ -44,7 +49,7 @@ struct NetworkFaultSettings {
 struct NetworkFaultCounters {
   struct Direction {
     std::uint64_t passed = 0;      // went on (perhaps late or damaged)
-    std::uint64_t dropped = 0;     // by `drop` or `dropEvery`
+    std::uint64_t dropped = 0;     // by `drop`, `dropEvery` or `dropNext`
     std::uint64_t silenced = 0;    // lost while the cable was out
     std::uint64_t duplicated = 0;
     std::uint64_t corrupted = 0;
@@ -87,8 +92,12 @@ class NetworkFaults {
     bool holdBehindNext = false;         // reordered: send after the next one
     int corruptAt = -1;                  // this byte is damaged (index into the datagram)
   };
-  // Decides a datagram's fate (and counts it). `size` is its length.
-  Fate decide(Kind kind, std::size_t size, Clock::time_point now);
+  // Decides a datagram's fate (and counts it). `size` is its length;
+  // `asksForReply`: a request that holds a read (see asksForReply below).
+  Fate decide(Kind kind, std::size_t size, Clock::time_point now, bool asksForReply = true);
+  // Whether an LBP16 request holds a read command, so that the card answers
+  // it; hm2_eth's writes (a datagram of write commands) do not.
+  static bool asksForReply(std::span<const std::uint8_t> request);
   // Damages one byte as a bad link would: a few bits flipped.
   static void damage(std::uint8_t& byte) { byte ^= 0x24; }
   void countOverflow(Kind kind) { ++counters(kind).overflowed; }
@@ -101,7 +110,7 @@ class NetworkFaults {
 
   NetworkFaultSettings settings_;
   NetworkFaultCounters counters_;
-  std::uint64_t seen_[2] = {0, 0};  // datagrams per direction, for dropEvery
+  std::uint64_t seen_[2] = {0, 0};  // datagrams per direction that the settings apply to, for the every-Nth ones
   Clock::time_point silentUntil_{};
   std::mt19937_64 random_;
   std::uniform_real_distribution<double> uniform_{0.0, 1.0};

@@ -70,8 +70,9 @@ class UdpServer {
         sendDueReplies(NetworkFaults::Clock::now());
         return false;
       }
-      const auto fate = faults_.decide(NetworkFaults::Kind::Request, static_cast<std::size_t>(n),
-                                       NetworkFaults::Clock::now());
+      const std::span<const std::uint8_t> request(in_.data(), static_cast<std::size_t>(n));
+      const auto fate = faults_.decide(NetworkFaults::Kind::Request, request.size(), NetworkFaults::Clock::now(),
+                                       NetworkFaults::asksForReply(request));
       if (fate.lost) return false;
       if (fate.corruptAt >= 0) NetworkFaults::damage(in_[static_cast<std::size_t>(fate.corruptAt)]);
       if (fate.delay.count() > 0 || fate.holdBehindNext) {
