@@ -32,7 +32,7 @@ TEST_F(LinuxCnc, Hm2EthRunsTheVirtual7i77) {
 
   const auto r = load("00xxxxxx");
   ASSERT_EQ(r.exit, 0) << r.out;
-  const auto pins = hal("halcmd show pin").out + hal("halcmd show param").out;
+  const auto pins = halcmd("show pin").out + halcmd("show param").out;
   for (int i = 0; i < 32; ++i) EXPECT_NE(pins.find(fmt("hm2_7i92.0.7i77.0.0.input-%02d", i)), std::string::npos) << i;
   for (int i = 0; i < 16; ++i) EXPECT_NE(pins.find(fmt("hm2_7i92.0.7i77.0.0.output-%02d", i)), std::string::npos) << i;
   for (int i = 0; i < 6; ++i) {
@@ -45,11 +45,11 @@ TEST_F(LinuxCnc, Hm2EthRunsTheVirtual7i77) {
   EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.0.nvwatchdogtimeout"), std::string::npos);
 
   // HAL -> terminals.
-  hal("halcmd setp hm2_7i92.0.7i77.0.0.output-03 1");
-  hal("halcmd setp hm2_7i92.0.7i77.0.0.output-12 1");
-  hal("halcmd setp hm2_7i92.0.7i77.0.1.analogout2 4.5");
-  hal("halcmd setp hm2_7i92.0.7i77.0.1.analogout5 -7.25");
-  hal("halcmd setp hm2_7i92.0.7i77.0.1.analogena 1");
+  halcmd("setp hm2_7i92.0.7i77.0.0.output-03 1");
+  halcmd("setp hm2_7i92.0.7i77.0.0.output-12 1");
+  halcmd("setp hm2_7i92.0.7i77.0.1.analogout2 4.5");
+  halcmd("setp hm2_7i92.0.7i77.0.1.analogout5 -7.25");
+  halcmd("setp hm2_7i92.0.7i77.0.1.analogena 1");
   EXPECT_TRUE(waitFor(
       [&] {
         auto s = sim_->get()["daughtercards"][0];
@@ -70,7 +70,7 @@ TEST_F(LinuxCnc, Hm2EthRunsTheVirtual7i77) {
   // Stop the thread: within the 7I77's 50 ms watchdog the outputs and enables
   // drop, and the HostMot2 watchdog bites when its timeout (patientDeadlines)
   // has passed.
-  hal("halcmd stop");
+  halcmd("stop");
   const auto stopped = std::chrono::steady_clock::now();
   EXPECT_TRUE(waitFor(
       [&] {
@@ -83,7 +83,7 @@ TEST_F(LinuxCnc, Hm2EthRunsTheVirtual7i77) {
   EXPECT_LT(dropped, 400ms) << "including halcmd's own start-up";
   EXPECT_EQ(sim_->get()["daughtercards"][0]["field_io"]["faults"][0], "WatchdogFault");
   EXPECT_TRUE(waitFor([&] { return sim_->get()["watchdog"]["bitten"] == true; }, 1000ms));
-  hal("halcmd start");
+  halcmd("start");
   EXPECT_TRUE(waitFor([&] { return getp("hm2_7i92.0.watchdog.has_bit") == "TRUE"; }, 1000ms));
 }
 
@@ -91,7 +91,7 @@ TEST_F(LinuxCnc, FieldIoModesProduceTheirPins) {
   startSim();
   const auto r = load("30xxxxxx");  // field I/O mode 3
   ASSERT_EQ(r.exit, 0) << r.out;
-  const auto pins = hal("halcmd show pin").out;
+  const auto pins = halcmd("show pin").out;
   for (int i = 0; i < 4; ++i) EXPECT_NE(pins.find(fmt("hm2_7i92.0.7i77.0.0.analogin%d", i)), std::string::npos) << pins;
   EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.0.fieldvoltage"), std::string::npos);
   EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.0.enc0.count"), std::string::npos);
@@ -112,7 +112,7 @@ TEST_F(LinuxCnc, FieldIoModesProduceTheirPins) {
 TEST_F(LinuxCnc, SmartSerialParametersAreTheSiblingsWithTheirReadOnlyChoice) {
   startSim();
   ASSERT_EQ(load("00xxxxxx").exit, 0);
-  const auto params = hal("halcmd show param").out;
+  const auto params = halcmd("show param").out;
   auto line = [&](const std::string& name) {
     const auto full = "hm2_7i92.0.7i77.0." + name;
     std::size_t at = params.find(full + "\n");
@@ -189,7 +189,7 @@ TEST_F(LinuxCnc, Hm2EthLoadsTwelveEncodersAndChannels3To5WithOne7I77) {
   const auto r = hal("halcmd -f " + twelveEncodersAndSixChannels(fifo_ + ".hal", cardIp_));
   std::filesystem::remove(fifo_ + ".hal");
   ASSERT_EQ(r.exit, 0) << r.out;
-  const auto pins = hal("halcmd show pin").out;
+  const auto pins = halcmd("show pin").out;
   for (int i = 0; i < 12; ++i) EXPECT_NE(pins.find(fmt("hm2_7i92.0.encoder.%02d.count", i)), std::string::npos) << i;
   EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.0.input-00"), std::string::npos);
   EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.1.analogout5"), std::string::npos);
@@ -210,7 +210,7 @@ TEST_F(LinuxCnc, Hm2EthRunsTwo7I77sOnChannels0To5AndTwelveEncoders) {
   std::filesystem::remove(fifo_ + ".hal");
   std::filesystem::remove(config);
   ASSERT_EQ(r.exit, 0) << r.out;
-  const auto pins = hal("halcmd show pin").out;
+  const auto pins = halcmd("show pin").out;
   EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.3.input-31"), std::string::npos) << pins;
   EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.3.output-15"), std::string::npos);
   EXPECT_NE(pins.find("hm2_7i92.0.7i77.0.4.analogout5"), std::string::npos);
@@ -221,7 +221,7 @@ TEST_F(LinuxCnc, Hm2EthRunsTwo7I77sOnChannels0To5AndTwelveEncoders) {
   EXPECT_EQ(getp("hm2_7i92.0.7i77.0.0.input-03"), "FALSE");
   sim_->post("/api/encoder", {{"connector", 1}, {"encoder", 5}, {"velocity", 20000}});
   EXPECT_TRUE(waitFor([&] { return std::atoi(getp("hm2_7i92.0.encoder.11.count").c_str()) > 1000; }, 1000ms));
-  hal("halcmd setp hm2_7i92.0.7i77.0.3.output-01 1");
+  halcmd("setp hm2_7i92.0.7i77.0.3.output-01 1");
   EXPECT_TRUE(waitFor([&] { return sim_->get()["daughtercards"][1]["field_io"]["outputs"][1]["on"] == true; }, 500ms))
       << sim_->get()["daughtercards"][1].dump();
   EXPECT_EQ(getp("hm2_7i92.0.io_error"), "FALSE");
@@ -258,8 +258,8 @@ TEST_F(LinuxCnc, PacketErrorsFollowHm2EthsDocumentedRules) {
   // While losses are rehearsed, a higher limit: LinuxCNC's servo thread runs
   // without real-time priority here, and a late cycle of its own must not
   // end the run before the rules are seen.
-  hal("halcmd setp " + board + "packet-error-limit 100");
-  hal("halcmd setp " + board + "io_error 0");  // from here on, the rules (hm2_eth: the user resets it)
+  halcmd("setp " + board + "packet-error-limit 100");
+  halcmd("setp " + board + "io_error 0");  // from here on, the rules (hm2_eth: the user resets it)
 
   // 1 % of the replies lost, for 3 s: each loss is one error cycle, isolated
   // losses never reach the limit.
@@ -293,8 +293,8 @@ TEST_F(LinuxCnc, PacketErrorsFollowHm2EthsDocumentedRules) {
   // Every reply 3 ms late (the read timeout is 80 % of the 1 ms period):
   // every cycle is an error, the level climbs to the limit and io_error is
   // set, and stays set when the network is good again.
-  hal("halcmd setp " + board + "packet-error-limit " + std::to_string(limit));
-  hal("halcmd setp " + board + "io_error 0");
+  halcmd("setp " + board + "packet-error-limit " + std::to_string(limit));
+  halcmd("setp " + board + "io_error 0");
   network({{"direction", "reply"}, {"delay_us", 3000}});
   EXPECT_TRUE(waitFor([&] { return getp(board + "io_error") == "TRUE"; }, 2000ms));
   const auto late = network({{"clear", true}});
@@ -327,7 +327,7 @@ TEST_F(LinuxCnc, AGarbageAndReplayFloodLeavesLinuxCncRunning) {
   // cycles of its own must not end the run (they are counted and printed).
   // A card the flood kept from answering would still set io_error, within
   // 50 cycles at this limit.
-  hal("halcmd setp " + board + "packet-error-limit 100");
+  halcmd("setp " + board + "packet-error-limit 100");
   std::this_thread::sleep_for(300ms);
   const long before = sim_->residentKb();
   const auto errorsBefore = std::atoll(getp(board + "packet-error-total").c_str());

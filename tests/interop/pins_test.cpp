@@ -120,7 +120,7 @@ TEST_F(LinuxCnc, PinsListsExactlyWhatHm2EthCreatesInEveryModeWithOneAndTwo7I77s)
     const auto predicted = lbpkitPins(cardIp_, c.config);
     const auto r = loadBoard("hm2_7i92.0", c.config);
     ASSERT_EQ(r.exit, 0) << r.out;
-    const auto actual = halcmdItems(hal("halcmd show pin").out, hal("halcmd show param").out);
+    const auto actual = halcmdItems(halcmd("show pin").out, halcmd("show param").out);
     EXPECT_GT(actual.size(), 300U);
     EXPECT_EQ(predicted, actual) << mismatch(predicted, actual);
     hal("halrun -U");
@@ -213,7 +213,7 @@ TEST_F(LinuxCnc, Hm2EthCreatesEachCardsPinsForEveryModule) {
     ASSERT_TRUE(sim_->up());
     const auto r = loadBoard(c.board, c.config);
     ASSERT_EQ(r.exit, 0) << r.out;
-    const auto pins = hal("halcmd show pin").out + hal("halcmd show param").out;
+    const auto pins = halcmd("show pin").out + halcmd("show param").out;
     for (const auto& p : c.pins) EXPECT_NE(pins.find(c.board + "." + p), std::string::npos) << p << "\n" << pins;
     EXPECT_EQ(pins.find("hm2_7i92.0.") != std::string::npos, c.board == "hm2_7i92.0");
     // Terminals -> HAL through the 7I77's field I/O processor.
@@ -243,7 +243,7 @@ TEST_F(LinuxCnc, Hm2EthCreatesThe7I76sPinsOnChannel3) {
   ASSERT_TRUE(sim_->up());
   const auto r = loadBoard("hm2_7i92.0", "num_encoders=8 num_stepgens=5 sserial_port_0=00x20");
   ASSERT_EQ(r.exit, 0) << r.out;
-  const auto pins = hal("halcmd show pin").out + hal("halcmd show param").out;
+  const auto pins = halcmd("show pin").out + halcmd("show param").out;
   for (const char* p : {"input-31", "input-00-not", "output-15", "spinout", "spinena", "spindir", "analog3",
                         "fieldvoltage", "spinout-scalemax", "spinena-invert", "nvunitnumber", "swrevision"})
     EXPECT_NE(pins.find(std::string("hm2_7i92.0.7i76.0.3.") + p), std::string::npos) << p << "\n" << pins;
@@ -270,7 +270,7 @@ TEST_F(LinuxCnc, Hm2EthCreatesThe7I96SsTb3InmSsrAndOutmPins) {
   ASSERT_TRUE(sim_->up());
   const auto r = loadBoard("hm2_7i96s.0", "num_encoders=8 num_stepgens=5 num_pwmgens=1 sserial_port_0=00xx");
   ASSERT_EQ(r.exit, 0) << r.out;
-  const auto pins = hal("halcmd show pin").out + hal("halcmd show param").out;
+  const auto pins = halcmd("show pin").out + halcmd("show param").out;
   const std::string b = "hm2_7i96s.0.";
   for (const char* p : {"inm.00.input-00", "inm.00.input-10", "inm.00.input-10-not", "inm.00.raw-input-05",
                         "inm.00.input-03-slow", "inm.00.enc0-count", "inm.00.enc3-reset", "inm.00.scan_rate",
@@ -283,9 +283,9 @@ TEST_F(LinuxCnc, Hm2EthCreatesThe7I96SsTb3InmSsrAndOutmPins) {
   // Idle inputs: pins high, inverted to "off".
   EXPECT_TRUE(waitFor([&] { return getp(b + "inm.00.input-00-not") == "TRUE"; }, 1000ms));
   EXPECT_EQ(getp(b + "inm.00.raw-input-10"), "FALSE");
-  hal("halcmd setp " + b + "ssr.00.out-02 1");
-  hal("halcmd setp " + b + "outm.00.out-05 1");
-  hal("halcmd setp " + b + "outm.00.invert-04 1");
+  halcmd("setp " + b + "ssr.00.out-02 1");
+  halcmd("setp " + b + "outm.00.out-05 1");
+  halcmd("setp " + b + "outm.00.invert-04 1");
   const std::string rpo = "timeout 30 " + onCardCpu() + "mesaflash --device 7i96s --addr " + cardIp_ + " --rpo ";
   auto reg = [&](const char* address) {
     auto v = sh(rpo + address).out;
@@ -299,8 +299,8 @@ TEST_F(LinuxCnc, Hm2EthCreatesThe7I96SsTb3InmSsrAndOutmPins) {
   EXPECT_EQ(reg("0x8500"), "7D051C2A");
   // encoder.timer-number reaches the counters' DPLL timer register
   // (base + 5 strides: 0x3A00), (1 << 12) | 0x8000, and the card still keeps time.
-  hal("halcmd setp " + b + "dpll.01.timer-us -100");
-  hal("halcmd setp " + b + "encoder.timer-number 1");
+  halcmd("setp " + b + "dpll.01.timer-us -100");
+  halcmd("setp " + b + "encoder.timer-number 1");
   EXPECT_TRUE(waitFor([&] { return reg("0x3A00") == "00009000"; }, 2000ms)) << reg("0x3A00");
   std::this_thread::sleep_for(300ms);
   EXPECT_EQ(getp(b + "io_error"), "FALSE");
@@ -356,7 +356,7 @@ TEST_F(LinuxCnc, PinsListsExactlyWhatHm2EthCreatesOnEveryCardOfTheCatalogue) {
     const auto predicted = pinsItems(j);
     const auto r = loadBoard(c.board, c.config);
     ASSERT_EQ(r.exit, 0) << r.out;
-    const auto actual = halcmdItems(hal("halcmd show pin").out, hal("halcmd show param").out, c.board);
+    const auto actual = halcmdItems(halcmd("show pin").out, halcmd("show param").out, c.board);
     EXPECT_GT(actual.size(), 200U);
     EXPECT_EQ(predicted, actual) << mismatch(predicted, actual);
     hal("halrun -U");

@@ -25,13 +25,13 @@ class Scenario : public LinuxCnc {
  public:
   // What LinuxCNC showed across the scenario's first fault.
   struct Seen {
-    long long packetErrors = 0;  // hm2_eth's packet-error-total, from 4.5 s to 8 s
-    std::string ioError;         // hm2_eth's io_error at 8 s
+    long long packetErrors = 0;  // hm2_eth's packet-error-total, from 4.5 s to 6.5 s
+    std::string ioError;         // hm2_eth's io_error at 6.5 s
     bool inputSeen = false;      // input 5, switched on at 6 s, read through the smart-serial port
     int faultCountMax = 0;       // the smart-serial port's highest fault-count of any cycle
-    std::string portState;       // its port_state at 8 s (3: running)
+    std::string portState;       // its port_state at 6.5 s (3: running)
     std::string messages;        // hostmot2's and hm2_eth's messages from loading on
-    nlohmann::json network;      // /api/network's counts at 8 s
+    nlohmann::json network;      // /api/network's counts at 6.5 s
   };
 
  protected:
@@ -41,7 +41,7 @@ class Scenario : public LinuxCnc {
   }
 
   // Runs examples/scenarios/`file` against hm2_eth at 1 kHz on the host
-  // clock until 8 s of simulated time; `extraHal` goes before the thread
+  // clock until 6.5 s of simulated time; `extraHal` goes before the thread
   // starts.
   Seen run(const std::string& file, const std::string& extraHal = "") {
     Seen seen;
@@ -62,7 +62,7 @@ class Scenario : public LinuxCnc {
     EXPECT_TRUE(untilSim(4.5));
     const long long before = packetErrors();
     EXPECT_EQ(getp("hm2_7i92.0.7i77.0.0.input-05"), "FALSE");
-    EXPECT_TRUE(untilSim(8));
+    EXPECT_TRUE(untilSim(6.5));
     seen.packetErrors = packetErrors() - before;
     seen.ioError = getp("hm2_7i92.0.io_error");
     seen.inputSeen = getp("hm2_7i92.0.7i77.0.0.input-05") == "TRUE";
@@ -119,7 +119,7 @@ TEST_F(Scenario, ReadLatencySpikesAreEachAPacketErrorAtTheDefaultTimeout) {
   const auto seen = run("read-latency-spikes.toml",
                         "setp hm2_7i92.0.packet-read-timeout 800000\nsetp hm2_7i92.0.packet-error-limit 100\n");
   const long long spikes = seen.network["reply"]["delayed"].get<long long>();
-  EXPECT_GE(spikes, 10);  // every 250th reply from 5 s to 8 s
+  EXPECT_GE(spikes, 5);  // every 250th reply from 5 s to 6.5 s
   EXPECT_GE(seen.packetErrors, spikes);
   expectThePortRanOn(seen);
 }
@@ -148,7 +148,7 @@ TEST_F(Scenario, OneTransmissionErrorIsCountedOnceAndThePortRecovers) {
 TEST_F(Scenario, WritesHeldBackPastTheNextReadArePacketErrorsNotADoItMessage) {
   const auto seen = run("doit-not-cleared.toml");
   const long long late = seen.network["request"]["delayed"].get<long long>();
-  EXPECT_GE(late, 5);  // every 500th write from 5 s to 8 s
+  EXPECT_GE(late, 2);  // every 500th write from 5 s to 6.5 s
   EXPECT_GE(seen.packetErrors, late);
   expectThePortRanOn(seen);
   EXPECT_FALSE(says(seen.messages, "DoIt not cleared")) << seen.messages;

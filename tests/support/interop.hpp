@@ -166,16 +166,22 @@ class LinuxCnc : public ::testing::Test {
   // before its HAL parameters exist (LinuxCNC: hm2_eth.c), and a rtapi_app
   // held back by other work past that deadline fails to load ("rtapi_app_main:
   // Resource temporarily unavailable") though the card answered at once.
-  // The polls pass `nice` instead: they yield to the sim and to LinuxCNC.
+  // Commands to a HAL already running pass `nice` instead (halcmd below).
   Shell hal(const std::string& command, const char* nice = "") {
     const std::string priority = *nice != '\0' ? std::string(nice) : "chrt -f 1 " + onCardCpu();
     return sh(priority + ns_->exec() + lbpkit::linuxcnc::rtapiEnvironment(fifo_) + "timeout 60 " + command);
   }
-  // The polls (halcmd through ip netns exec, every 25 ms) at nice 10: they
-  // yield the CPU to the sim, which must answer within 0.8 ms, and to
-  // rtapi_app. rtapi_app is already running when a test polls.
+  // `halcmd ARGS` to the HAL rtapi_app already runs (setp, getp, show,
+  // stop, start) at nice 10: it yields the CPU to the sim, which must answer
+  // within 0.8 ms, and to LinuxCNC's servo thread. At hal()'s SCHED_FIFO 1
+  // on the card's CPU it would hold that thread (the same priority on the
+  // same CPU) back until it finished: `show pin` of two 7I77s takes 30 to
+  // 50 ms here, and a servo thread held 50 ms lets the 7I77's watchdog bite
+  // (outputs off until SSLBP starts the channel again).
+  Shell halcmd(const std::string& args) { return hal("halcmd " + args, "nice -n 10 "); }
+  // The polls (every 25 ms).
   std::string getp(const std::string& pin) {
-    auto v = hal("halcmd getp " + pin, "nice -n 10 ").out;
+    auto v = halcmd("getp " + pin).out;
     while (!v.empty() && (v.back() == '\n' || v.back() == ' ')) v.pop_back();
     return v;
   }
