@@ -69,6 +69,47 @@ TEST_F(HostClockTest, ASilentHostHandsTimeBackToTheWallClockFromItsLastCycle) {
   EXPECT_EQ(c.silences(), 1U);
 }
 
+// The CPU taken from host and card together for 60 ms (the hypervisor, a
+// real-time task): the card, woken 55 ms after its timer, counts that as
+// its own absence, not the host's silence, and the host's next cycle is one
+// period on. A host silent before the card was held back stays silent.
+TEST_F(HostClockTest, TimeTheCardWasHeldBackIsNoSilenceOfTheHost) {
+  SimClock c(servers::HostClock{1ms, 40ms}, false, &testWall);
+  c.hostCycle();
+  const SimTime atCycle = c.now();
+  pass(61ms);
+  c.heldBack(55ms);  // its 5 ms timer, 55 ms late
+  EXPECT_TRUE(c.drivenByHost());
+  EXPECT_EQ(c.now(), atCycle);
+  c.hostCycle();
+  EXPECT_EQ(c.now(), atCycle + 1ms);
+  EXPECT_EQ(c.silences(), 0U);
+  EXPECT_EQ(c.heldBackFor(), 55ms);
+  EXPECT_EQ(c.heldBackTimes(), 1U);
+  // Under a millisecond is scheduling, not counted.
+  c.heldBack(500us);
+  EXPECT_EQ(c.heldBackTimes(), 1U);
+  // Stopped 50 ms, the card held back for the last 5: the host was silent
+  // beyond the bound (45 ms) when the card should have run, and stays so.
+  const SimTime last = c.now();
+  pass(50ms);
+  c.heldBack(5ms);
+  EXPECT_FALSE(c.drivenByHost());
+  EXPECT_EQ(c.now(), last + 50ms);
+  EXPECT_EQ(c.heldBackTimes(), 1U);
+  // And the wall clock's run during a real silence starts later by as long
+  // as the card was held back before it.
+  c.hostCycle();
+  const SimTime back = c.now();
+  pass(30ms);
+  c.heldBack(20ms);
+  pass(25ms);  // 55 ms since the cycle, 35 of them the host's: not yet silent
+  EXPECT_TRUE(c.drivenByHost());
+  pass(10ms);  // 45 of them the host's
+  EXPECT_FALSE(c.drivenByHost());
+  EXPECT_EQ(c.now(), back + 45ms);
+}
+
 TEST_F(HostClockTest, ADoItTakenLateIsTakenAtWhenItCame) {
   // The card thread got to a DoIt 24 ms after it came, 1 ms after the last
   // cycle (the kernel held the sim back): the host was on time, and the

@@ -206,6 +206,7 @@ TEST_F(LinuxCnc, Hm2EthRunsTwo7I77sOnChannels0To5AndTwelveEncoders) {
   std::ofstream(config) << "[card]\npinout = \"7I77x2\"\n[[daughtercard]]\ntype = \"7I77\"\n[[daughtercard]]\ntype = \"7I77\"\n";
   sim_ = cardSim(std::vector<std::string>{"--config", config});
   ASSERT_TRUE(sim_->up());
+  patient7i77Watchdogs({0, 1, 3, 4});
   const auto r = hal("halcmd -f " + twelveEncodersAndSixChannels(fifo_ + ".hal", cardIp_));
   std::filesystem::remove(fifo_ + ".hal");
   std::filesystem::remove(config);

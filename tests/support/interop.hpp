@@ -15,6 +15,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <iterator>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -126,6 +127,20 @@ inline std::string patientDeadlines(const std::string& board) {
   return "setp " + board + ".packet-read-timeout 20000000\n" + "setp " + board + ".watchdog.timeout_ns 200000000\n";
 }
 
+// The 7I77's own watchdog (50 ms, manual: WATCHDOG AND FAULTS) bites when
+// its processor hears nothing from the host for that long, and LinuxCNC's
+// hostmot2 does not start the port again: outputs stay off. On the sim's
+// host clock a host silent past 40 ms of wall clock has stopped
+// (docs/clocks.md), so a servo thread this kernel holds back 50 ms lets it
+// bite, LinuxCNC's lateness and not the card's (seen once in a CI run:
+// inputs read, outputs refused with WatchdogFault; a SCHED_FIFO task taking
+// the CPU for 60 ms every 400 ms while LinuxCNC runs does it in one run of
+// six). The tests that drive outputs and are not about that watchdog give
+// each processor's working WATCHDOGTIME 500 ms through LBP before LinuxCNC
+// loads (hostmot2 leaves it as it is), as the HostMot2 watchdog gets 200 ms
+// in patientDeadlines.
+inline constexpr const char* kPatient7i77WatchdogMs = "500";
+
 class LinuxCnc : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -184,6 +199,15 @@ class LinuxCnc : public ::testing::Test {
     auto v = halcmd("getp " + pin).out;
     while (!v.empty() && (v.back() == '\n' || v.back() == ' ')) v.pop_back();
     return v;
+  }
+  // kPatient7i77WatchdogMs for the processors on these smart-serial
+  // channels (0: the first 7I77's field I/O, 1: its analog side).
+  void patient7i77Watchdogs(std::initializer_list<unsigned> channels) {
+    for (const unsigned channel : channels) {
+      const auto w = test_support::run(
+          {"wpd", "WATCHDOGTIME", kPatient7i77WatchdogMs, "--addr", cardIp_, "--channel", std::to_string(channel)});
+      ASSERT_EQ(w.exit, 0) << "channel " << channel << ": " << w.err;
+    }
   }
   // Loads hostmot2 and hm2_eth with `config`, `board`'s read and write in a
   // 1 kHz servo thread, hm2_eth waiting up to patientDeadlines for each

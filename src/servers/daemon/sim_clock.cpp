@@ -56,6 +56,17 @@ void SimClock::hostCycle(std::chrono::nanoseconds wallAgo) {
   wallBase_ = wall;
 }
 
+void SimClock::heldBack(std::chrono::nanoseconds late) {
+  if (source_ != Source::Host || paused_ || period_.count() == 0 || hostCycles_ == 0 || late < kHeldBackFrom) return;
+  // Silent already when the card should have run: the host had stopped.
+  if (silent(wallNow_() - late)) return;
+  // The host's last cycle is taken as that much later: the silence, and
+  // the wall clock's run from it, start later by as long.
+  wallBase_ += late;
+  heldBackFor_ += late;
+  ++heldBackTimes_;
+}
+
 void SimClock::learn(Wall::time_point wall) {
   // The spacing of the first cycles, taken after the host's first one
   // (hostmot2's set-up exchanges come before it, not at the servo rate):

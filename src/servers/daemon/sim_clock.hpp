@@ -81,6 +81,27 @@ class SimClock {
   [[nodiscard]] bool drivenByHost() const;
   // How many times a host came back after a silence beyond the bound.
   [[nodiscard]] std::uint64_t silences() const { return silences_; }
+  // The card thread ran `late` after it should have (it woke that long
+  // after its timer, or took a datagram that long after it came): while a
+  // host drives time, that much of a silence is the card's own, not the
+  // host's. A host and a card on one CPU (as `lbpkit linuxcnc` and the
+  // tests run them) stop together when the CPU is taken from both, by the
+  // hypervisor or by a real-time task; a card that counted such a stall as
+  // the host's silence took the host for stopped and let the 7I77's
+  // watchdog bite, though the host was never late by its own doing. A host
+  // silent before the card was held back stays silent; a stopped host's
+  // silence is only counted later by as long as the card was held back.
+  void heldBack(std::chrono::nanoseconds late);
+  // How long a host-driven card has been held back in all, and how often
+  // (for /api/state).
+  [[nodiscard]] std::chrono::nanoseconds heldBackFor() const { return heldBackFor_; }
+  [[nodiscard]] std::uint64_t heldBackTimes() const { return heldBackTimes_; }
+  // A held-back card notices only when it wakes: while a host drives time,
+  // the card thread waits at most this long, so that a stall of its CPU is
+  // a timer missed (a host at its period wakes it sooner anyway).
+  static constexpr std::chrono::milliseconds kHeldBackCheck{10};
+  // Scheduling delays under this are not counted.
+  static constexpr std::chrono::milliseconds kHeldBackFrom{1};
 
   // Brings a model from `from` towards now() by calling advance(t) with t at
   // most kSlice apart, for at most `budget` of wall time, and returns where
@@ -150,6 +171,8 @@ class SimClock {
   std::chrono::milliseconds silence_{20};
   std::uint64_t hostCycles_ = 0;
   std::uint64_t silences_ = 0;
+  std::chrono::nanoseconds heldBackFor_{0};
+  std::uint64_t heldBackTimes_ = 0;
   Wall::time_point lastCycleWall_{};
   std::array<std::int64_t, kLearnCycles> spacings_{};  // ns, while the period is learned
   std::size_t learned_ = 0;

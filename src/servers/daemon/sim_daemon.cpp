@@ -183,7 +183,7 @@ SimState SimDaemon::state() {
   s.clock = {clock_.speed(),       clock_.paused(),       clock_.behind(),
              clock_.slips(),       clock_.source() == SimClock::Source::Host,
              clock_.period(),      clock_.drivenByHost(), clock_.hostCycles(),
-             clock_.silences()};
+             clock_.silences(),    clock_.heldBackFor(),  clock_.heldBackTimes()};
   const auto& id = lbp16_->identity();
   s.card = {id.name, options_.bindAddress, udp_->port(), id.mac, lbp16_->eeprom()};
   s.lbp16 = lbp16_->counters();
@@ -459,6 +459,7 @@ void SimDaemon::serve(std::chrono::milliseconds wait) {
   // servo cycle (hostmot2 and lbpkit's host library write one a cycle,
   // after the cycle's outputs): time moves one period on, so the host's
   // next cycle finds the DOIT done and the plant moved under its outputs.
+  const auto until = NetworkFaults::Clock::now() + wait;
   const bool served = udp_->serveOnce(wait,
                                       [&](std::span<const std::uint8_t> req, std::span<std::uint8_t> reply) {
                                         const std::uint64_t doits = card_.part<hm2::SmartSerial>().counters().doits;
@@ -475,6 +476,11 @@ void SimDaemon::serve(std::chrono::milliseconds wait) {
     latency_.add(udp_->sinceReceived());
     queueing_.add(udp_->lastQueueing());
   }
+  // From when this thread had something to do (the datagram came, its
+  // timer ran out) to when it is done with it, held back or busy: on the
+  // host clock no silence of the host (SimClock::heldBack, at the end).
+  const auto woke = NetworkFaults::Clock::now();
+  const auto due = served ? woke - udp_->sinceReceived() : std::min(woke, until);
   // A reply the network would not take: the card's TX error (space 6).
   for (; sendFailuresSeen_ < udp_->sendFailures(); ++sendFailuresSeen_) lbp16_->noteSendFailed();
   // A datagram that queued for long says more may be waiting: they come
@@ -517,6 +523,7 @@ void SimDaemon::serve(std::chrono::milliseconds wait) {
       slipsLogged_ = clock_.slips();
     }
   }
+  clock_.heldBack(NetworkFaults::Clock::now() - due);
 }
 
 void SimDaemon::run(const std::atomic<bool>& stop, int stopFd) {
@@ -538,7 +545,7 @@ void SimDaemon::runAll(std::span<SimDaemon* const> cards, const std::atomic<bool
   if (cards.size() == 1) {
     SimDaemon& d = *cards.front();
     if (stopFd >= 0) d.udp_->alsoWakeOn(stopFd);
-    while (!stop.load()) d.serve(d.ticks() ? kTick : kSleep);
+    while (!stop.load()) d.serve(d.ticks() ? kTick : d.clock_.drivenByHost() ? SimClock::kHeldBackCheck : kSleep);
   } else {
     // Several cards, one thread: one wait for all their sockets and job
     // queues, then each card with something to do is served. Datagrams
@@ -552,10 +559,17 @@ void SimDaemon::runAll(std::span<SimDaemon* const> cards, const std::atomic<bool
     while (!stop.load()) {
       auto wait = std::chrono::nanoseconds(kSleep);
       const auto now = NetworkFaults::Clock::now();
-      for (SimDaemon* d : cards) wait = std::min(wait, d->ticks() ? kTick : d->udp_->untilDue(now));
+      for (SimDaemon* d : cards)
+        wait = std::min(wait, d->ticks()                 ? kTick
+                              : d->clock_.drivenByHost() ? std::chrono::nanoseconds(SimClock::kHeldBackCheck)
+                                                         : d->udp_->untilDue(now));
       const timespec ts{static_cast<time_t>(wait.count() / 1'000'000'000),
                         static_cast<long>(wait.count() % 1'000'000'000)};
       const int ready = ::ppoll(fds.data(), fds.size(), &ts, nullptr);
+      if (ready == 0) {  // the timer: how late it woke this thread (SimClock::heldBack)
+        const auto late = NetworkFaults::Clock::now() - (now + wait);
+        for (SimDaemon* d : cards) d->clock_.heldBack(std::max(std::chrono::nanoseconds{0}, late));
+      }
       for (std::size_t i = 0; i < cards.size(); ++i) {
         SimDaemon& d = *cards[i];
         const bool readable = ready > 0 && ((fds[2 * i].revents | fds[2 * i + 1].revents) & POLLIN) != 0;

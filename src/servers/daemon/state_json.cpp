@@ -291,6 +291,8 @@ json toJson(const SimState& s) {
     j["clock"]["driven_by_host"] = s.clock.driven;
     j["clock"]["host_cycles"] = s.clock.hostCycles;
     j["clock"]["host_silences"] = s.clock.silences;
+    j["clock"]["held_back_ms"] = std::chrono::duration<double, std::milli>(s.clock.heldBack).count();
+    j["clock"]["held_back_times"] = s.clock.heldBackTimes;
   }
   const auto& e = s.card.eeprom;
   j["card"] = {{"name", s.card.name},
