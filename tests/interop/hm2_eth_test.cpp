@@ -30,6 +30,10 @@ TEST_F(LinuxCnc, Hm2EthRunsTheVirtual7i77) {
   macFile >> mac;
   EXPECT_EQ(sim_->get()["card"]["mac"], mac);
 
+  // The 7I77's watchdog at 200 ms (support/interop.hpp), short enough for
+  // its bite to be seen below.
+  patient7i77Watchdogs({0, 1}, "200");
+  EXPECT_EQ(sim_->get()["daughtercards"][0]["field_io"]["watchdog_ms"], 200);
   const auto r = load("00xxxxxx");
   ASSERT_EQ(r.exit, 0) << r.out;
   const auto pins = halcmd("show pin").out + halcmd("show param").out;
@@ -67,9 +71,9 @@ TEST_F(LinuxCnc, Hm2EthRunsTheVirtual7i77) {
   EXPECT_TRUE(waitFor([&] { return std::atoi(getp("hm2_7i92.0.encoder.02.count").c_str()) > 1000; }, 1000ms));
   EXPECT_EQ(getp("hm2_7i92.0.io_error"), "FALSE");
 
-  // Stop the thread: within the 7I77's 50 ms watchdog the outputs and enables
-  // drop, and the HostMot2 watchdog bites when its timeout (patientDeadlines)
-  // has passed.
+  // Stop the thread: within the 7I77's watchdog (200 ms here) the outputs
+  // and enables drop, and the HostMot2 watchdog bites when its timeout
+  // (patientDeadlines) has passed.
   halcmd("stop");
   const auto stopped = std::chrono::steady_clock::now();
   EXPECT_TRUE(waitFor(
@@ -80,7 +84,7 @@ TEST_F(LinuxCnc, Hm2EthRunsTheVirtual7i77) {
       },
       1000ms));
   const auto dropped = std::chrono::steady_clock::now() - stopped;
-  EXPECT_LT(dropped, 400ms) << "including halcmd's own start-up";
+  EXPECT_LT(dropped, 600ms) << "the watchdog's 200 ms and halcmd's own start-up";
   EXPECT_EQ(sim_->get()["daughtercards"][0]["field_io"]["faults"][0], "WatchdogFault");
   EXPECT_TRUE(waitFor([&] { return sim_->get()["watchdog"]["bitten"] == true; }, 1000ms));
   halcmd("start");

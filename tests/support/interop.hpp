@@ -200,12 +200,13 @@ class LinuxCnc : public ::testing::Test {
     while (!v.empty() && (v.back() == '\n' || v.back() == ' ')) v.pop_back();
     return v;
   }
-  // kPatient7i77WatchdogMs for the processors on these smart-serial
-  // channels (0: the first 7I77's field I/O, 1: its analog side).
-  void patient7i77Watchdogs(std::initializer_list<unsigned> channels) {
+  // kPatient7i77WatchdogMs (or `ms`) for the processors on these
+  // smart-serial channels (0: the first 7I77's field I/O, 1: its analog
+  // side).
+  void patient7i77Watchdogs(std::initializer_list<unsigned> channels, const char* ms = kPatient7i77WatchdogMs) {
     for (const unsigned channel : channels) {
-      const auto w = test_support::run(
-          {"wpd", "WATCHDOGTIME", kPatient7i77WatchdogMs, "--addr", cardIp_, "--channel", std::to_string(channel)});
+      const auto w =
+          test_support::run({"wpd", "WATCHDOGTIME", ms, "--addr", cardIp_, "--channel", std::to_string(channel)});
       ASSERT_EQ(w.exit, 0) << "channel " << channel << ": " << w.err;
     }
   }

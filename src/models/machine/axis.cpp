@@ -8,7 +8,6 @@
 namespace machine {
 
 namespace {
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr double kGravity = 9.80665;  // m/s^2
 }  // namespace
 

@@ -7,7 +7,13 @@
 // are given at the motor shaft, as a servo tuning sees them.
 #pragma once
 
+#include <numbers>
+
 namespace machine {
+
+// Radians in a revolution: the axes integrate in rad/s, and speak of
+// motor revolutions.
+inline constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 struct AxisParameters {
   double inertia = 3.5e-4;     // kg m^2 at the motor: rotors, screw, coupling and the reflected load

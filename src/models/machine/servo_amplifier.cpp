@@ -2,13 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
+
+#include "machine/axis.hpp"  // kTwoPi
 
 namespace machine {
-
-namespace {
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
-}  // namespace
 
 double ServoAmplifier::torque(double volts, bool enaOn, double motorRevsPerSecond, double inertia, double h) {
   velocityCommand_ = 0.0;
