@@ -333,7 +333,10 @@ class Display:
         ok_pushed = self.wait_model(lambda m: not Machine.axis(m, "x")["pushing"] and Machine.axis(m, "x")["position"] > 402.5, 5)
         m = self.machine.get()
         max_switch = next(s for s in m["switches"] if s["name"] == "x-max")
-        self.poll()
+        # LinuxCNC sees the switch some servo periods and a status update
+        # after the model does: wait for that (a look at once raced it, and
+        # Machine On then met a limit LinuxCNC had not flagged yet).
+        self.wait(lambda: self.s.limit[0] != 0, 2)
         limit_flags = list(self.s.limit[:3])
         n_on = len(self.messages)
         self.c.state(linuxcnc.STATE_ON)

@@ -476,11 +476,13 @@ void SimDaemon::serve(std::chrono::milliseconds wait) {
     latency_.add(udp_->sinceReceived());
     queueing_.add(udp_->lastQueueing());
   }
-  // From when this thread had something to do (the datagram came, its
-  // timer ran out) to when it is done with it, held back or busy: on the
-  // host clock no silence of the host (SimClock::heldBack, at the end).
-  const auto woke = NetworkFaults::Clock::now();
-  const auto due = served ? woke - udp_->sinceReceived() : std::min(woke, until);
+  // How late this thread ran: a datagram's time in its socket, or how long
+  // after its timer it woke. On the host clock that is no silence of the
+  // host (SimClock::heldBack). Its own work is not counted: a datagram the
+  // host sends meanwhile has its kernel time, and a stopped host's silence
+  // must not wait for the API's requests.
+  clock_.heldBack(served ? udp_->lastQueueing()
+                         : std::max(std::chrono::nanoseconds{0}, NetworkFaults::Clock::now() - until));
   // A reply the network would not take: the card's TX error (space 6).
   for (; sendFailuresSeen_ < udp_->sendFailures(); ++sendFailuresSeen_) lbp16_->noteSendFailed();
   // A datagram that queued for long says more may be waiting: they come
@@ -523,7 +525,6 @@ void SimDaemon::serve(std::chrono::milliseconds wait) {
       slipsLogged_ = clock_.slips();
     }
   }
-  clock_.heldBack(NetworkFaults::Clock::now() - due);
 }
 
 void SimDaemon::run(const std::atomic<bool>& stop, int stopFd) {
