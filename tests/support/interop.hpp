@@ -187,12 +187,9 @@ class LinuxCnc : public ::testing::Test {
     return sh(priority + ns_->exec() + lbpkit::linuxcnc::rtapiEnvironment(fifo_) + "timeout 60 " + command);
   }
   // `halcmd ARGS` to the HAL rtapi_app already runs (setp, getp, show,
-  // stop, start) at nice 10: it yields the CPU to the sim, which must answer
-  // within 0.8 ms, and to LinuxCNC's servo thread. At hal()'s SCHED_FIFO 1
-  // on the card's CPU it would hold that thread (the same priority on the
-  // same CPU) back until it finished: `show pin` of two 7I77s takes 30 to
-  // 50 ms here, and a servo thread held 50 ms lets the 7I77's watchdog bite
-  // (outputs off until SSLBP starts the channel again).
+  // stop, start) at nice 10: it needs no real-time priority, and yields the
+  // CPU to the sim, which must answer within 0.8 ms, and to LinuxCNC's
+  // servo thread.
   Shell halcmd(const std::string& args) { return hal("halcmd " + args, "nice -n 10 "); }
   // The polls (every 25 ms).
   std::string getp(const std::string& pin) {

@@ -123,6 +123,12 @@ bool SimDaemon::ticks() const {
   return machine_ || options_.demo || !ptyChannels_.empty() || (script_ && script_->pending());
 }
 
+std::chrono::milliseconds SimDaemon::idleWait() const {
+  if (ticks()) return std::chrono::milliseconds(1);
+  if (clock_.drivenByHost()) return SimClock::kHeldBackCheck;
+  return std::chrono::hours(1);
+}
+
 std::uint16_t SimDaemon::port() const { return udp_->port(); }
 
 std::string SimDaemon::packetTraceSummary() const {
@@ -540,13 +546,12 @@ void SimDaemon::runAll(std::span<SimDaemon* const> cards, const std::atomic<bool
     if (d->options_.demo) d->card_.part<hm2::MuxedEncoder>().setVelocity(0, 10000, d->card_.now());
   }
   // Between datagrams the thread sleeps until the next one, a job or the
-  // stop, or the next millisecond when something moves on its own
-  // (ticks()): a card alone is caught up exactly when next looked at.
-  constexpr std::chrono::milliseconds kTick{1}, kSleep{std::chrono::hours(1)};
+  // stop, or for idleWait(): a card alone is caught up exactly when next
+  // looked at.
   if (cards.size() == 1) {
     SimDaemon& d = *cards.front();
     if (stopFd >= 0) d.udp_->alsoWakeOn(stopFd);
-    while (!stop.load()) d.serve(d.ticks() ? kTick : d.clock_.drivenByHost() ? SimClock::kHeldBackCheck : kSleep);
+    while (!stop.load()) d.serve(d.idleWait());
   } else {
     // Several cards, one thread: one wait for all their sockets and job
     // queues, then each card with something to do is served. Datagrams
@@ -558,12 +563,11 @@ void SimDaemon::runAll(std::span<SimDaemon* const> cards, const std::atomic<bool
     }
     if (stopFd >= 0) fds.push_back({stopFd, POLLIN, 0});
     while (!stop.load()) {
-      auto wait = std::chrono::nanoseconds(kSleep);
+      auto wait = std::chrono::nanoseconds::max();
       const auto now = NetworkFaults::Clock::now();
+      // Each card's idle wait, or sooner a datagram its network holds back.
       for (SimDaemon* d : cards)
-        wait = std::min(wait, d->ticks()                 ? kTick
-                              : d->clock_.drivenByHost() ? std::chrono::nanoseconds(SimClock::kHeldBackCheck)
-                                                         : d->udp_->untilDue(now));
+        wait = std::min({wait, std::chrono::nanoseconds(d->idleWait()), d->udp_->untilDue(now)});
       const timespec ts{static_cast<time_t>(wait.count() / 1'000'000'000),
                         static_cast<long>(wait.count() % 1'000'000'000)};
       const int ready = ::ppoll(fds.data(), fds.size(), &ts, nullptr);

@@ -152,6 +152,11 @@ class SimDaemon {
   // sleeps until a datagram or a job comes, and a sim nobody talks to
   // costs nothing.
   [[nodiscard]] bool ticks() const;
+  // How long the card thread may wait for a datagram or a job: a
+  // millisecond when something moves on its own (ticks()), at most
+  // SimClock::kHeldBackCheck while a host drives time (so that a stall of
+  // its CPU is a timer missed), else until woken.
+  [[nodiscard]] std::chrono::milliseconds idleWait() const;
   // A trace row when the host has run a servo cycle since the last look.
   void record();
   // --trace: the datagram just served and the reply to it (card thread).
