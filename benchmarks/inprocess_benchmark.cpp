@@ -12,6 +12,7 @@
 #include "machine/axis.hpp"
 #include "machine/quadrature_encoder.hpp"
 #include "machine/servo_amplifier.hpp"
+#include "machine/servo_motion.hpp"
 
 namespace {
 
@@ -19,7 +20,7 @@ using namespace std::chrono_literals;
 using hm2::SimTime;
 
 constexpr std::uint32_t kClockLow = 100'000'000;  // a 7I92's ClockLow
-constexpr SimTime kPlantStep = 50us;              // the machines' default step
+constexpr SimTime kPlantStep = 1ms;               // the machines' default span
 
 
 // The host's cycle through the card alone is BM_FullCycle (host_benchmark.cpp);
@@ -29,7 +30,7 @@ constexpr SimTime kPlantStep = 50us;              // the machines' default step
 
 // One plant step's work for six encoders (QuadratureEncoder::drive: the
 // counter settled, a new velocity set), shafts turning at changing speeds;
-// per iteration one step of all six. The plant does this 20 times a period.
+// per iteration one span of all six: the plant does this once a period.
 void BM_EncoderDrive(benchmark::State& state) {
   hm2::MuxedEncoder counters(6, kClockLow);
   std::array<machine::QuadratureEncoder, 6> encoders{
@@ -75,26 +76,24 @@ void BM_MuxedEncoderCatchUp(benchmark::State& state) {
 }
 BENCHMARK(BM_MuxedEncoderCatchUp);
 
-// One axis' step: its velocity-mode amplifier's torque, then the mechanics
-// (the mill's X: servo drive, 150 kg on a 5 mm screw), the command varying.
-// One axis alone is a chain of dependent divisions: this is its latency;
-// the plant steps its axes back to back, so the CPU overlaps them.
-void BM_AxisStep(benchmark::State& state) {
-  machine::AmplifierParameters ap;
-  machine::ServoAmplifier amplifier(ap);
+// One axis over a servo period, solved exactly (ServoMotion: the mill's
+// X, a velocity-mode drive, 150 kg on a 5 mm screw), the command changing
+// every period as a position loop's does; per iteration one period.
+void BM_ServoMotionPeriod(benchmark::State& state) {
+  machine::ServoAmplifier amplifier(machine::AmplifierParameters{});
   machine::AxisParameters p;
   p.inertia = 1.5e-4 + 1e-4 + machine::reflectedInertia(150.0, 5.0);
   machine::Axis axis(p, 200.0);
-  const double h = std::chrono::duration<double>(kPlantStep).count();
+  machine::ServoMotion motion;
   std::uint64_t n = 0;
   for (auto _ : state) {
-    const double volts = static_cast<double>(n % 200) / 20.0 - 5.0;
-    const double torque = amplifier.torque(volts, true, axis.motorRevsPerSecond(), p.inertia, h);
-    axis.step(torque, false, h);
+    machine::ServoDrive drive{&amplifier, 1.0 + static_cast<double>(n % 200) / 1000.0, true, p.inertia, 0.0};
+    motion.advance(axis, std::span(&drive, 1), false, kPlantStep);
     ++n;
   }
   benchmark::DoNotOptimize(axis.position());
+  state.counters["events"] = static_cast<double>(motion.events());
 }
-BENCHMARK(BM_AxisStep);
+BENCHMARK(BM_ServoMotionPeriod);
 
 }  // namespace

@@ -72,10 +72,10 @@ double cpuSeconds() {
 
 int main(int argc, char** argv) {
   const long cycles = argc > 1 ? std::atol(argv[1]) : 5000;
-  const long stepUs = argc > 2 ? std::atol(argv[2]) : 50;
+  const long stepUs = argc > 2 ? std::atol(argv[2]) : 1000;
   const bool check = argc > 3 && std::strcmp(argv[3], "check") == 0;
   if (cycles <= 0 || stepUs <= 0 || (argc > 3 && !check)) {
-    std::fprintf(stderr, "usage: lbpkit_inprocess_profile [CYCLES (5000)] [PLANT_STEP_US (50)] [check]\n");
+    std::fprintf(stderr, "usage: lbpkit_inprocess_profile [CYCLES (5000)] [PLANT_SPAN_US (1000)] [check]\n");
     return 2;
   }
   lbpkit::MillClosedLoop mill{std::chrono::microseconds(stepUs)};

@@ -69,7 +69,7 @@ void VirtualSevenI76::setInputVoltage(unsigned input, double volts) {
   checkInput(input);
   checkVolts(volts, "input voltage");
   auto& i = io();
-  // The machine sets its switches' inputs at every plant step (as on the 7I77).
+  // The machine sets its switches' inputs at every plant span (as on the 7I77).
   if (const auto* m = card_->machine())
     for (const auto& s : m->description().switches)
       if (s.daughtercard == machine::Daughtercard::SevenI76 && s.input == input)
@@ -179,8 +179,8 @@ void VirtualBoard::applyInput(unsigned input, double volts, unsigned connector) 
   auto& io = daughter(connector).fieldIo;
   checkInput(input);
   checkVolts(volts, "input voltage");
-  // The machine sets its switches' inputs at every plant step: a value
-  // given here would last a step at most.
+  // The machine sets its switches' inputs at every plant span: a value
+  // given here would last a span at most.
   if (const auto* m = card_->machine(); m != nullptr && connector == 0)
     for (const auto& s : m->description().switches)
       if (s.input == input)

@@ -627,7 +627,7 @@ TEST(LinuxCncMill, RunsGcodeAndRehearsesFaultsAgainstTheVirtualMill) {
                 std::abs(v) * kWatchdog * 0.5)
           << "axis " << kill["name"] << " stopped at once instead of coasting";
       // The amplifier is off from the moment the enables drop (the torque
-      // shown then may still be that of the plant step the drop fell in),
+      // shown then may still be that of the plant span the drop fell in),
       // and at rest nothing has driven it since.
       EXPECT_EQ(off["drives"][0]["enabled"], false) << "coasting, nothing drives it: " << off.dump();
       EXPECT_EQ(rest["drives"][0]["torque"].get<double>(), 0.0) << "at rest, nothing drives it: " << rest.dump();

@@ -125,7 +125,7 @@ output = 4
                            "few.toml");
   const auto m = config::loadMachine(path);
   EXPECT_EQ(m.name, std::filesystem::path(path).stem().string());  // the file's name
-  EXPECT_EQ(m.step, lbp::SimTime{50'000});
+  EXPECT_EQ(m.step, lbp::SimTime{1'000'000});
   ASSERT_EQ(m.axes.size(), 1U);
   machine::AxisDescription a;  // the defaults, but for what the file says
   a.name = "x";
@@ -211,9 +211,8 @@ TEST_F(MachineFile, EveryMistakeNamesFileLineColumnAndKey) {
       {kAxisX + "[[switch]]\nname = \"x-max\"\ninput = 32\n", "11:9: switch[1].input: 32 is out of range: 0 to 31"},
       {"[[output]]\nname = \"lamp\"\noutput = 16\n", "3:10: output[0].output: 16 is out of range: 0 to 15"},
       {"step_us = 0\n", "1:11: step_us: 0 is out of range: 1 to 1000 us"},
-      {"[[axis]]\nname = \"x\"\n  [[axis.drive]]\n  analog_output = 0\n  [axis.drive.amplifier]\n  bandwidth_hz = 5000\n",
-       "6:18: axis[0].drive[0].amplifier.bandwidth_hz: 5000 Hz is too fast for the plant's 50 us step (step_us): "
-       "at most 1591 Hz"},
+      {"[[axis]]\nname = \"x\"\n  [[axis.drive]]\n  analog_output = 0\n  [axis.drive.amplifier]\n  bandwidth_hz = 0\n",
+       "6:18: axis[0].drive[0].amplifier.bandwidth_hz: 0 is out of range: 0.1 to 100000 Hz"},
       {"[[axis]]\nname = \"x\"\n  [[axis.drive]]\n  analog_output = 0\n  [axis.drive.amplifier]\n  mode = \"current\"\n",
        "6:10: axis[0].drive[0].amplifier.mode: \"current\" is not one of \"velocity\", \"torque\""},
       // Cross-references: an axis the machine lacks, things used twice.

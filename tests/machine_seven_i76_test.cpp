@@ -275,9 +275,9 @@ TEST_F(SevenI76Machine, TheHostGoingSilentStopsTheSpindle) {
   ASSERT_NEAR(m.state().spindle->rpm, 4'800.0, 1.0);
   // No more cycles: the 7I76's watchdog turns SpinOut and SpinEna off. The
   // machine runs ahead of the card, as in cycles() and in the sim (its
-  // encoders aim at the end of each plant step from where the card's
+  // encoders aim at the end of each plant span from where the card's
   // counters are: a card run far past the machine would run them on at the
-  // last step's velocity).
+  // last span's velocity).
   for (int i = 0; i < 200; ++i) {
     m.advance(SimTime{t.now() + 1ms});
     t.sleep(1ms);
@@ -296,7 +296,7 @@ TEST_F(SevenI76Machine, AdvancingDoesNotAllocate) {
   stepZ(40'000.0);  // over the home switch within the run
   cycles(10);
   // The host's cycles (which do not allocate either: alloc_test.cpp) and
-  // the plant's steps, the spindle turning, Z stepping onto its home switch.
+  // the plant's spans, the spindle turning, Z stepping onto its home switch.
   const auto before = testing_alloc::tAllocations;
   cycles(120);
   EXPECT_EQ(testing_alloc::tAllocations - before, 0U);

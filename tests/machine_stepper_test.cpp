@@ -209,7 +209,7 @@ TEST(MachineStepper, ASwitchOnTheCardsOwnPinDrivesIt) {
 TEST(MachineStepper, StepsFasterThanThePullOutRateAreLost) {
   Rig below(stepperMill(20'000.0));
   // Just under the pull-out rate: every step followed, however the steps
-  // fall into the plant's 50 us steps.
+  // fall into the plant's spans.
   below.setStepRate(19'900.0);
   below.run(200);
   EXPECT_EQ(below.m.state().axes[kZ].stepper->lostSteps, 0);

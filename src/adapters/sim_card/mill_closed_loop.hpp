@@ -27,7 +27,7 @@
 namespace lbpkit {
 
 // The built-in mill plus rotary tables A and B (10 degrees per motor
-// revolution, no switches), its plant stepping every `step`.
+// revolution, no switches), its plant's longest span `step`.
 [[nodiscard]] machine::MachineDescription millWithRotaryTables(std::chrono::microseconds step);
 
 class MillClosedLoop {
@@ -36,7 +36,7 @@ class MillClosedLoop {
 
   // Both 7I77 channels discovered and started in normal mode, the drives
   // enabled, the Z brake released and the spindle turning.
-  explicit MillClosedLoop(std::chrono::microseconds plantStep = std::chrono::microseconds(50));
+  explicit MillClosedLoop(std::chrono::microseconds plantStep = std::chrono::microseconds(1000));
 
   // One servo period: the loops' outputs, one exchange, the inputs and
   // encoders, then the plant and the card up to the period's end.

@@ -107,13 +107,13 @@ void MuxedEncoder::index(Counter& c, std::int64_t countAtIndex) {
 }
 
 void MuxedEncoder::run(unsigned n, SimTime from, SimTime to) const {
-  // The common case stays short (a plant step moves each counter a few
+  // The common case stays short (a plant span moves each counter a few
   // states): index pulses while clear or latch on index is armed, and rates
   // too fast for the filter, are out of line.
   EncoderSignal& s = signals_[n];
   Counter& c = state_[n];
-  // Most runs are one plant step long (the machine sets every velocity each
-  // step): the span's seconds are worked out again only when it changes,
+  // Most runs are one plant span long (the machine sets every velocity each
+  // span): the span's seconds are worked out again only when it changes,
   // as a division costs more than the rest of the common case.
   if (to - from != lastSpan_) {
     lastSpan_ = to - from;

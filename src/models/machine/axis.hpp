@@ -1,6 +1,7 @@
 // One machine axis behind the 7I77: the motor(s) and the load they move
-// through a leadscrew or gearing, integrated with a fixed step in simulated
-// time (no wall clock: the same torques give the same motion every run).
+// through a leadscrew or gearing. Its motion under its drives is solved
+// exactly in simulated time by ServoMotion (servo_motion.hpp; no wall
+// clock: the same commands give the same motion every run).
 //
 // Motion is in motor revolutions; machine units (mm, or degrees for a rotary
 // axis) are motor revolutions times unitsPerMotorRev. Friction and gravity
@@ -38,10 +39,6 @@ class Axis {
  public:
   Axis(AxisParameters parameters, double position);
 
-  // One step of `h` seconds with the motors giving `driveTorque` (Nm, sum
-  // over motors) and the brake engaged or not.
-  void step(double driveTorque, bool brakeEngaged, double h);
-
   // Faults a commissioning user rehearses. An outside force (a
   // hand on the table, a collision) moves the axis by `distance` machine
   // units at `speed` units per second (above 0; else invalid_argument),
@@ -63,6 +60,7 @@ class Axis {
   [[nodiscard]] const AxisParameters& parameters() const { return p_; }
 
  private:
+  friend class ServoMotion;  // moves it
   AxisParameters p_;
   double revs_;
   double speed_ = 0.0;  // rev/s

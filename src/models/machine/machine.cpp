@@ -87,7 +87,6 @@ Machine::Machine(MachineDescription description, hm2::HostMot2Card& card, SimTim
       inputs_{&board_->fieldIo, sevenI76_, card.module<hm2::IoPort>()},
       time_(now),
       h_(d_.step),
-      hSeconds_(std::chrono::duration<double>(d_.step).count()),
       switches_(d_.switches, axisIndices(d_)) {
   if (h_ <= SimTime{0}) bad("the step must be positive");
   if (const std::string wired = sevenI76Wiring(d_); !wired.empty() && sevenI76_ == nullptr) {
@@ -108,11 +107,14 @@ Machine::Machine(MachineDescription description, hm2::HostMot2Card& card, SimTim
   std::vector<std::string> stepGenOwners(stepGens_ != nullptr ? stepGens_->instances() : 0);
   for (const auto& a : d_.axes) {
     if (a.drives.empty() && !a.stepper) bad("axis " + a.name + " has no drive");
+    if (a.drives.size() > kMaxDrivesPerAxis)
+      bad("axis " + a.name + " has " + std::to_string(a.drives.size()) + " drives: at most " +
+          std::to_string(kMaxDrivesPerAxis) + " move one axis");
     if (!a.drives.empty() && a.stepper) bad("axis " + a.name + " has servo drives and a stepper: one or the other");
     if (a.screwPitch == 0 || a.gearRatio == 0) bad("axis " + a.name + " needs a screw pitch and gear ratio");
     if (a.brakeOutput >= static_cast<int>(remote::FieldIoProcessor::kOutputs)) bad("axis " + a.name + ": no such brake output");
     AxisPlant plant{Axis(axisParameters(a), a.initialPosition), {}, 0.0, a.brakeOutput, a.brakeDaughtercard, 0.0,
-                    std::nullopt, std::nullopt};
+                    std::nullopt, std::nullopt, ServoMotion{}};
     plant.commanded = plant.axis.position();
     const auto motors = static_cast<double>(std::max<std::size_t>(a.drives.size(), 1));  // none: a stepper
     plant.inertiaShare = plant.axis.parameters().inertia / motors;
@@ -309,31 +311,24 @@ bool Machine::spindleEna() const {
 }
 
 void Machine::advance(SimTime now) {
-  while (time_ < now) step();
+  while (time_ < now) span(std::min(now, time_ + h_));
 }
 
-void Machine::step() {
+void Machine::span(SimTime t1) {
   const SimTime t0 = time_;
-  const SimTime t1 = t0 + h_;
+  const double seconds = std::chrono::duration<double>(t1 - t0).count();
   // The counters may already have run past t0 (the host's accesses advance
   // the card); the encoders aim at t1 from where they are.
   const SimTime from = std::max(t0, card_->now());
-  const SimTime minimum = h_ / 2;
-  const double seconds = std::chrono::duration<double>(t1 - from).count();
-  // The field inputs from where the axes are at the start of the step.
-  switches_.apply(positions_.data(), inputs_);
+  const SimTime minimum = std::min(kEncoderMinimumSpan, h_ / 2);
+  const double encoderSeconds = std::chrono::duration<double>(t1 - from).count();
   const remote::AnalogProcessor& analog = board_->analog;
-  // The mechanics of every axis and the spindle first, then their
-  // encoders: each axis' step is a chain of dependent divisions, and with
-  // the axes back to back the CPU works on several chains at once. (The
-  // encoders are driven in the same order as ever, axes then spindle, and
-  // no axis' mechanics depends on any encoder.)
   for (std::size_t i = 0; i < axes_.size(); ++i) {
     AxisPlant& a = axes_[i];
     if (a.stepper) {
-      // The steps the StepGen has made by the step's end, or as far as the
+      // The steps the StepGen has made by the span's end, or as far as the
       // card has run (the StepGen is never run ahead of the card: a rate
-      // written later in this step must still take effect when written).
+      // written later in this span must still take effect when written).
       const unsigned n = a.stepper->parameters().stepGen;
       const std::int64_t count = stepGens_->steps(n, std::min(t1, card_->now()));
       a.stepper->step(count, stepGens_->stepRate(n), a.axis.jammed() || brakeEngaged(a));
@@ -341,37 +336,45 @@ void Machine::step() {
       positions_[i] = a.stepper->position();
       continue;
     }
-    double torque = 0.0;
-    for (Drive& drive : a.drives) {
-      drive.torque = drive.amplifier.torque(analog.outputVoltage(drive.d.analogOutput), analog.enable(drive.d.enable),
-                                            a.axis.motorRevsPerSecond(), a.inertiaShare, hSeconds_);
-      torque += drive.torque;
+    // The 7I77's outputs as the card has them now hold over the span
+    // (they change when the host's process data reaches the 7I77, and the
+    // machine is advanced after the host's cycle: machine.hpp).
+    std::array<ServoDrive, kMaxDrivesPerAxis> drives{};
+    const std::size_t n = a.drives.size();
+    for (std::size_t k = 0; k < n; ++k) {
+      Drive& drive = a.drives[k];
+      drives[k] = ServoDrive{&drive.amplifier, analog.outputVoltage(drive.d.analogOutput),
+                             analog.enable(drive.d.enable), a.inertiaShare, 0.0};
     }
-    // The first drive's velocity command, integrated while it is enabled:
-    // the position it asked for (followingError). Its amplifier has just
-    // worked the command out (commandVelocity(i), without doing it again).
+    a.motion.advance(a.axis, std::span(drives.data(), n), brakeEngaged(a), t1 - t0);
+    for (std::size_t k = 0; k < n; ++k) a.drives[k].torque = drives[k].torque;
+    // The first drive's velocity command (constant over the span),
+    // integrated while it is enabled: the position it asked for
+    // (followingError).
     const bool commanding = commandsVelocity(a);
     const double commanded =
         commanding ? a.drives.front().amplifier.lastVelocityCommand() * a.axis.parameters().unitsPerMotorRev : 0.0;
-    a.axis.step(torque, brakeEngaged(a), hSeconds_);
-    a.commanded = commanding ? a.commanded + commanded * hSeconds_ : a.axis.position();
+    a.commanded = commanding ? a.commanded + commanded * seconds : a.axis.position();
     positions_[i] = a.axis.position();
   }
-  if (spindle_) spindle_->step(spindleVolts(), spindleEna(), hSeconds_);
+  if (spindle_) spindle_->step(spindleVolts(), spindleEna(), seconds);
+  // The field inputs from where the axes are at the span's end: where
+  // they are when the host next reads them.
+  switches_.apply(positions_.data(), inputs_);
   for (AxisPlant& a : axes_) {
-    for (Drive& drive : a.drives) drive.encoder.drive(a.axis.motorRevs(), from, t1, seconds, minimum);
+    for (Drive& drive : a.drives) drive.encoder.drive(a.axis.motorRevs(), from, t1, encoderSeconds, minimum);
     if (a.stepperEncoder) {
       // The stepper's position is known as far as the card has run (its
-      // StepGen's steps); to the step's end it goes on at the rate the
+      // StepGen's steps); to the span's end it goes on at the rate the
       // StepGen steps at. Aimed there, the encoder turns smoothly, where
-      // chasing a host period's steps within one plant step would spin it
+      // chasing a host period's steps within one span would spin it
       // faster than the counter's filter follows.
       const double ahead = std::max(0.0, std::chrono::duration<double>(t1 - card_->now()).count());
       const double position = a.stepper->position() + a.stepper->velocity() * ahead;
-      a.stepperEncoder->drive(position / a.axis.parameters().unitsPerMotorRev, from, t1, seconds, minimum);
+      a.stepperEncoder->drive(position / a.axis.parameters().unitsPerMotorRev, from, t1, encoderSeconds, minimum);
     }
   }
-  if (spindleEncoder_) spindleEncoder_->drive(spindle_->revolutions(), from, t1, seconds, minimum);
+  if (spindleEncoder_) spindleEncoder_->drive(spindle_->revolutions(), from, t1, encoderSeconds, minimum);
   time_ = t1;
 }
 

@@ -10,16 +10,19 @@
 // Built from a MachineDescription (machine_file.hpp) and wired to a
 // hm2::HostMot2Card, which must outlive it.
 //
-// advance(now) runs the plant in fixed steps (the description's `step`, 50 us
-// by default) in simulated time, up to the first step boundary at or after
-// `now`: each step reads the 7I77's outputs at its start, integrates the
-// axes and the spindle over it, and sets each encoder's velocity so its
-// signal reaches the shaft's position at the step's end. Call it after the
-// host's cycle, with the time of the next one, before the card is advanced
-// past this one: the encoders then follow the plant's motion exactly. Where
-// the card has already run ahead (the host's accesses advance it), each
-// encoder aims at the step's end from where the counter is, so the signal
-// catches up within a step or two and no error adds up.
+// advance(now) moves the plant to `now` in simulated time, in spans of at
+// most the description's `step` (1 ms by default): each span takes the
+// 7I77's outputs as they are at its start, solves the servo axes exactly
+// over it (ServoMotion: events such as a drive saturating or friction
+// stopping an axis are found within it), ramps the spindle, steps the
+// steppers, sets the switches' inputs from where the axes are at its end,
+// and sets each encoder's velocity so its signal reaches the shaft's
+// position at the span's end. Call it after the host's cycle, with the time
+// of the next one, before the card is advanced past this one: the counters
+// then read the shafts' positions exactly when the host next reads them.
+// Where the card has already run ahead (the host's accesses advance it),
+// each encoder aims at the span's end from where the counter is, so no
+// error adds up.
 #pragma once
 
 #include <cstdint>
@@ -34,6 +37,7 @@
 #include "machine/machine_file.hpp"
 #include "machine/quadrature_encoder.hpp"
 #include "machine/servo_amplifier.hpp"
+#include "machine/servo_motion.hpp"
 #include "machine/spindle.hpp"
 #include "machine/stepper_motor.hpp"
 #include "machine/switches.hpp"
@@ -144,7 +148,7 @@ class Machine {
   // What the amplifier of the axis' first drive asks of it: its velocity
   // command in machine units per second (0 while disabled, or in torque
   // mode), and the following error, the position that command asked for
-  // (integrated over the plant's steps since the drive was enabled) less
+  // (integrated over the plant's spans since the drive was enabled) less
   // where the axis is (0 while disabled). For a stepper axis: the StepGen's
   // commanded rate, and where its steps say the axis is less where it is
   // (the steps the motor lost).
@@ -176,6 +180,8 @@ class Machine {
     return axes_.at(axis).drives.at(drive).encoder;
   }
   [[nodiscard]] const Spindle* spindle() const { return spindle_ ? &*spindle_ : nullptr; }
+  // A servo axis' exact solution: its events and flows worked out so far.
+  [[nodiscard]] const ServoMotion& motion(std::size_t axis) const { return axes_.at(axis).motion; }
 
  private:
   struct Drive {
@@ -193,14 +199,19 @@ class Machine {
     double commanded = 0.0;  // machine units: drive 0's velocity command integrated since enabled
     std::optional<StepperMotor> stepper;  // in place of the drives
     std::optional<QuadratureEncoder> stepperEncoder;  // on the stepper's shaft
+    ServoMotion motion;  // the servo axis' exact solution and its kept flows
   };
+  // With less of a span left than this after the card's time, an encoder
+  // keeps its velocity and the next span catches up (QuadratureEncoder::drive).
+  static constexpr SimTime kEncoderMinimumSpan = std::chrono::microseconds(25);
   [[nodiscard]] static double position(const AxisPlant& a) {
     return a.stepper ? a.stepper->position() : a.axis.position();
   }
   [[nodiscard]] static double velocity(const AxisPlant& a) {
     return a.stepper ? a.stepper->velocity() : a.axis.velocity();
   }
-  void step();
+  // The plant from time_ to t1, the 7I77's outputs constant over it.
+  void span(SimTime t1);
   [[nodiscard]] bool brakeEngaged(const AxisPlant& a) const;
   // A field output of either board, and that board's field power.
   [[nodiscard]] bool outputOn(Daughtercard board, unsigned output) const;
@@ -220,8 +231,7 @@ class Machine {
   remote::SevenI76FieldIo* sevenI76_;  // the firmware's 7I76, nullptr when it has none
   FieldInputs inputs_;  // the switches' boards
   SimTime time_;
-  SimTime h_;
-  double hSeconds_;
+  SimTime h_;  // the longest span (the description's step)
   std::vector<AxisPlant> axes_;
   std::vector<double> positions_;  // per axis, for the switches
   Switches switches_;

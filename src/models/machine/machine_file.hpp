@@ -100,7 +100,10 @@ struct MachineDescription {
   std::optional<SpindleDescription> spindle;
   std::vector<SwitchParameters> switches;  // axis switches name their axis
   std::vector<OutputDescription> outputs;
-  lbp::SimTime step = lbp::SimTime{50'000};  // the plant's fixed integration step
+  // The longest span the plant solves in one piece (servo_motion.hpp):
+  // the 7I77's outputs are looked at, the switches set and the encoders
+  // aimed at least this often. The motion itself is exact at any span.
+  lbp::SimTime step = lbp::SimTime{1'000'000};
   // Where a machine file first wires the 7I76 ("FILE:LINE:COL: key"), for
   // the machine to point at when the card's firmware has none; empty for
   // descriptions made in code.

@@ -1,9 +1,10 @@
 // A quadrature encoder on a motor (or spindle) shaft, wired to one of the
 // 7I77's encoder inputs (manual: ENCODER INTERFACE; TB3 encoders 0..2, TB4
 // 3..5). It feeds the card's muxed-encoder model, which counts edges
-// analytically from a velocity: each plant step sets the velocity that
-// brings the signal to the shaft's position at the end of the step, so the
-// count follows the shaft exactly (piecewise-constant velocity) while the
+// analytically from a velocity: each plant span sets the velocity that
+// brings the signal to the shaft's position at the end of the span, so the
+// count is the shaft's at every span's end (piecewise-constant velocity
+// within it) while the
 // mux path keeps up, and loses counts exactly as that model does when it
 // cannot (manual: MAXIMUM ENCODER COUNT RATE).
 #pragma once
@@ -37,15 +38,15 @@ class QuadratureEncoder {
   QuadratureEncoder(EncoderParameters parameters, hm2::MuxedEncoder& encoders, unsigned input, double revs);
 
   // Move the signal to the shaft position `revs` at `until`, at constant
-  // velocity from `from`: the later of the plant step's start and the time
+  // velocity from `from`: the later of the plant span's start and the time
   // the counter has already been advanced to (the card's time), so the
   // velocity set applies over exactly the time that is left. With less than
-  // `minimum` left the signal keeps its velocity and the next step catches
+  // `minimum` left the signal keeps its velocity and the next span catches
   // up: aiming at the target over a sliver of time would make a velocity
   // spike the counter's filter could drop counts on. `seconds` is
-  // until - from in seconds, which the plant works out once a step for all
+  // until - from in seconds, which the plant works out once a span for all
   // its encoders (a division each saved). Inline: the plant calls it for
-  // every encoder at every step.
+  // every encoder at every span.
   void drive(double revs, SimTime from, SimTime until, double seconds, SimTime minimum) {
     if (broken(EncoderChannel::A) || broken(EncoderChannel::B)) return;
     // Within this of the shaft, a standing signal stays put: a shaft at rest

@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 #include "lbp/sim_time.hpp"
 
@@ -61,26 +62,34 @@ class ServoAmplifier {
     const double c = std::clamp(past * p_.gain, -p_.limit, p_.limit);
     return p_.reversed ? -c : c;
   }
-  // The motor torque (Nm) over the next `h` seconds: 0 when disabled (the
-  // velocity loop's integrator is cleared too, as a drive does when its
-  // enable drops); `inertia` is the share of the axis' inertia this motor
-  // moves (kg m^2), which scales the velocity loop to its bandwidth.
-  double torque(double volts, bool enaOn, double motorRevsPerSecond, double inertia, double h);
-  // The velocity command (rev/s) the last torque() worked with: 0 when the
-  // drive was disabled or is in torque mode. The plant integrates it every
-  // step (Machine::followingError) and need not work it out again.
+  // Velocity mode: the PI loop's gains for a motor moving `inertia`
+  // (kg m^2, its share of the axis): proportional inertia x bandwidth
+  // (Nm per rad/s), integral a quarter of the bandwidth above it (Nm per
+  // rad), so the loop closes at the drive's bandwidth whatever the load.
+  // The loop's output and its integrator are each limited to the peak
+  // torque (no wind-up past it). ServoMotion solves the loop with the axis.
+  struct Gains {
+    double kp = 0.0;
+    double ki = 0.0;
+  };
+  [[nodiscard]] Gains gains(double inertia) const {
+    const double wc = 2.0 * std::numbers::pi * p_.bandwidthHz;
+    return {inertia * wc, inertia * wc * wc / 4.0};
+  }
+  // The loop's integrator (Nm): 0 while disabled, as a drive clears it
+  // when its enable drops.
+  [[nodiscard]] double integral() const { return integral_; }
+  // The velocity command (rev/s) of the last span the axis moved over: 0
+  // when the drive was disabled or is in torque mode.
   [[nodiscard]] double lastVelocityCommand() const { return velocityCommand_; }
 
   [[nodiscard]] const AmplifierParameters& parameters() const { return p_; }
 
  private:
+  friend class ServoMotion;  // integrates the loop
   AmplifierParameters p_;
   double integral_ = 0.0;  // Nm, the velocity loop's integrator
   double velocityCommand_ = 0.0;
-  // The loop's gains for the last `inertia` torque() was given (the same
-  // every step): worked out again only when it changes.
-  double gainsFor_ = -1.0;
-  double kp_ = 0.0, ki_ = 0.0;
 };
 
 }  // namespace machine

@@ -10,10 +10,18 @@ void Spindle::step(double volts, bool enaOn, double h) {
   command_ = 0.0;
   if (running(enaOn) && std::abs(volts) > p_.deadbandVolts)
     command_ = std::clamp(volts * p_.rpmPerVolt, -p_.maxRpm, p_.maxRpm);
-  const double maxChange = p_.accelerationRpmPerSecond * h;
+  // The ramp at the VFD's acceleration until the speed reaches the
+  // command, then the command: exact over any span.
   const double rpm0 = rpm_;
-  rpm_ = rpm0 + std::clamp(command_ - rpm0, -maxChange, maxChange);
-  revs_ += (rpm0 + rpm_) / 2.0 / 60.0 * h;
+  const double gap = command_ - rpm0;
+  const double ramp = p_.accelerationRpmPerSecond > 0 ? std::abs(gap) / p_.accelerationRpmPerSecond : 0.0;
+  if (ramp >= h) {
+    rpm_ = rpm0 + std::copysign(p_.accelerationRpmPerSecond * h, gap);
+    revs_ += (rpm0 + rpm_) / 2.0 / 60.0 * h;
+  } else {
+    rpm_ = command_;
+    revs_ += ((rpm0 + command_) / 2.0 * ramp + command_ * (h - ramp)) / 60.0;
+  }
 }
 
 }  // namespace machine

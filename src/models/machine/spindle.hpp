@@ -24,8 +24,8 @@ class Spindle {
  public:
   explicit Spindle(SpindleParameters parameters) : p_(parameters) {}
 
-  // One step of `h` seconds with `volts` at the VFD's input and its run
-  // input switched by ENA.
+  // `h` seconds with `volts` at the VFD's input and its run input switched
+  // by ENA, both constant over them.
   void step(double volts, bool enaOn, double h);
 
   [[nodiscard]] bool running(bool enaOn) const {

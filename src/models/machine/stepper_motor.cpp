@@ -29,8 +29,8 @@ void StepperMotor::step(std::int64_t count, double commandedRate, bool held) {
   count_ = count;
   // Out of step while the StepGen is told to step faster than the motor
   // follows. Judged by the commanded rate, not by the steps that arrived in
-  // this plant step: the plant sees the count only as far as the card has
-  // run (machine.cpp), so a host period's steps may arrive in one plant step.
+  // this plant span: the plant sees the count only as far as the card has
+  // run (machine.cpp), so a host period's steps may arrive in one plant span.
   stalled_ = p_.maxStepRate > 0 && std::abs(commandedRate) > p_.maxStepRate;
   const std::int64_t followed = stalled_ || held ? 0 : std::clamp(moved_ + made, lowest_, highest_) - moved_;
   moved_ += followed;

@@ -51,7 +51,7 @@ class StepperMotor {
   StepperMotor(StepperParameters parameters, double position, std::int64_t count, double hardStopMin,
                double hardStopMax);
 
-  // One plant step: the StepGen's count at its end, the rate it is
+  // One plant span: the StepGen's count at its end, the rate it is
   // commanded to step at (steps per second, signed), and whether the axis is
   // held (jammed, or its brake engaged).
   void step(std::int64_t count, double commandedRate, bool held);

@@ -95,7 +95,7 @@ class Switches {
   std::vector<std::uint8_t> forced_;   // by hand
   std::vector<std::uint8_t> applied_;  // 0 off, 1 on, 2 never applied
   std::array<double, 3> appliedField_{-1.0, -1.0, -1.0};  // per Daughtercard
-  // apply() runs at every plant step; it has nothing to do while no switch
+  // apply() runs at every plant span; it has nothing to do while no switch
   // is tripped or released by hand (dirty_), the field voltage is the same
   // and every axis stays where its switches keep their states.
   bool dirty_ = true;

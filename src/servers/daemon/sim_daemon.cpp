@@ -141,10 +141,10 @@ std::string SimDaemon::packetTraceSummary() const {
 lbp::SimTime SimDaemon::catchUp(std::chrono::microseconds budget) { return catchUpTo(clock_.now(), budget); }
 
 lbp::SimTime SimDaemon::catchUpTo(lbp::SimTime target, std::chrono::microseconds budget) {
-  // The machine first: each plant step sets its encoders' velocities to
-  // reach the shaft at the step's end, so the counters then follow the
-  // plant over the card's advance (machine/machine.hpp). It may be up to one
-  // step ahead of the card.
+  // The machine first: each plant span sets its encoders' velocities to
+  // reach the shaft at the span's end, so the counters then follow the
+  // plant over the card's advance (machine/machine.hpp). It is a slice
+  // ahead of the card at most.
   return clock_.catchUpTo(
       card_.now(), target,
       [this](lbp::SimTime t) {
@@ -170,8 +170,8 @@ void SimDaemon::record() {
   const std::uint32_t n = card_.daughtercard(0).analog.processDataCount();
   if (n == analogExchanges_) return;
   analogExchanges_ = n;
-  // Two exchanges within one plant step (a host's start-up chatter) would
-  // give two rows of the same instant: the first stands for both.
+  // Two exchanges with no simulated time between them (a host's start-up
+  // chatter) would give two rows of the same instant: the first stands for both.
   if (traced_ && machine_->time() == lastTraced_) return;
   traced_ = true;
   lastTraced_ = machine_->time();

@@ -1,0 +1,458 @@
+#include "machine/servo_motion.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace machine {
+
+namespace {
+
+// The pieces (servo_motion.hpp).
+enum class Motion : std::uint8_t { Forward, Backward, Held };
+enum class DriveState : std::uint8_t { Off, Torque, Linear, SaturatedUp, SaturatedDown };
+enum class Integrator : std::uint8_t { Free, AtUpper, AtLower };
+
+struct Piece {
+  Motion motion = Motion::Held;
+  std::array<DriveState, kMaxDrivesPerAxis> drive{};
+  std::array<Integrator, kMaxDrivesPerAxis> integrator{};
+
+  [[nodiscard]] std::uint64_t key(std::size_t drives) const {
+    std::uint64_t k = static_cast<std::uint64_t>(motion);
+    for (std::size_t i = 0; i < drives; ++i)
+      k = (k << 5) | (static_cast<std::uint64_t>(drive[i]) << 2) | static_cast<std::uint64_t>(integrator[i]);
+    return k;
+  }
+};
+
+// What a guard's event does before the piece is chosen again.
+enum class GuardEvent : std::uint8_t { Rest, HardStop, Switch };
+
+// g(x) = k + revs x[revs] + speed x[speed] + integral (sum of the
+// integrators in `integrators`), >= 0 while the piece holds: every guard
+// here is one of these, a few products rather than a full row.
+// (No initializers: a span's guards are made afresh, never read unset.)
+struct Guard {
+  double k;
+  double revs;
+  double speed;
+  double integral;
+  std::uint8_t integrators;  // bit i: drive i's
+  GuardEvent event;
+  [[nodiscard]] double at(const FlowVector& x) const {
+    double g = k + revs * x[0] + speed * x[1];
+    for (std::uint8_t m = integrators, i = 2; m != 0; m >>= 1, ++i)
+      if (m & 1U) g += integral * x[i];
+    return g;
+  }
+};
+
+constexpr std::size_t kRevs = 0, kSpeed = 1, kIntegral = 2;  // state indices; drive i's integrator at kIntegral + i
+constexpr std::size_t kMaxGuards = 3 + 4 * kMaxDrivesPerAxis;
+// Event searches stop within this of the event (seconds), and a span finds
+// at most this many events (the rest of it is solved in the last piece).
+constexpr double kEventTolerance = 1e-9;
+constexpr int kMaxEventsPerSpan = 64;
+
+// The axis and its drives over one span: the constants the pieces are made of.
+class Problem {
+ public:
+  Problem(const Axis& axis, std::span<ServoDrive> drives, bool brakeEngaged)
+      : p_(axis.parameters()), drives_(drives.size()), jammed_(axis.jammed()) {
+    holding_ = p_.coulomb + (brakeEngaged ? p_.brakeTorque : 0.0);
+    hiRevs_ = p_.hardStopMax / p_.unitsPerMotorRev;
+    loRevs_ = p_.hardStopMin / p_.unitsPerMotorRev;
+    for (std::size_t i = 0; i < drives_; ++i) {
+      const ServoDrive& d = drives[i];
+      const ServoAmplifier& amp = *d.amplifier;
+      Constants& c = c_[i];
+      c.enabled = amp.enabled(d.enaOn);
+      c.velocity = amp.parameters().mode == AmplifierMode::Velocity;
+      c.peak = amp.parameters().peakTorque;
+      const double command = c.enabled ? amp.command(d.volts) : 0.0;
+      if (c.velocity) {
+        c.omega = kTwoPi * command;
+        const auto [kp, ki] = amp.gains(d.inertia);
+        c.kp = kp;
+        c.ki = ki;
+      } else {
+        c.torque = command;
+      }
+    }
+  }
+
+  [[nodiscard]] std::size_t dimension() const { return 2 + drives_; }
+  [[nodiscard]] std::size_t drives() const { return drives_; }
+
+  // The piece the state is in; clamps what the piece pins (a disabled
+  // drive's integrator, one at its limit, a held axis' speed, the axis at a
+  // hard stop).
+  Piece classify(FlowVector& x) const {
+    Piece piece;
+    for (std::size_t i = 0; i < drives_; ++i) {
+      const Constants& c = c_[i];
+      double& integral = x[kIntegral + i];
+      if (!c.enabled) {
+        piece.drive[i] = DriveState::Off;
+        integral = 0.0;  // a drive clears its loop when its enable drops
+        continue;
+      }
+      if (!c.velocity) {
+        piece.drive[i] = DriveState::Torque;
+        continue;
+      }
+      const double error = c.omega - x[kSpeed];
+      if (integral >= c.peak && error > 0) {
+        piece.integrator[i] = Integrator::AtUpper;
+        integral = c.peak;
+      } else if (integral <= -c.peak && error < 0) {
+        piece.integrator[i] = Integrator::AtLower;
+        integral = -c.peak;
+      } else {
+        integral = std::clamp(integral, -c.peak, c.peak);
+      }
+      const double u = c.kp * error + integral;
+      piece.drive[i] = u > c.peak ? DriveState::SaturatedUp : u < -c.peak ? DriveState::SaturatedDown : DriveState::Linear;
+    }
+    if (jammed_) {
+      x[kSpeed] = 0.0;
+      piece.motion = Motion::Held;
+      return piece;
+    }
+    // Against a hard stop the axis stops dead.
+    if ((x[kRevs] >= hiRevs_ && x[kSpeed] >= 0) || (x[kRevs] <= loRevs_ && x[kSpeed] <= 0)) {
+      x[kRevs] = std::clamp(x[kRevs], loRevs_, hiRevs_);
+      x[kSpeed] = 0.0;
+    }
+    if (x[kSpeed] > 0) {
+      piece.motion = Motion::Forward;
+    } else if (x[kSpeed] < 0) {
+      piece.motion = Motion::Backward;
+    } else {
+      // At rest: it breaks away once the torques exceed what friction and
+      // the brake hold, never into a hard stop it is against.
+      const double applied = restingTorque(piece, x);
+      if (applied > holding_ && x[kRevs] < hiRevs_)
+        piece.motion = Motion::Forward;
+      else if (applied < -holding_ && x[kRevs] > loRevs_)
+        piece.motion = Motion::Backward;
+      else
+        piece.motion = Motion::Held;
+    }
+    // A drive's saturation was judged at the speed before a hard stop or
+    // friction stopped the axis: judge it at rest.
+    return piece.motion == Motion::Held ? reclassifyDrives(piece, x) : piece;
+  }
+
+  // x' = A x + c in `piece`: c always, A when asked for (a kept flow
+  // needs only c).
+  void system(const Piece& piece, FlowMatrix* a, FlowVector& c) const {
+    FlowMatrix unused;
+    FlowMatrix& m = a != nullptr ? *a : unused;
+    if (a != nullptr) m = {};
+    c = {};
+    const double j = p_.inertia;
+    if (piece.motion != Motion::Held) {
+      if (a != nullptr) {
+        m[kRevs][kSpeed] = 1.0 / kTwoPi;
+        m[kSpeed][kSpeed] = -p_.viscous / j;
+      }
+      c[kSpeed] = (-p_.gravityTorque - (piece.motion == Motion::Forward ? holding_ : -holding_)) / j;
+    }
+    for (std::size_t i = 0; i < drives_; ++i) {
+      const Constants& k = c_[i];
+      const std::size_t ii = kIntegral + i;
+      if (piece.motion != Motion::Held) {
+        switch (piece.drive[i]) {
+          case DriveState::Off: break;
+          case DriveState::Torque: c[kSpeed] += k.torque / j; break;
+          case DriveState::Linear:
+            if (a != nullptr) {
+              m[kSpeed][kSpeed] -= k.kp / j;
+              m[kSpeed][ii] = 1.0 / j;
+            }
+            c[kSpeed] += k.kp * k.omega / j;
+            break;
+          case DriveState::SaturatedUp: c[kSpeed] += k.peak / j; break;
+          case DriveState::SaturatedDown: c[kSpeed] -= k.peak / j; break;
+        }
+      }
+      if (k.enabled && k.velocity && piece.integrator[i] == Integrator::Free) {
+        if (a != nullptr) m[ii][kSpeed] = -k.ki;
+        c[ii] = k.ki * k.omega;
+      }
+    }
+  }
+
+  // The guards of `piece`; how many.
+  std::size_t guards(const Piece& piece, const FlowVector& x, std::array<Guard, kMaxGuards>& out) const {
+    std::size_t n = 0;
+    auto add = [&](GuardEvent e, double k, double revs, double speed, double integral = 0.0,
+                   std::uint8_t integrators = 0) {
+      out[n++] = Guard{k, revs, speed, integral, integrators, e};
+    };
+    if (piece.motion == Motion::Forward) {
+      add(GuardEvent::Rest, 0.0, 0.0, 1.0);             // w >= 0
+      add(GuardEvent::HardStop, hiRevs_, -1.0, 0.0);    // short of the stop ahead
+    } else if (piece.motion == Motion::Backward) {
+      add(GuardEvent::Rest, 0.0, 0.0, -1.0);
+      add(GuardEvent::HardStop, -loRevs_, 1.0, 0.0);
+    } else if (!jammed_) {
+      // Held: |applied| <= holding, applied = the drives' torques at rest
+      // less gravity: a constant plus the linear drives' integrators.
+      double constant = -p_.gravityTorque;
+      std::uint8_t linear = 0;
+      for (std::size_t i = 0; i < drives_; ++i) {
+        const Constants& k = c_[i];
+        switch (piece.drive[i]) {
+          case DriveState::Off: break;
+          case DriveState::Torque: constant += k.torque; break;
+          case DriveState::Linear:
+            constant += k.kp * k.omega;
+            linear = static_cast<std::uint8_t>(linear | (1U << i));
+            break;
+          case DriveState::SaturatedUp: constant += k.peak; break;
+          case DriveState::SaturatedDown: constant -= k.peak; break;
+        }
+      }
+      if (x[kRevs] < hiRevs_) add(GuardEvent::Switch, holding_ - constant, 0.0, 0.0, -1.0, linear);
+      if (x[kRevs] > loRevs_) add(GuardEvent::Switch, holding_ + constant, 0.0, 0.0, 1.0, linear);
+    }
+    for (std::size_t i = 0; i < drives_; ++i) {
+      const Constants& k = c_[i];
+      if (!k.enabled || !k.velocity) continue;
+      const auto own = static_cast<std::uint8_t>(1U << i);
+      // u = kp (omega - w) + I against the peak torque.
+      switch (piece.drive[i]) {
+        case DriveState::Linear:
+          add(GuardEvent::Switch, k.peak - k.kp * k.omega, 0.0, k.kp, -1.0, own);  // peak - u >= 0
+          add(GuardEvent::Switch, k.peak + k.kp * k.omega, 0.0, -k.kp, 1.0, own);  // peak + u >= 0
+          break;
+        case DriveState::SaturatedUp:
+          add(GuardEvent::Switch, k.kp * k.omega - k.peak, 0.0, -k.kp, 1.0, own);  // u - peak >= 0
+          break;
+        default:
+          add(GuardEvent::Switch, -k.kp * k.omega - k.peak, 0.0, k.kp, -1.0, own);  // -u - peak >= 0
+          break;
+      }
+      switch (piece.integrator[i]) {
+        case Integrator::Free:
+          add(GuardEvent::Switch, k.peak, 0.0, 0.0, -1.0, own);  // peak - I >= 0
+          add(GuardEvent::Switch, k.peak, 0.0, 0.0, 1.0, own);   // peak + I >= 0
+          break;
+        case Integrator::AtUpper:  // the error still drives it up: omega - w >= 0
+          add(GuardEvent::Switch, k.omega, 0.0, -1.0);
+          break;
+        case Integrator::AtLower:
+          add(GuardEvent::Switch, -k.omega, 0.0, 1.0);
+          break;
+      }
+    }
+    return n;
+  }
+
+  // The drives' torques in the state (for the machine's state and trace).
+  [[nodiscard]] double driveTorque(std::size_t i, const FlowVector& x) const {
+    const Constants& k = c_[i];
+    if (!k.enabled) return 0.0;
+    if (!k.velocity) return k.torque;
+    return std::clamp(k.kp * (k.omega - x[kSpeed]) + x[kIntegral + i], -k.peak, k.peak);
+  }
+
+  // A push moves the axis whatever the torques: the velocity loops see
+  // its speed (rad/s) and integrate their error.
+  void integrateAgainst(double speed, double seconds, FlowVector& x) const {
+    for (std::size_t i = 0; i < drives_; ++i) {
+      const Constants& k = c_[i];
+      double& integral = x[kIntegral + i];
+      if (!k.enabled) integral = 0.0;
+      else if (k.velocity) integral = std::clamp(integral + k.ki * (k.omega - speed) * seconds, -k.peak, k.peak);
+    }
+  }
+
+ private:
+  struct Constants {
+    bool enabled = false;
+    bool velocity = false;
+    double peak = 0.0;
+    double omega = 0.0;  // velocity mode: the command, rad/s
+    double kp = 0.0, ki = 0.0;
+    double torque = 0.0;  // torque mode: the command, Nm
+  };
+
+  [[nodiscard]] double restingTorque(const Piece& piece, const FlowVector& x) const {
+    double applied = -p_.gravityTorque;
+    FlowVector rest = x;
+    rest[kSpeed] = 0.0;
+    for (std::size_t i = 0; i < drives_; ++i)
+      if (piece.drive[i] != DriveState::Off) applied += driveTorque(i, rest);
+    return applied;
+  }
+
+  [[nodiscard]] Piece reclassifyDrives(Piece piece, const FlowVector& x) const {
+    for (std::size_t i = 0; i < drives_; ++i) {
+      const Constants& c = c_[i];
+      if (!c.enabled || !c.velocity) continue;
+      const double u = c.kp * (c.omega - x[kSpeed]) + x[kIntegral + i];
+      piece.drive[i] = u > c.peak ? DriveState::SaturatedUp : u < -c.peak ? DriveState::SaturatedDown : DriveState::Linear;
+      const double error = c.omega - x[kSpeed];
+      if (piece.integrator[i] == Integrator::AtUpper && !(error > 0)) piece.integrator[i] = Integrator::Free;
+      if (piece.integrator[i] == Integrator::AtLower && !(error < 0)) piece.integrator[i] = Integrator::Free;
+    }
+    return piece;
+  }
+
+  const AxisParameters& p_;
+  std::size_t drives_;
+  bool jammed_;
+  double holding_ = 0.0;
+  double hiRevs_ = 0.0, loRevs_ = 0.0;
+  std::array<Constants, kMaxDrivesPerAxis> c_{};
+};
+
+double lowest(const std::array<Guard, kMaxGuards>& guards, std::size_t count, const FlowVector& x) {
+  double m = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < count; ++i) m = std::min(m, guards[i].at(x));
+  return m;
+}
+
+}  // namespace
+
+const AffineFlow* ServoMotion::cached(std::uint64_t key, SimTime span) const {
+  for (const Cached& c : cache_)
+    if (c.key == key && c.span == span) return &c.flow;
+  return nullptr;
+}
+
+void ServoMotion::keep(std::uint64_t key, SimTime span, const AffineFlow& flow) {
+  Cached& slot = cache_[nextSlot_];
+  nextSlot_ = (nextSlot_ + 1) % cache_.size();
+  slot.key = key;
+  slot.span = span;
+  slot.flow = flow;
+}
+
+void ServoMotion::advance(Axis& axis, std::span<ServoDrive> drives, bool brakeEngaged, SimTime span) {
+  const double seconds = std::chrono::duration<double>(span).count();
+  if (drives.size() > kMaxDrivesPerAxis) drives = drives.first(kMaxDrivesPerAxis);  // the machine refuses more
+  const Problem problem(axis, drives, brakeEngaged);
+  const std::size_t n = problem.dimension();
+  FlowVector x{};
+  x[kRevs] = axis.revs_;
+  x[kSpeed] = kTwoPi * axis.speed_;
+  for (std::size_t i = 0; i < drives.size(); ++i) x[kIntegral + i] = drives[i].amplifier->integral_;
+
+  auto finish = [&] {
+    axis.revs_ = x[kRevs];
+    axis.speed_ = x[kSpeed] / kTwoPi;
+    const double pos = axis.position();
+    axis.stopped_ = (pos <= axis.p_.hardStopMin || pos >= axis.p_.hardStopMax) && x[kSpeed] == 0.0;
+    for (std::size_t i = 0; i < drives.size(); ++i) {
+      ServoAmplifier& amp = *drives[i].amplifier;
+      amp.integral_ = x[kIntegral + i];
+      drives[i].torque = problem.driveTorque(i, x);
+      amp.velocityCommand_ = amp.enabled(drives[i].enaOn) && amp.parameters().mode == AmplifierMode::Velocity
+                                 ? amp.command(drives[i].volts)
+                                 : 0.0;
+    }
+  };
+
+  if (axis.jammed_ == false && axis.pushLeft_ != 0.0) {
+    // Kinematic: the outside force wins over the motors, friction and the
+    // brake, at its own speed until it has moved its distance or the axis
+    // meets a hard stop; then it lets go, the axis at rest.
+    const double move = std::copysign(std::min(std::abs(axis.pushLeft_), axis.pushSpeed_ * seconds), axis.pushLeft_);
+    const double speed = move / seconds / axis.p_.unitsPerMotorRev * kTwoPi;
+    problem.integrateAgainst(speed, seconds, x);
+    axis.pushLeft_ = std::abs(axis.pushLeft_) <= std::abs(move) ? 0.0 : axis.pushLeft_ - move;
+    x[kRevs] += move / axis.p_.unitsPerMotorRev;
+    x[kSpeed] = axis.pushLeft_ != 0.0 ? speed : 0.0;
+    const double pos = x[kRevs] * axis.p_.unitsPerMotorRev;
+    if (pos <= axis.p_.hardStopMin || pos >= axis.p_.hardStopMax) {
+      x[kRevs] = std::clamp(pos, axis.p_.hardStopMin, axis.p_.hardStopMax) / axis.p_.unitsPerMotorRev;
+      x[kSpeed] = 0.0;
+      axis.pushLeft_ = 0.0;
+    }
+    finish();
+    return;
+  }
+
+  std::array<Guard, kMaxGuards> guards;
+  FlowMatrix a;
+  FlowVector c;
+  double left = seconds;
+  Piece piece = problem.classify(x);
+  for (int found = 0; left > 0.0; ++found) {
+    // The flow over the plant's usual span is kept per piece: a span
+    // then costs one product. A span of another length, or what is left
+    // of one after an event, is solved on the vector alone.
+    const std::uint64_t key = piece.key(drives.size());
+    const AffineFlow* whole = found == 0 ? cached(key, span) : nullptr;
+    problem.system(piece, whole != nullptr ? nullptr : &a, c);
+    if (whole == nullptr && found == 0 && span == lastSpan_) {
+      keep(key, span, AffineFlow::over(a, n, seconds));
+      ++flowsComputed_;
+      whole = cached(key, span);
+    }
+    lastSpan_ = span;
+    // The matrix is needed again only for an event's search.
+    const bool haveMatrix = whole == nullptr;
+    FlowVector end;
+    if (whole != nullptr) {
+      end = whole->apply(x, c);
+    } else {
+      end = AffineFlow::solve(a, n, x, c, left);
+      ++solved_;
+    }
+    const std::size_t count = found < kMaxEventsPerSpan ? problem.guards(piece, x, guards) : 0;
+    const double atEnd = lowest(guards, count, end);
+    if (atEnd >= 0.0) {
+      x = end;
+      break;
+    }
+    // An event within the span: regula falsi (Illinois) on the lowest
+    // guard, to the first time it is negative within the tolerance.
+    ++events_;
+    if (!haveMatrix) problem.system(piece, &a, c);
+    double lo = 0.0, hi = left;
+    double flo = std::max(0.0, lowest(guards, count, x)), fhi = atEnd;
+    FlowVector xhi = end;
+    int side = 0;
+    for (int it = 0; it < 100 && hi - lo > kEventTolerance; ++it) {
+      double t = (flo * hi - fhi * lo) / (flo - fhi);
+      if (!(t > lo && t < hi)) t = 0.5 * (lo + hi);
+      const FlowVector xt = AffineFlow::solve(a, n, x, c, t);
+      ++solved_;
+      const double ft = lowest(guards, count, xt);
+      if (ft < 0.0) {
+        hi = t;
+        fhi = ft;
+        xhi = xt;
+        if (side == -1) flo *= 0.5;
+        side = -1;
+      } else {
+        lo = t;
+        flo = ft;
+        if (side == 1) fhi *= 0.5;
+        side = 1;
+      }
+    }
+    // Which guard it was decides what happens there.
+    GuardEvent event = GuardEvent::Switch;
+    for (std::size_t i = 0; i < count; ++i)
+      if (guards[i].at(xhi) < 0.0 && guards[i].event != GuardEvent::Switch) event = guards[i].event;
+    x = xhi;
+    left -= hi;
+    if (event == GuardEvent::Rest) x[kSpeed] = 0.0;  // friction stops it dead, not back through zero
+    if (event == GuardEvent::HardStop) {
+      x[kRevs] = piece.motion == Motion::Forward ? axis.p_.hardStopMax / axis.p_.unitsPerMotorRev
+                                                 : axis.p_.hardStopMin / axis.p_.unitsPerMotorRev;
+      x[kSpeed] = 0.0;
+    }
+    piece = problem.classify(x);
+  }
+  finish();
+}
+
+}  // namespace machine
