@@ -339,7 +339,7 @@ void Machine::span(SimTime t1) {
     // The 7I77's outputs as the card has them now hold over the span
     // (they change when the host's process data reaches the 7I77, and the
     // machine is advanced after the host's cycle: machine.hpp).
-    std::array<ServoDrive, kMaxDrivesPerAxis> drives{};
+    std::array<ServoDrive, kMaxDrivesPerAxis> drives;  // the first n set below
     const std::size_t n = a.drives.size();
     for (std::size_t k = 0; k < n; ++k) {
       Drive& drive = a.drives[k];

@@ -26,30 +26,11 @@ struct Piece {
   }
 };
 
-// What a guard's event does before the piece is chosen again.
+// What an event does before the piece is chosen again.
 enum class GuardEvent : std::uint8_t { Rest, HardStop, Switch };
 
-// g(x) = k + revs x[revs] + speed x[speed] + integral (sum of the
-// integrators in `integrators`), >= 0 while the piece holds: every guard
-// here is one of these, a few products rather than a full row.
-// (No initializers: a span's guards are made afresh, never read unset.)
-struct Guard {
-  double k;
-  double revs;
-  double speed;
-  double integral;
-  std::uint8_t integrators;  // bit i: drive i's
-  GuardEvent event;
-  [[nodiscard]] double at(const FlowVector& x) const {
-    double g = k + revs * x[0] + speed * x[1];
-    for (std::uint8_t m = integrators, i = 2; m != 0; m >>= 1, ++i)
-      if (m & 1U) g += integral * x[i];
-    return g;
-  }
-};
-
 constexpr std::size_t kRevs = 0, kSpeed = 1, kIntegral = 2;  // state indices; drive i's integrator at kIntegral + i
-constexpr std::size_t kMaxGuards = 3 + 4 * kMaxDrivesPerAxis;
+constexpr double kRevsPerRadian = 1.0 / kTwoPi;
 // Event searches stop within this of the event (seconds), and a span finds
 // at most this many events (the rest of it is solved in the last piece).
 constexpr double kEventTolerance = 1e-9;
@@ -60,9 +41,13 @@ class Problem {
  public:
   Problem(const Axis& axis, std::span<ServoDrive> drives, bool brakeEngaged)
       : p_(axis.parameters()), drives_(drives.size()), jammed_(axis.jammed()) {
+    // (Products with reciprocals: a span's few divisions are most of its
+    // latency.)
     holding_ = p_.coulomb + (brakeEngaged ? p_.brakeTorque : 0.0);
-    hiRevs_ = p_.hardStopMax / p_.unitsPerMotorRev;
-    loRevs_ = p_.hardStopMin / p_.unitsPerMotorRev;
+    const double revsPerUnit = 1.0 / p_.unitsPerMotorRev;
+    hiRevs_ = p_.hardStopMax * revsPerUnit;
+    loRevs_ = p_.hardStopMin * revsPerUnit;
+    perInertia_ = 1.0 / p_.inertia;
     for (std::size_t i = 0; i < drives_; ++i) {
       const ServoDrive& d = drives[i];
       const ServoAmplifier& amp = *d.amplifier;
@@ -71,6 +56,7 @@ class Problem {
       c.velocity = amp.parameters().mode == AmplifierMode::Velocity;
       c.peak = amp.parameters().peakTorque;
       const double command = c.enabled ? amp.command(d.volts) : 0.0;
+      c.command = command;
       if (c.velocity) {
         c.omega = kTwoPi * command;
         const auto [kp, ki] = amp.gains(d.inertia);
@@ -148,17 +134,20 @@ class Problem {
   // x' = A x + c in `piece`: c always, A when asked for (a kept flow
   // needs only c).
   void system(const Piece& piece, FlowMatrix* a, FlowVector& c) const {
-    FlowMatrix unused;
-    FlowMatrix& m = a != nullptr ? *a : unused;
-    if (a != nullptr) m = {};
+    if (a == nullptr) {
+      input(piece, c);
+      return;
+    }
+    FlowMatrix& m = *a;
+    m = {};
     c = {};
-    const double j = p_.inertia;
+    const double perJ = perInertia_;
     if (piece.motion != Motion::Held) {
       if (a != nullptr) {
-        m[kRevs][kSpeed] = 1.0 / kTwoPi;
-        m[kSpeed][kSpeed] = -p_.viscous / j;
+        m[kRevs][kSpeed] = kRevsPerRadian;
+        m[kSpeed][kSpeed] = -p_.viscous * perJ;
       }
-      c[kSpeed] = (-p_.gravityTorque - (piece.motion == Motion::Forward ? holding_ : -holding_)) / j;
+      c[kSpeed] = (-p_.gravityTorque - (piece.motion == Motion::Forward ? holding_ : -holding_)) * perJ;
     }
     for (std::size_t i = 0; i < drives_; ++i) {
       const Constants& k = c_[i];
@@ -166,16 +155,16 @@ class Problem {
       if (piece.motion != Motion::Held) {
         switch (piece.drive[i]) {
           case DriveState::Off: break;
-          case DriveState::Torque: c[kSpeed] += k.torque / j; break;
+          case DriveState::Torque: c[kSpeed] += k.torque * perJ; break;
           case DriveState::Linear:
             if (a != nullptr) {
-              m[kSpeed][kSpeed] -= k.kp / j;
-              m[kSpeed][ii] = 1.0 / j;
+              m[kSpeed][kSpeed] -= k.kp * perJ;
+              m[kSpeed][ii] = perJ;
             }
-            c[kSpeed] += k.kp * k.omega / j;
+            c[kSpeed] += k.kp * k.omega * perJ;
             break;
-          case DriveState::SaturatedUp: c[kSpeed] += k.peak / j; break;
-          case DriveState::SaturatedDown: c[kSpeed] -= k.peak / j; break;
+          case DriveState::SaturatedUp: c[kSpeed] += k.peak * perJ; break;
+          case DriveState::SaturatedDown: c[kSpeed] -= k.peak * perJ; break;
         }
       }
       if (k.enabled && k.velocity && piece.integrator[i] == Integrator::Free) {
@@ -185,72 +174,83 @@ class Problem {
     }
   }
 
-  // The guards of `piece`; how many.
-  std::size_t guards(const Piece& piece, const FlowVector& x, std::array<Guard, kMaxGuards>& out) const {
-    std::size_t n = 0;
-    auto add = [&](GuardEvent e, double k, double revs, double speed, double integral = 0.0,
-                   std::uint8_t integrators = 0) {
-      out[n++] = Guard{k, revs, speed, integral, integrators, e};
-    };
-    if (piece.motion == Motion::Forward) {
-      add(GuardEvent::Rest, 0.0, 0.0, 1.0);             // w >= 0
-      add(GuardEvent::HardStop, hiRevs_, -1.0, 0.0);    // short of the stop ahead
-    } else if (piece.motion == Motion::Backward) {
-      add(GuardEvent::Rest, 0.0, 0.0, -1.0);
-      add(GuardEvent::HardStop, -loRevs_, 1.0, 0.0);
-    } else if (!jammed_) {
-      // Held: |applied| <= holding, applied = the drives' torques at rest
-      // less gravity: a constant plus the linear drives' integrators.
-      double constant = -p_.gravityTorque;
-      std::uint8_t linear = 0;
+  // c alone (a kept flow needs nothing else): the same as system()'s.
+  void input(const Piece& piece, FlowVector& c) const {
+    const double perJ = perInertia_;
+    double speed = 0.0;
+    if (piece.motion != Motion::Held) {
+      speed = -p_.gravityTorque - (piece.motion == Motion::Forward ? holding_ : -holding_);
       for (std::size_t i = 0; i < drives_; ++i) {
         const Constants& k = c_[i];
         switch (piece.drive[i]) {
           case DriveState::Off: break;
-          case DriveState::Torque: constant += k.torque; break;
-          case DriveState::Linear:
-            constant += k.kp * k.omega;
-            linear = static_cast<std::uint8_t>(linear | (1U << i));
-            break;
-          case DriveState::SaturatedUp: constant += k.peak; break;
-          case DriveState::SaturatedDown: constant -= k.peak; break;
+          case DriveState::Torque: speed += k.torque; break;
+          case DriveState::Linear: speed += k.kp * k.omega; break;
+          case DriveState::SaturatedUp: speed += k.peak; break;
+          case DriveState::SaturatedDown: speed -= k.peak; break;
         }
       }
-      if (x[kRevs] < hiRevs_) add(GuardEvent::Switch, holding_ - constant, 0.0, 0.0, -1.0, linear);
-      if (x[kRevs] > loRevs_) add(GuardEvent::Switch, holding_ + constant, 0.0, 0.0, 1.0, linear);
+    }
+    c[kRevs] = 0.0;
+    c[kSpeed] = speed * perJ;
+    for (std::size_t i = 0; i < drives_; ++i) {
+      const Constants& k = c_[i];
+      c[kIntegral + i] = k.enabled && k.velocity && piece.integrator[i] == Integrator::Free ? k.ki * k.omega : 0.0;
+    }
+  }
+
+  // The guards of `piece` at state x: each an affine function of the
+  // state that is >= 0 while the piece holds, of which this is the lowest
+  // (so an event is where it goes negative). `start` is the state the
+  // piece was chosen at: a held axis against a hard stop cannot break
+  // away into it.
+  [[nodiscard]] double margin(const Piece& piece, const FlowVector& start, const FlowVector& x) const {
+    double m = std::numeric_limits<double>::infinity();
+    if (piece.motion == Motion::Forward) {
+      m = std::min(x[kSpeed], hiRevs_ - x[kRevs]);  // not yet at rest, short of the stop ahead
+    } else if (piece.motion == Motion::Backward) {
+      m = std::min(-x[kSpeed], x[kRevs] - loRevs_);
+    } else if (!jammed_) {
+      // Held: |applied| <= holding, applied = the drives' torques at rest
+      // less gravity.
+      const double applied = restingTorque(piece, x);
+      if (start[kRevs] < hiRevs_) m = holding_ - applied;
+      if (start[kRevs] > loRevs_) m = std::min(m, holding_ + applied);
     }
     for (std::size_t i = 0; i < drives_; ++i) {
       const Constants& k = c_[i];
       if (!k.enabled || !k.velocity) continue;
-      const auto own = static_cast<std::uint8_t>(1U << i);
-      // u = kp (omega - w) + I against the peak torque.
+      const double integral = x[kIntegral + i];
+      const double u = k.kp * (k.omega - x[kSpeed]) + integral;  // the loop's output before its limit
       switch (piece.drive[i]) {
-        case DriveState::Linear:
-          add(GuardEvent::Switch, k.peak - k.kp * k.omega, 0.0, k.kp, -1.0, own);  // peak - u >= 0
-          add(GuardEvent::Switch, k.peak + k.kp * k.omega, 0.0, -k.kp, 1.0, own);  // peak + u >= 0
-          break;
-        case DriveState::SaturatedUp:
-          add(GuardEvent::Switch, k.kp * k.omega - k.peak, 0.0, -k.kp, 1.0, own);  // u - peak >= 0
-          break;
-        default:
-          add(GuardEvent::Switch, -k.kp * k.omega - k.peak, 0.0, k.kp, -1.0, own);  // -u - peak >= 0
-          break;
+        case DriveState::Linear: m = std::min(m, k.peak - std::abs(u)); break;
+        case DriveState::SaturatedUp: m = std::min(m, u - k.peak); break;
+        default: m = std::min(m, -u - k.peak); break;
       }
       switch (piece.integrator[i]) {
-        case Integrator::Free:
-          add(GuardEvent::Switch, k.peak, 0.0, 0.0, -1.0, own);  // peak - I >= 0
-          add(GuardEvent::Switch, k.peak, 0.0, 0.0, 1.0, own);   // peak + I >= 0
-          break;
-        case Integrator::AtUpper:  // the error still drives it up: omega - w >= 0
-          add(GuardEvent::Switch, k.omega, 0.0, -1.0);
-          break;
-        case Integrator::AtLower:
-          add(GuardEvent::Switch, -k.omega, 0.0, 1.0);
-          break;
+        case Integrator::Free: m = std::min(m, k.peak - std::abs(integral)); break;
+        case Integrator::AtUpper: m = std::min(m, k.omega - x[kSpeed]); break;  // the error still drives it up
+        case Integrator::AtLower: m = std::min(m, x[kSpeed] - k.omega); break;
       }
     }
-    return n;
+    return m;
   }
+
+  // What the event that ended `piece` at x (past it) does: a moving axis
+  // come to rest, or at its hard stop; anything else only changes the piece.
+  [[nodiscard]] GuardEvent event(const Piece& piece, const FlowVector& x) const {
+    if (piece.motion == Motion::Forward) {
+      if (x[kRevs] >= hiRevs_) return GuardEvent::HardStop;
+      if (x[kSpeed] < 0.0) return GuardEvent::Rest;
+    } else if (piece.motion == Motion::Backward) {
+      if (x[kRevs] <= loRevs_) return GuardEvent::HardStop;
+      if (x[kSpeed] > 0.0) return GuardEvent::Rest;
+    }
+    return GuardEvent::Switch;
+  }
+
+  // The velocity command of drive i (rev/s): 0 while disabled or in torque mode.
+  [[nodiscard]] double velocityCommand(std::size_t i) const { return c_[i].velocity ? c_[i].command : 0.0; }
 
   // The drives' torques in the state (for the machine's state and trace).
   [[nodiscard]] double driveTorque(std::size_t i, const FlowVector& x) const {
@@ -275,6 +275,7 @@ class Problem {
   struct Constants {
     bool enabled = false;
     bool velocity = false;
+    double command = 0.0;  // what the drive makes of its input (0 while disabled)
     double peak = 0.0;
     double omega = 0.0;  // velocity mode: the command, rad/s
     double kp = 0.0, ki = 0.0;
@@ -308,14 +309,10 @@ class Problem {
   bool jammed_;
   double holding_ = 0.0;
   double hiRevs_ = 0.0, loRevs_ = 0.0;
+  double perInertia_ = 0.0;
   std::array<Constants, kMaxDrivesPerAxis> c_{};
 };
 
-double lowest(const std::array<Guard, kMaxGuards>& guards, std::size_t count, const FlowVector& x) {
-  double m = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < count; ++i) m = std::min(m, guards[i].at(x));
-  return m;
-}
 
 }  // namespace
 
@@ -345,16 +342,14 @@ void ServoMotion::advance(Axis& axis, std::span<ServoDrive> drives, bool brakeEn
 
   auto finish = [&] {
     axis.revs_ = x[kRevs];
-    axis.speed_ = x[kSpeed] / kTwoPi;
+    axis.speed_ = x[kSpeed] * kRevsPerRadian;
     const double pos = axis.position();
     axis.stopped_ = (pos <= axis.p_.hardStopMin || pos >= axis.p_.hardStopMax) && x[kSpeed] == 0.0;
     for (std::size_t i = 0; i < drives.size(); ++i) {
       ServoAmplifier& amp = *drives[i].amplifier;
       amp.integral_ = x[kIntegral + i];
       drives[i].torque = problem.driveTorque(i, x);
-      amp.velocityCommand_ = amp.enabled(drives[i].enaOn) && amp.parameters().mode == AmplifierMode::Velocity
-                                 ? amp.command(drives[i].volts)
-                                 : 0.0;
+      amp.velocityCommand_ = problem.velocityCommand(i);
     }
   };
 
@@ -378,7 +373,6 @@ void ServoMotion::advance(Axis& axis, std::span<ServoDrive> drives, bool brakeEn
     return;
   }
 
-  std::array<Guard, kMaxGuards> guards;
   FlowMatrix a;
   FlowVector c;
   double left = seconds;
@@ -405,8 +399,11 @@ void ServoMotion::advance(Axis& axis, std::span<ServoDrive> drives, bool brakeEn
       end = AffineFlow::solve(a, n, x, c, left);
       ++solved_;
     }
-    const std::size_t count = found < kMaxEventsPerSpan ? problem.guards(piece, x, guards) : 0;
-    const double atEnd = lowest(guards, count, end);
+    // After the most events a span may have, the rest of it is solved in
+    // the last piece.
+    const bool watching = found < kMaxEventsPerSpan;
+    const FlowVector start = x;
+    const double atEnd = watching ? problem.margin(piece, start, end) : 0.0;
     if (atEnd >= 0.0) {
       x = end;
       break;
@@ -416,7 +413,7 @@ void ServoMotion::advance(Axis& axis, std::span<ServoDrive> drives, bool brakeEn
     ++events_;
     if (!haveMatrix) problem.system(piece, &a, c);
     double lo = 0.0, hi = left;
-    double flo = std::max(0.0, lowest(guards, count, x)), fhi = atEnd;
+    double flo = std::max(0.0, problem.margin(piece, start, start)), fhi = atEnd;
     FlowVector xhi = end;
     int side = 0;
     for (int it = 0; it < 100 && hi - lo > kEventTolerance; ++it) {
@@ -424,7 +421,7 @@ void ServoMotion::advance(Axis& axis, std::span<ServoDrive> drives, bool brakeEn
       if (!(t > lo && t < hi)) t = 0.5 * (lo + hi);
       const FlowVector xt = AffineFlow::solve(a, n, x, c, t);
       ++solved_;
-      const double ft = lowest(guards, count, xt);
+      const double ft = problem.margin(piece, start, xt);
       if (ft < 0.0) {
         hi = t;
         fhi = ft;
@@ -438,10 +435,7 @@ void ServoMotion::advance(Axis& axis, std::span<ServoDrive> drives, bool brakeEn
         side = 1;
       }
     }
-    // Which guard it was decides what happens there.
-    GuardEvent event = GuardEvent::Switch;
-    for (std::size_t i = 0; i < count; ++i)
-      if (guards[i].at(xhi) < 0.0 && guards[i].event != GuardEvent::Switch) event = guards[i].event;
+    const GuardEvent event = problem.event(piece, xhi);
     x = xhi;
     left -= hi;
     if (event == GuardEvent::Rest) x[kSpeed] = 0.0;  // friction stops it dead, not back through zero
