@@ -7,12 +7,14 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <vector>
 
 #include "hostmot2/muxed_encoder.hpp"
 #include "machine/axis.hpp"
 #include "machine/quadrature_encoder.hpp"
 #include "machine/servo_amplifier.hpp"
 #include "machine/servo_motion.hpp"
+#include "support/fixed_step_plant.hpp"
 
 namespace {
 
@@ -95,5 +97,25 @@ void BM_ServoMotionPeriod(benchmark::State& state) {
   state.counters["events"] = static_cast<double>(motion.events());
 }
 BENCHMARK(BM_ServoMotionPeriod);
+
+// The same axis and commands over a period by the fixed-step integrator
+// the tests compare the exact solution with (tests/support/fixed_step_plant.hpp),
+// at the 50 us step the plant once took: what one period of one axis cost
+// before, beside what it costs now.
+void BM_FixedStepPeriod(benchmark::State& state) {
+  machine::AxisParameters p;
+  p.inertia = 1.5e-4 + 1e-4 + machine::reflectedInertia(150.0, 5.0);
+  test_support::FixedStepAxis axis(p, {{machine::AmplifierParameters{}, p.inertia}}, 200.0);
+  const std::vector<bool> ena{true};
+  std::vector<double> volts{0.0};
+  std::uint64_t n = 0;
+  for (auto _ : state) {
+    volts[0] = 1.0 + static_cast<double>(n % 200) / 1000.0;
+    axis.run(volts, ena, false, 1e-3, 50e-6);
+    ++n;
+  }
+  benchmark::DoNotOptimize(axis.position());
+}
+BENCHMARK(BM_FixedStepPeriod);
 
 }  // namespace
