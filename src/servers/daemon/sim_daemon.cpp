@@ -124,8 +124,13 @@ bool SimDaemon::ticks() const {
 }
 
 std::chrono::milliseconds SimDaemon::idleWait() const {
-  if (ticks()) return std::chrono::milliseconds(1);
+  // The demo world, a fault script and a pseudo-terminal act on the card
+  // every millisecond; a machine alone only moves (exactly over any span,
+  // machine/machine.hpp), and is caught up whenever anything looks, so it
+  // needs a tick only to keep each catch-up short.
+  if (options_.demo || !ptyChannels_.empty() || (script_ && script_->pending())) return std::chrono::milliseconds(1);
   if (clock_.drivenByHost()) return SimClock::kHeldBackCheck;
+  if (machine_) return kMachineTick;
   return std::chrono::hours(1);
 }
 

@@ -153,10 +153,15 @@ class SimDaemon {
   // costs nothing.
   [[nodiscard]] bool ticks() const;
   // How long the card thread may wait for a datagram or a job: a
-  // millisecond when something moves on its own (ticks()), at most
-  // SimClock::kHeldBackCheck while a host drives time (so that a stall of
-  // its CPU is a timer missed), else until woken.
+  // millisecond for the demo world, a fault script still to run or a
+  // pseudo-terminal, at most SimClock::kHeldBackCheck while a host drives
+  // time (so that a stall of its CPU is a timer missed), kMachineTick for
+  // a machine alone, else until woken.
   [[nodiscard]] std::chrono::milliseconds idleWait() const;
+  // A machine nobody talks to is caught up this often: each catch-up is
+  // then 100 spans of its plant (tens of microseconds), and an idle sim
+  // with a machine wakes ten times a second.
+  static constexpr std::chrono::milliseconds kMachineTick{100};
   // A trace row when the host has run a servo cycle since the last look.
   void record();
   // --trace: the datagram just served and the reply to it (card thread).
