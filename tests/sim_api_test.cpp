@@ -422,10 +422,10 @@ TEST(SimApi, ACardNobodyTalksToSleepsUntilADatagramOrARequest) {
 }
 
 // A machine nobody talks to only moves, and its plant is exact over any
-// span: the card thread catches it up ten times a second (SimDaemon::
+// span: the card thread catches it up four times a second (SimDaemon::
 // kMachineTick) instead of every millisecond, and whoever looks sees it
 // current.
-TEST(SimApi, AMachineNobodyTalksToWakesTheCardTenTimesASecond) {
+TEST(SimApi, AMachineNobodyTalksToWakesTheCardFourTimesASecond) {
   Sim sim(loopback(20), {"--machine", "mill"});
   ASSERT_TRUE(sim.up());
   const double t0 = sim.get("/api/state").body["time_s"].get<double>();
@@ -434,8 +434,8 @@ TEST(SimApi, AMachineNobodyTalksToWakesTheCardTenTimesASecond) {
   std::this_thread::sleep_for(1000ms);
   const long woke = cardThreadWakeUps(sim.pid()) - before;
   // Every millisecond it would be about 1000.
-  EXPECT_LE(woke, 20) << "the card thread woke " << woke << " times in 1 s with a machine and no host";
-  EXPECT_GE(woke, 5) << "it still catches the machine up";
+  EXPECT_LE(woke, 10) << "the card thread woke " << woke << " times in 1 s with a machine and no host";
+  EXPECT_GE(woke, 2) << "it still catches the machine up";
   EXPECT_GE(sim.get("/api/state").body["time_s"].get<double>() - t0, 0.9);
   EXPECT_EQ(sim.stopWithin(2000ms), 0);
 }

@@ -3,6 +3,7 @@
 #include "hostmot2/ioport.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <chrono>
 #include <stdexcept>
 #include <string>
@@ -277,6 +278,20 @@ void Machine::traceRow(std::span<double> row) const {
   if (spindle_) put(spindle_->rpm());
 }
 
+bool Machine::restsUnpowered(const AxisPlant& a, bool brakeEngaged) const {
+  // At rest, every drive disabled with its loop cleared (a span has seen it
+  // so: no torque left), not pushed, and friction and the brake holding
+  // what gravity pulls: ServoMotion would find it held all span.
+  const AxisParameters& p = a.axis.parameters();
+  if (a.axis.motorRevsPerSecond() != 0.0 || a.axis.pushing()) return false;
+  if (std::abs(p.gravityTorque) > p.coulomb + (brakeEngaged ? p.brakeTorque : 0.0) && !a.axis.jammed()) return false;
+  for (const Drive& drive : a.drives)
+    if (drive.amplifier.enabled(board_->analog.enable(drive.d.enable)) || drive.amplifier.integral() != 0.0 ||
+        drive.torque != 0.0)
+      return false;
+  return true;
+}
+
 bool Machine::brakeEngaged(const AxisPlant& a) const {
   // The brake holds unless its release coil, on a field output, is
   // energized (fails safe: no field power, a tripped output or a dead host
@@ -339,6 +354,13 @@ void Machine::span(SimTime t1) {
     // The 7I77's outputs as the card has them now hold over the span
     // (they change when the host's process data reaches the 7I77, and the
     // machine is advanced after the host's cycle: machine.hpp).
+    const bool brake = brakeEngaged(a);
+    if (restsUnpowered(a, brake)) {
+      // Nothing to solve: it stays where it is (an idle machine, its
+      // drives off since the host stopped, costs this check a span).
+      a.commanded = a.axis.position();
+      continue;
+    }
     std::array<ServoDrive, kMaxDrivesPerAxis> drives;  // the first n set below
     const std::size_t n = a.drives.size();
     for (std::size_t k = 0; k < n; ++k) {
@@ -346,7 +368,7 @@ void Machine::span(SimTime t1) {
       drives[k] = ServoDrive{&drive.amplifier, analog.outputVoltage(drive.d.analogOutput),
                              analog.enable(drive.d.enable), a.inertiaShare, 0.0};
     }
-    a.motion.advance(a.axis, std::span(drives.data(), n), brakeEngaged(a), t1 - t0);
+    a.motion.advance(a.axis, std::span(drives.data(), n), brake, t1 - t0);
     for (std::size_t k = 0; k < n; ++k) a.drives[k].torque = drives[k].torque;
     // The first drive's velocity command (constant over the span),
     // integrated while it is enabled: the position it asked for

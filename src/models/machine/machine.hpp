@@ -213,6 +213,9 @@ class Machine {
   // The plant from time_ to t1, the 7I77's outputs constant over it.
   void span(SimTime t1);
   [[nodiscard]] bool brakeEngaged(const AxisPlant& a) const;
+  // A servo axis that stays where it is whatever the span: at rest, its
+  // drives off, its friction and brake holding it.
+  [[nodiscard]] bool restsUnpowered(const AxisPlant& a, bool brakeEngaged) const;
   // A field output of either board, and that board's field power.
   [[nodiscard]] bool outputOn(Daughtercard board, unsigned output) const;
   [[nodiscard]] double fieldVoltage(Daughtercard board) const;

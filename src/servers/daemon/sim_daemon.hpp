@@ -159,9 +159,11 @@ class SimDaemon {
   // a machine alone, else until woken.
   [[nodiscard]] std::chrono::milliseconds idleWait() const;
   // A machine nobody talks to is caught up this often: each catch-up is
-  // then 100 spans of its plant (tens of microseconds), and an idle sim
-  // with a machine wakes ten times a second.
-  static constexpr std::chrono::milliseconds kMachineTick{100};
+  // then 250 spans of its plant (a few hundred microseconds at most, well
+  // within SimClock::kBudget), and an idle sim with a machine wakes four
+  // times a second (a wake-up costs tens of microseconds on a
+  // paravirtualised machine).
+  static constexpr std::chrono::milliseconds kMachineTick{250};
   // A trace row when the host has run a servo cycle since the last look.
   void record();
   // --trace: the datagram just served and the reply to it (card thread).
