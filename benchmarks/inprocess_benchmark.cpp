@@ -11,6 +11,7 @@
 
 #include "hostmot2/muxed_encoder.hpp"
 #include "machine/axis.hpp"
+#include "machine/machine.hpp"
 #include "machine/quadrature_encoder.hpp"
 #include "machine/servo_amplifier.hpp"
 #include "machine/servo_motion.hpp"
@@ -51,7 +52,7 @@ void BM_EncoderDrive(benchmark::State& state) {
       // 1 to 4 rev/s (spindle 200), the speed changing every step.
       const double speed = (i == 5 ? 200.0 : 1.0 + i * 0.6) * (1.0 + 0.1 * static_cast<double>(steps % 7));
       revs[i] += speed * seconds;
-      encoders[i].drive(revs[i], t, t + kPlantStep, seconds, kPlantStep / 2);
+      encoders[i].drive(revs[i], t, t + kPlantStep, seconds, machine::Machine::kEncoderMinimumSpan);
     }
     t += kPlantStep;
     ++steps;

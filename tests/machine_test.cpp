@@ -328,6 +328,28 @@ TEST(Machine, WiringTheSevenI77DoesNotHaveIsAnError) {
   for (const auto& good : {machine::mill(), machine::lathe(), machine::gantry()}) EXPECT_NO_THROW(Machine(good, card));
 }
 
+// A machine whose drives are off and whose axes stand rests: time passes
+// over it in one go, and nothing changes; enabled, it moves again at once.
+TEST(Machine, AnIdleMachineRestsUntilItsDrivesAreEnabled) {
+  Rig r;
+  for (int i = 0; i < 5; ++i) r.cycle();
+  EXPECT_TRUE(r.m.resting());
+  auto before = r.m.state();
+  const hm2::SimTime later{r.rc.t.now() + 30ms};  // within the 7I77's 50 ms watchdog
+  r.m.advance(later);
+  EXPECT_EQ(r.m.time(), later);
+  auto after = r.m.state();
+  after.time = before.time;
+  EXPECT_EQ(after, before) << "a resting machine does not change";
+  r.rc.t.sleep(later - hm2::SimTime{r.rc.t.now()});
+  r.setEnable(true);
+  r.setVolts(0, 1.0);  // 25 mm/s
+  r.cycle();  // the command reaches the 7I77 in this period
+  EXPECT_FALSE(r.m.resting());
+  for (int i = 0; i < 100; ++i) r.cycle();
+  EXPECT_NEAR(r.m.state().axes[0].velocity, 25.0, 0.5);
+}
+
 // The gantry: two motors on one beam, each with its own encoder.
 TEST(Machine, GantryDrivesOneAxisWithTwoMotors) {
   Rig r(machine::gantry());

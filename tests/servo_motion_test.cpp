@@ -267,3 +267,55 @@ TEST(ServoMotion, APushAndAJamOverrideTheDrive) {
 }
 
 }  // namespace
+
+namespace {
+
+// A hard stop the axis is driven into stays its stop, to the bit, whatever
+// the rounding of its position in motor revolutions (a 5 mm screw geared
+// 3:1 and a stop at 182 mm do not divide exactly): the axis stops dead
+// there, stays, and says so, and the spans cost no stream of events.
+TEST(ServoMotion, AnAxisDrivenIntoAHardStopStaysAtIt) {
+  const MillAxis a = millAxis(0);
+  AxisParameters p = a.p;
+  p.unitsPerMotorRev = 5.0 / 3.0;
+  p.hardStopMax = 182.0;
+  machine::ServoAmplifier amplifier(a.amp);
+  machine::Axis axis(p, 180.0);
+  machine::ServoMotion motion;
+  machine::ServoDrive drive{&amplifier, 10.0, true, p.inertia, 0.0};
+  for (int ms = 0; ms < 300; ++ms) {
+    motion.advance(axis, std::span(&drive, 1), false, 1ms);
+    ASSERT_LE(axis.position(), 182.0 + 1e-9) << "period " << ms;
+  }
+  EXPECT_TRUE(axis.atHardStop());
+  EXPECT_EQ(axis.velocity(), 0.0);
+  EXPECT_NEAR(axis.position(), 182.0, 1e-9);
+  EXPECT_DOUBLE_EQ(drive.torque, a.amp.peakTorque) << "it pushes on, into the stop";
+  EXPECT_LE(motion.events(), 10U);
+}
+
+// An axis at rest with its drives off, held by its brake, stays where it
+// is without being solved; released, it is solved again and falls (the
+// mill's Z: gravity beats friction). Put at a hard stop, it is at it.
+TEST(ServoMotion, AnUnpoweredAxisAtRestStaysUntilItsBrakeLetsGo) {
+  const MillAxis z = millAxis(2);
+  machine::ServoAmplifier amplifier(z.amp);
+  machine::Axis axis(z.p, -50.0);
+  machine::ServoMotion motion;
+  machine::ServoDrive off{&amplifier, 3.0, false, z.p.inertia, 0.0};
+  for (int ms = 0; ms < 100; ++ms) motion.advance(axis, std::span(&off, 1), true, 1ms);
+  EXPECT_EQ(axis.position(), -50.0 * (1.0 / z.p.unitsPerMotorRev) * z.p.unitsPerMotorRev);
+  EXPECT_EQ(axis.velocity(), 0.0);
+  EXPECT_EQ(off.torque, 0.0);
+  EXPECT_EQ(amplifier.lastVelocityCommand(), 0.0);
+  for (int ms = 0; ms < 100; ++ms) motion.advance(axis, std::span(&off, 1), false, 1ms);
+  EXPECT_LT(axis.position(), -50.5) << "released, gravity pulls it down";
+
+  machine::Axis atStop(z.p, z.p.hardStopMin);
+  machine::ServoMotion still;
+  for (int ms = 0; ms < 10; ++ms) still.advance(atStop, std::span(&off, 1), true, 1ms);
+  EXPECT_TRUE(atStop.atHardStop());
+  EXPECT_DOUBLE_EQ(atStop.position(), z.p.hardStopMin);
+}
+
+}  // namespace

@@ -422,9 +422,9 @@ TEST(SimApi, ACardNobodyTalksToSleepsUntilADatagramOrARequest) {
 }
 
 // A machine nobody talks to only moves, and its plant is exact over any
-// span: the card thread catches it up four times a second (SimDaemon::
-// kMachineTick) instead of every millisecond, and whoever looks sees it
-// current.
+// span: the card thread catches it up four times a second at speed 1
+// (SimDaemon::kMachineTick of simulated time) instead of every
+// millisecond, and whoever looks sees it current.
 TEST(SimApi, AMachineNobodyTalksToWakesTheCardFourTimesASecond) {
   Sim sim(loopback(20), {"--machine", "mill"});
   ASSERT_TRUE(sim.up());
@@ -437,6 +437,13 @@ TEST(SimApi, AMachineNobodyTalksToWakesTheCardFourTimesASecond) {
   EXPECT_LE(woke, 10) << "the card thread woke " << woke << " times in 1 s with a machine and no host";
   EXPECT_GE(woke, 2) << "it still catches the machine up";
   EXPECT_GE(sim.get("/api/state").body["time_s"].get<double>() - t0, 0.9);
+  // Faster than the wall clock it looks as often in simulated time: at
+  // speed 100 every 2.5 ms, so that each catch-up stays short.
+  ASSERT_EQ(sim.post("/api/time", {{"speed", 100}}).status, 200);
+  const long fast = cardThreadWakeUps(sim.pid());
+  std::this_thread::sleep_for(1000ms);
+  const long wokeFast = cardThreadWakeUps(sim.pid()) - fast;
+  EXPECT_GE(wokeFast, 100) << "the card thread woke " << wokeFast << " times in 1 s at speed 100";
   EXPECT_EQ(sim.stopWithin(2000ms), 0);
 }
 
@@ -569,13 +576,17 @@ TEST(SimApi, TheCardThreadKeepsAnsweringAtSpeed1000WithAnIndexEveryCount) {
 // simulated sample by sample), simulated time falls behind the wall clock,
 // visibly, instead of the card thread falling behind forever.
 TEST(SimApi, WhenTheCardCannotKeepUpSimulatedTimeFallsBehindVisibly) {
-  // A load the card thread cannot carry at 10000x: the mill's plant alone
-  // runs about four thousand times real time on one core
-  // (benchmarks/machine_benchmark.cpp, BM_MillPlantOnly). Fast encoders
-  // alone are not one: unread counters cost nothing (they settle when
-  // looked at).
+  // A load the card thread cannot carry at 10000x: the mill with its axes
+  // moving (pushed slowly, for longer than the test lasts), its plant
+  // solved every simulated millisecond, runs some thousands of times real
+  // time on one core (benchmarks/machine_benchmark.cpp, BM_MillPlantOnly).
+  // An idle machine is not one (it rests: Machine::resting), nor are fast
+  // encoders alone: unread counters cost nothing (they settle when looked at).
   Sim sim(loopback(7), {"--machine", "mill"});
   ASSERT_TRUE(sim.up());
+  for (const char* axis : {"x", "y", "z"})
+    ASSERT_EQ(sim.post("/api/machine", {{"action", "push"}, {"axis", axis}, {"distance", -100.0}, {"speed", 0.005}}).status,
+              200);
   ASSERT_EQ(sim.post("/api/time", {{"speed", 10000}}).status, 200);
   std::this_thread::sleep_for(1000ms);
   const auto r = sim.get("/api/state", 2000ms);

@@ -127,7 +127,7 @@ class MuxedEncoder : public Module {
   void reset() override;  // counts, CCRs and divisors at power-up; the encoders stay where they are
 
   // The world: what the encoder on input `n` does from `now` on.
-  // (Inline: the machine's plant sets every encoder's at every step.)
+  // (Inline: the machine's plant sets every encoder's at every span.)
   void setVelocity(unsigned n, double countsPerSecond, SimTime now) {
     advance(now);
     settle(n);

@@ -72,7 +72,12 @@ FlowVector AffineFlow::solve(const FlowMatrix& a, std::size_t n, const FlowVecto
     for (std::size_t j = 0; j < n; ++j) row += std::abs(a[i][j]);
     norm = std::max(norm, row);
   }
-  const int substeps = std::max(1, static_cast<int>(std::ceil(norm * seconds / 0.5)));
+  // A stiff piece (a drive's loop far faster than the span) would need many
+  // substeps: the flow's squarings reach it in a logarithmic number.
+  constexpr double kMostSubsteps = 32.0;
+  const double needed = std::ceil(norm * seconds / 0.5);
+  if (!(needed <= kMostSubsteps)) return over(a, n, seconds).apply(x, c);
+  const int substeps = std::max(1, static_cast<int>(needed));
   const double h = seconds / substeps;
   FlowVector out = x;
   for (int s = 0; s < substeps; ++s) {

@@ -39,7 +39,8 @@ struct AffineFlow {
   // substeps short enough that 14 terms reach the double's precision. A
   // few hundred operations for one span where the flow is not kept (an
   // event's search, a span of a length seen once), against a few thousand
-  // for the flow.
+  // for the flow; a piece so stiff that it would take more than 32
+  // substeps is solved through the flow instead.
   static FlowVector solve(const FlowMatrix& a, std::size_t n, const FlowVector& x, const FlowVector& c,
                           double seconds);
 

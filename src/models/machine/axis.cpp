@@ -21,7 +21,9 @@ double gravityTorque(double massKg, double mmPerMotorRev) {
 }
 
 Axis::Axis(AxisParameters parameters, double position)
-    : p_(parameters), revs_(position / (parameters.unitsPerMotorRev != 0 ? parameters.unitsPerMotorRev : 1.0)) {
+    // By the reciprocal, as the hard stops in revolutions are worked out
+    // (ServoMotion): an axis put at a stop is at it.
+    : p_(parameters), revs_(position * (1.0 / (parameters.unitsPerMotorRev != 0 ? parameters.unitsPerMotorRev : 1.0))) {
   if (p_.unitsPerMotorRev == 0) p_.unitsPerMotorRev = 1.0;
 }
 

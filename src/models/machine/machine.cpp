@@ -278,20 +278,6 @@ void Machine::traceRow(std::span<double> row) const {
   if (spindle_) put(spindle_->rpm());
 }
 
-bool Machine::restsUnpowered(const AxisPlant& a, bool brakeEngaged) const {
-  // At rest, every drive disabled with its loop cleared (a span has seen it
-  // so: no torque left), not pushed, and friction and the brake holding
-  // what gravity pulls: ServoMotion would find it held all span.
-  const AxisParameters& p = a.axis.parameters();
-  if (a.axis.motorRevsPerSecond() != 0.0 || a.axis.pushing()) return false;
-  if (std::abs(p.gravityTorque) > p.coulomb + (brakeEngaged ? p.brakeTorque : 0.0) && !a.axis.jammed()) return false;
-  for (const Drive& drive : a.drives)
-    if (drive.amplifier.enabled(board_->analog.enable(drive.d.enable)) || drive.amplifier.integral() != 0.0 ||
-        drive.torque != 0.0)
-      return false;
-  return true;
-}
-
 bool Machine::brakeEngaged(const AxisPlant& a) const {
   // The brake holds unless its release coil, on a field output, is
   // energized (fails safe: no field power, a tripped output or a dead host
@@ -326,7 +312,30 @@ bool Machine::spindleEna() const {
 }
 
 void Machine::advance(SimTime now) {
+  if (time_ < now && resting()) {
+    // The switches as they are: a change of field power still reaches them.
+    switches_.apply(positions_.data(), inputs_);
+    time_ = now;
+    return;
+  }
   while (time_ < now) span(std::min(now, time_ + h_));
+}
+
+bool Machine::resting() const {
+  if (spindle_) {
+    if (spindle_->rpm() != 0.0 || spindle_->commandRpm() != 0.0) return false;
+    if (spindle_->running(spindleEna()) && std::abs(spindleVolts()) > spindle_->parameters().deadbandVolts) return false;
+    if (spindleEncoder_ && !spindleEncoder_->restsAt(spindle_->revolutions())) return false;
+  }
+  const remote::AnalogProcessor& analog = board_->analog;
+  for (const AxisPlant& a : axes_) {
+    if (a.stepper || !a.motion.settled() || !ServoMotion::restsUnpowered(a.axis, brakeEngaged(a))) return false;
+    for (const Drive& drive : a.drives)
+      if (!ServoMotion::driveOff(drive.amplifier, analog.enable(drive.d.enable)) ||
+          !drive.encoder.restsAt(a.axis.motorRevs()))
+        return false;
+  }
+  return true;
 }
 
 void Machine::span(SimTime t1) {
@@ -355,12 +364,6 @@ void Machine::span(SimTime t1) {
     // (they change when the host's process data reaches the 7I77, and the
     // machine is advanced after the host's cycle: machine.hpp).
     const bool brake = brakeEngaged(a);
-    if (restsUnpowered(a, brake)) {
-      // Nothing to solve: it stays where it is (an idle machine, its
-      // drives off since the host stopped, costs this check a span).
-      a.commanded = a.axis.position();
-      continue;
-    }
     std::array<ServoDrive, kMaxDrivesPerAxis> drives;  // the first n set below
     const std::size_t n = a.drives.size();
     for (std::size_t k = 0; k < n; ++k) {

@@ -53,7 +53,7 @@ class Machine {
       double commandVolts = 0.0;  // at AOUTn
       bool enaOn = false;         // the ENAn switch
       bool enabled = false;       // the amplifier, after its enable wiring
-      double torque = 0.0;        // Nm the motor gave over the last step
+      double torque = 0.0;        // Nm the motor gives at the end of the plant's last span
       unsigned encoderInput = 0;
       std::uint16_t encoderCount = 0;  // the card's count register
       double trueCounts = 0.0;         // where a perfect counter would be (from shaft revolution 0)
@@ -103,7 +103,7 @@ class Machine {
       bool operator==(const Output&) const = default;
     };
     std::string name;  // the description's
-    SimTime time{};    // the plant's own time (a step boundary at or after the last advance)
+    SimTime time{};    // the plant's own time: that of the last advance
     std::vector<Axis> axes;
     std::optional<Spindle> spindle;
     bool estopOk = true;  // the E-stop chain is closed
@@ -124,6 +124,16 @@ class Machine {
   Machine& operator=(const Machine&) = delete;
 
   void advance(SimTime now);
+  // Nothing in the machine moves, or will while the 7I77's outputs stay as
+  // they are: every servo axis at rest with its drives off and held
+  // (ServoMotion::restsUnpowered, its last span solved so), no stepper
+  // axis, the spindle stopped and not asked to run, every encoder's signal
+  // standing. advance() then moves the plant's time in one go: an idle
+  // machine costs this check an advance.
+  [[nodiscard]] bool resting() const;
+  // With less of a span left than this after the card's time, an encoder
+  // keeps its velocity and the next span catches up (QuadratureEncoder::drive).
+  static constexpr SimTime kEncoderMinimumSpan = std::chrono::microseconds(25);
 
   // Trip or release a switch by name ("estop" pressed, "probe" touching, or
   // any switch stuck); it holds until released. False if there is no such switch.
@@ -201,9 +211,7 @@ class Machine {
     std::optional<QuadratureEncoder> stepperEncoder;  // on the stepper's shaft
     ServoMotion motion;  // the servo axis' exact solution and its kept flows
   };
-  // With less of a span left than this after the card's time, an encoder
-  // keeps its velocity and the next span catches up (QuadratureEncoder::drive).
-  static constexpr SimTime kEncoderMinimumSpan = std::chrono::microseconds(25);
+
   [[nodiscard]] static double position(const AxisPlant& a) {
     return a.stepper ? a.stepper->position() : a.axis.position();
   }
@@ -213,9 +221,6 @@ class Machine {
   // The plant from time_ to t1, the 7I77's outputs constant over it.
   void span(SimTime t1);
   [[nodiscard]] bool brakeEngaged(const AxisPlant& a) const;
-  // A servo axis that stays where it is whatever the span: at rest, its
-  // drives off, its friction and brake holding it.
-  [[nodiscard]] bool restsUnpowered(const AxisPlant& a, bool brakeEngaged) const;
   // A field output of either board, and that board's field power.
   [[nodiscard]] bool outputOn(Daughtercard board, unsigned output) const;
   [[nodiscard]] double fieldVoltage(Daughtercard board) const;

@@ -49,9 +49,6 @@ class QuadratureEncoder {
   // every encoder at every span.
   void drive(double revs, SimTime from, SimTime until, double seconds, SimTime minimum) {
     if (broken(EncoderChannel::A) || broken(EncoderChannel::B)) return;
-    // Within this of the shaft, a standing signal stays put: a shaft at rest
-    // costs the counters nothing.
-    constexpr double kAtRest = 1e-6;  // counts
     const double target = trueCounts(revs);
     const hm2::EncoderSignal& signal = encoders_->signal(input_);
     if (signal.velocity == 0.0 && std::abs(target - signal.position) < kAtRest) return;
@@ -60,6 +57,14 @@ class QuadratureEncoder {
     // The signal where the counter is at `from` (signal() settles the counters).
     const double error = target - encoders_->signal(input_).position;
     encoders_->setVelocity(input_, std::abs(error) < kAtRest ? 0.0 : error / seconds, from);
+  }
+
+  // The signal stands where a shaft at `revs` puts it (drive() would do
+  // nothing), or cannot move (A or B broken).
+  [[nodiscard]] bool restsAt(double revs) const {
+    if (broken(EncoderChannel::A) || broken(EncoderChannel::B)) return true;
+    const hm2::EncoderSignal& signal = encoders_->signal(input_);
+    return signal.velocity == 0.0 && std::abs(trueCounts(revs) - signal.position) < kAtRest;
   }
 
   // A broken channel (a fault to rehearse). With A or B gone the
@@ -89,6 +94,10 @@ class QuadratureEncoder {
   [[nodiscard]] const EncoderParameters& parameters() const { return p_; }
 
  private:
+  // Within this of the shaft, a standing signal stays put: a shaft at rest
+  // costs the counters nothing.
+  static constexpr double kAtRest = 1e-6;  // counts
+
   EncoderParameters p_;
   hm2::MuxedEncoder* encoders_;
   unsigned input_;

@@ -69,6 +69,10 @@ class Problem {
   }
 
   [[nodiscard]] std::size_t dimension() const { return 2 + drives_; }
+  // The hard stops in motor revolutions: every comparison with them, and
+  // every stop the axis is put at, uses these same two numbers.
+  [[nodiscard]] double hiRevs() const { return hiRevs_; }
+  [[nodiscard]] double loRevs() const { return loRevs_; }
   [[nodiscard]] std::size_t drives() const { return drives_; }
 
   // The piece the state is in; clamps what the piece pins (a disabled
@@ -330,9 +334,41 @@ void ServoMotion::keep(std::uint64_t key, SimTime span, const AffineFlow& flow) 
   slot.flow = flow;
 }
 
+bool ServoMotion::restsUnpowered(const Axis& axis, bool brakeEngaged) {
+  // At rest, not pushed, and friction and the brake holding what gravity
+  // pulls (or jammed): with every drive off, the piece would be Held with
+  // no guard that can move, all span.
+  const AxisParameters& p = axis.p_;
+  if (axis.speed_ != 0.0 || axis.pushLeft_ != 0.0) return false;
+  return axis.jammed_ || std::abs(p.gravityTorque) <= p.coulomb + (brakeEngaged ? p.brakeTorque : 0.0);
+}
+
+bool ServoMotion::driveOff(const ServoAmplifier& amplifier, bool enaOn) {
+  // Disabled with its loop cleared: no torque, no integral, no command
+  // (what a span with it disabled leaves).
+  return !amplifier.enabled(enaOn) && amplifier.integral_ == 0.0 && amplifier.velocityCommand_ == 0.0;
+}
+
+namespace {
+bool drivesOff(std::span<const ServoDrive> drives) {
+  for (const ServoDrive& d : drives)
+    if (!ServoMotion::driveOff(*d.amplifier, d.enaOn)) return false;
+  return true;
+}
+}  // namespace
+
 void ServoMotion::advance(Axis& axis, std::span<ServoDrive> drives, bool brakeEngaged, SimTime span) {
   const double seconds = std::chrono::duration<double>(span).count();
   if (drives.size() > kMaxDrivesPerAxis) drives = drives.first(kMaxDrivesPerAxis);  // the machine refuses more
+  if (span <= SimTime{0}) return;
+  if (atRestChecked_ && restsUnpowered(axis, brakeEngaged) && drivesOff(drives)) {
+    // Nothing to solve: it stays where it is (an idle machine, its drives
+    // off since the host stopped, costs this check a span). The first such
+    // span is solved, so that the axis' state (at a hard stop or not) is
+    // the solution's.
+    for (ServoDrive& d : drives) d.torque = 0.0;
+    return;
+  }
   const Problem problem(axis, drives, brakeEngaged);
   const std::size_t n = problem.dimension();
   FlowVector x{};
@@ -341,10 +377,16 @@ void ServoMotion::advance(Axis& axis, std::span<ServoDrive> drives, bool brakeEn
   for (std::size_t i = 0; i < drives.size(); ++i) x[kIntegral + i] = drives[i].amplifier->integral_;
 
   auto finish = [&] {
+    // However the span ended (past its last watched event too), the axis
+    // is within its hard stops, stopped dead at one.
+    if ((x[kRevs] >= problem.hiRevs() && x[kSpeed] >= 0.0) || (x[kRevs] <= problem.loRevs() && x[kSpeed] <= 0.0)) {
+      x[kRevs] = std::clamp(x[kRevs], problem.loRevs(), problem.hiRevs());
+      x[kSpeed] = 0.0;
+    }
     axis.revs_ = x[kRevs];
     axis.speed_ = x[kSpeed] * kRevsPerRadian;
-    const double pos = axis.position();
-    axis.stopped_ = (pos <= axis.p_.hardStopMin || pos >= axis.p_.hardStopMax) && x[kSpeed] == 0.0;
+    axis.stopped_ = (x[kRevs] >= problem.hiRevs() || x[kRevs] <= problem.loRevs()) && x[kSpeed] == 0.0;
+    atRestChecked_ = restsUnpowered(axis, brakeEngaged) && drivesOff(drives);
     for (std::size_t i = 0; i < drives.size(); ++i) {
       ServoAmplifier& amp = *drives[i].amplifier;
       amp.integral_ = x[kIntegral + i];
@@ -358,14 +400,14 @@ void ServoMotion::advance(Axis& axis, std::span<ServoDrive> drives, bool brakeEn
     // brake, at its own speed until it has moved its distance or the axis
     // meets a hard stop; then it lets go, the axis at rest.
     const double move = std::copysign(std::min(std::abs(axis.pushLeft_), axis.pushSpeed_ * seconds), axis.pushLeft_);
-    const double speed = move / seconds / axis.p_.unitsPerMotorRev * kTwoPi;
+    const double revsPerUnit = 1.0 / axis.p_.unitsPerMotorRev;
+    const double speed = move / seconds * revsPerUnit * kTwoPi;
     problem.integrateAgainst(speed, seconds, x);
     axis.pushLeft_ = std::abs(axis.pushLeft_) <= std::abs(move) ? 0.0 : axis.pushLeft_ - move;
-    x[kRevs] += move / axis.p_.unitsPerMotorRev;
+    x[kRevs] += move * revsPerUnit;
     x[kSpeed] = axis.pushLeft_ != 0.0 ? speed : 0.0;
-    const double pos = x[kRevs] * axis.p_.unitsPerMotorRev;
-    if (pos <= axis.p_.hardStopMin || pos >= axis.p_.hardStopMax) {
-      x[kRevs] = std::clamp(pos, axis.p_.hardStopMin, axis.p_.hardStopMax) / axis.p_.unitsPerMotorRev;
+    if (x[kRevs] <= problem.loRevs() || x[kRevs] >= problem.hiRevs()) {
+      x[kRevs] = std::clamp(x[kRevs], problem.loRevs(), problem.hiRevs());
       x[kSpeed] = 0.0;
       axis.pushLeft_ = 0.0;
     }
@@ -440,8 +482,7 @@ void ServoMotion::advance(Axis& axis, std::span<ServoDrive> drives, bool brakeEn
     left -= hi;
     if (event == GuardEvent::Rest) x[kSpeed] = 0.0;  // friction stops it dead, not back through zero
     if (event == GuardEvent::HardStop) {
-      x[kRevs] = piece.motion == Motion::Forward ? axis.p_.hardStopMax / axis.p_.unitsPerMotorRev
-                                                 : axis.p_.hardStopMin / axis.p_.unitsPerMotorRev;
+      x[kRevs] = piece.motion == Motion::Forward ? problem.hiRevs() : problem.loRevs();
       x[kSpeed] = 0.0;
     }
     piece = problem.classify(x);

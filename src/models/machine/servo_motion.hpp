@@ -67,6 +67,15 @@ class ServoMotion {
   // and the brake engaged or not, all constant over the span.
   void advance(Axis& axis, std::span<ServoDrive> drives, bool brakeEngaged, SimTime span);
 
+  // Whether the axis stays where it is over any span: at rest, not pushed,
+  // friction and the brake holding what gravity pulls (or jammed), and
+  // every drive off with its loop cleared (driveOff).
+  [[nodiscard]] static bool restsUnpowered(const Axis& axis, bool brakeEngaged);
+  [[nodiscard]] static bool driveOff(const ServoAmplifier& amplifier, bool enaOn);
+  // The last span left the axis resting unpowered: the next ones are not
+  // solved while it still does (Machine::resting).
+  [[nodiscard]] bool settled() const { return atRestChecked_; }
+
   // Events found since built, flows worked out (and kept), and spans solved
   // on the vector alone (events' searches, spans of another length): what
   // the benchmarks and tests look at.
@@ -91,6 +100,9 @@ class ServoMotion {
   std::uint64_t flowsComputed_ = 0;
   std::uint64_t solved_ = 0;
   SimTime lastSpan_{-1};
+  // The last span ended resting unpowered (restsUnpowered): the next ones
+  // need not be solved while it still does.
+  bool atRestChecked_ = false;
 };
 
 }  // namespace machine

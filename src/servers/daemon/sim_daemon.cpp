@@ -130,7 +130,14 @@ std::chrono::milliseconds SimDaemon::idleWait() const {
   // needs a tick only to keep each catch-up short.
   if (options_.demo || !ptyChannels_.empty() || (script_ && script_->pending())) return std::chrono::milliseconds(1);
   if (clock_.drivenByHost()) return SimClock::kHeldBackCheck;
-  if (machine_) return kMachineTick;
+  if (machine_) {
+    // kMachineTick of simulated time between looks: faster than the wall
+    // clock, as often as the speed asks (a catch-up stays short).
+    const double speed = clock_.speed();
+    if (clock_.paused() || !(speed > 1.0)) return kMachineTick;
+    return std::max(std::chrono::milliseconds(1),
+                    std::chrono::milliseconds(static_cast<std::int64_t>(kMachineTick.count() / speed)));
+  }
   return std::chrono::hours(1);
 }
 
@@ -149,7 +156,10 @@ lbp::SimTime SimDaemon::catchUpTo(lbp::SimTime target, std::chrono::microseconds
   // The machine first: each plant span sets its encoders' velocities to
   // reach the shaft at the span's end, so the counters then follow the
   // plant over the card's advance (machine/machine.hpp). It is a slice
-  // ahead of the card at most.
+  // ahead of the card at most. Its slices stay short even while it rests
+  // (Machine::resting, which makes each one cheap): a watchdog's bite in
+  // the card can start it moving (a drive enabled active-low), and it
+  // starts within a slice of it.
   return clock_.catchUpTo(
       card_.now(), target,
       [this](lbp::SimTime t) {

@@ -158,11 +158,12 @@ class SimDaemon {
   // time (so that a stall of its CPU is a timer missed), kMachineTick for
   // a machine alone, else until woken.
   [[nodiscard]] std::chrono::milliseconds idleWait() const;
-  // A machine nobody talks to is caught up this often: each catch-up is
-  // then 250 spans of its plant (a few hundred microseconds at most, well
-  // within SimClock::kBudget), and an idle sim with a machine wakes four
-  // times a second (a wake-up costs tens of microseconds on a
-  // paravirtualised machine).
+  // A machine nobody talks to is caught up every this much simulated time
+  // (at --speed 1, this often; at --speed 100, every 2.5 ms, at least
+  // every millisecond): each catch-up is then 250 spans of its plant, a
+  // few hundred microseconds at most, well within SimClock::kBudget, and
+  // an idle sim with a machine wakes four times a second (a wake-up costs
+  // tens of microseconds on a paravirtualised machine).
   static constexpr std::chrono::milliseconds kMachineTick{250};
   // A trace row when the host has run a servo cycle since the last look.
   void record();
