@@ -24,6 +24,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cctype>
 #include <chrono>
@@ -566,7 +567,19 @@ TEST(LinuxCncMill, RunsGcodeAndRehearsesFaultsAgainstTheVirtualMill) {
   EXPECT_EQ(lim["x_max_switch"]["input_on"], false) << "a tripped normally closed switch opens its input";
   EXPECT_EQ(lim["linuxcnc_limit_flags_before_on"][0], 2) << "X on its positive limit, seen from LinuxCNC";
   EXPECT_EQ(lim["machine_on_refused"], true);
-  EXPECT_EQ(messages(lim, "messages_on_machine_on"), std::vector<std::string>{"joint 0 on limit switch error"});
+  // LinuxCNC's limit error, and at most its soft-limit note besides: X
+  // really is past its soft limit, and whether motion's first enabled
+  // servo period runs its soft-limit check before the hard-limit fault
+  // disables it again is LinuxCNC's own timing (its non-real-time servo
+  // thread; motion/control.c reports "Joint must be unhomed, jogged into
+  // limits, rehomed" from that check).
+  const auto onMessages = messages(lim, "messages_on_machine_on");
+  EXPECT_NE(std::find(onMessages.begin(), onMessages.end(), "joint 0 on limit switch error"), onMessages.end())
+      << lim.dump();
+  for (const auto& m : onMessages)
+    EXPECT_TRUE(m == "joint 0 on limit switch error" || m == "Joint must be unhomed, jogged into limits, rehomed" ||
+                m.rfind("Exceeded POSITIVE soft limit", 0) == 0)
+        << "unexpected at Machine On: " << m;
   EXPECT_EQ(lim["drive_ena_after"]["x"][0], false);
   EXPECT_EQ(lim["recovered_on"], true);
   EXPECT_EQ(lim["limit_flags_after_jog"], json::parse("[0,0,0]"));
