@@ -423,27 +423,35 @@ TEST(SimApi, ACardNobodyTalksToSleepsUntilADatagramOrARequest) {
 
 // A machine nobody talks to only moves, and its plant is exact over any
 // span: the card thread catches it up four times a second at speed 1
-// (SimDaemon::kMachineTick of simulated time) instead of every
-// millisecond, and whoever looks sees it current.
+// (SimDaemon::kMachineTick of simulated time, SimClock::wallFor at other
+// speeds) instead of every millisecond, and whoever looks sees it current.
 TEST(SimApi, AMachineNobodyTalksToWakesTheCardFourTimesASecond) {
   Sim sim(loopback(20), {"--machine", "mill"});
   ASSERT_TRUE(sim.up());
-  const double t0 = sim.get("/api/state").body["time_s"].get<double>();
+  // Simulated time plus what it fell behind the wall clock (a catch-up cut
+  // short by its budget on a busy machine sets the clock back and counts
+  // it): together they are the wall time the sim has run, whatever the load.
+  const auto ran = [&] {
+    const auto state = sim.get("/api/state").body;
+    return state["time_s"].get<double>() + state["clock"]["behind_ms"].get<double>() / 1000.0;
+  };
+  const double t0 = ran();
   const long before = cardThreadWakeUps(sim.pid());
   ASSERT_GE(before, 0);
   std::this_thread::sleep_for(1000ms);
   const long woke = cardThreadWakeUps(sim.pid()) - before;
   // Every millisecond it would be about 1000.
   EXPECT_LE(woke, 10) << "the card thread woke " << woke << " times in 1 s with a machine and no host";
-  EXPECT_GE(woke, 2) << "it still catches the machine up";
-  EXPECT_GE(sim.get("/api/state").body["time_s"].get<double>() - t0, 0.9);
+  // A look catches the machine up to the moment it is asked at.
+  EXPECT_GE(ran() - t0, 0.999);
   // Faster than the wall clock it looks as often in simulated time: at
-  // speed 100 every 2.5 ms, so that each catch-up stays short.
+  // speed 100 every 2 ms of wall time (about 400 times a second; the
+  // bound leaves room for a thread that a busy machine runs late).
   ASSERT_EQ(sim.post("/api/time", {{"speed", 100}}).status, 200);
   const long fast = cardThreadWakeUps(sim.pid());
   std::this_thread::sleep_for(1000ms);
   const long wokeFast = cardThreadWakeUps(sim.pid()) - fast;
-  EXPECT_GE(wokeFast, 100) << "the card thread woke " << wokeFast << " times in 1 s at speed 100";
+  EXPECT_GE(wokeFast, 40) << "the card thread woke " << wokeFast << " times in 1 s at speed 100";
   EXPECT_EQ(sim.stopWithin(2000ms), 0);
 }
 

@@ -204,4 +204,21 @@ TEST(WallClock, FollowsTheWallClockAtItsSpeedAndIgnoresHostCycles) {
   EXPECT_EQ(c.ago(4ms), SimTime{12ms});
 }
 
+// A model that only moves is looked at every so much simulated time: in
+// that much wall time at the clock's speed, never more often than every
+// millisecond, and no less often than the simulated span itself.
+TEST(WallClock, AModelThatOnlyMovesIsLookedAtEverySoMuchSimulatedTime) {
+  wall = SimClock::Wall::time_point{} + 1h;
+  SimClock c(1.0, false, &testWall);
+  EXPECT_EQ(c.wallFor(250ms), 250ms);
+  c.set(100.0, false);
+  EXPECT_EQ(c.wallFor(250ms), 2ms);  // 2.5 ms, to the millisecond below
+  c.set(1000.0, false);
+  EXPECT_EQ(c.wallFor(250ms), 1ms);
+  c.set(0.25, false);
+  EXPECT_EQ(c.wallFor(250ms), 250ms);
+  c.set(100.0, true);
+  EXPECT_EQ(c.wallFor(250ms), 250ms);
+}
+
 }  // namespace

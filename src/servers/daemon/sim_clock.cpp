@@ -32,6 +32,12 @@ bool SimClock::drivenByHost() const {
   return source_ == Source::Host && !paused_ && period_.count() > 0 && !silent(wallNow_());
 }
 
+std::chrono::milliseconds SimClock::wallFor(std::chrono::milliseconds simulated) const {
+  if (paused_ || !(speed_ > 1.0)) return simulated;
+  return std::max(std::chrono::milliseconds(1),
+                  std::chrono::milliseconds(static_cast<std::int64_t>(static_cast<double>(simulated.count()) / speed_)));
+}
+
 void SimClock::set(double speed, bool paused) {
   simBase_ = now();
   wallBase_ = wallNow_();

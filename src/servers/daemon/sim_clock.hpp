@@ -58,6 +58,11 @@ class SimClock {
   void set(double speed, bool paused);
   [[nodiscard]] double speed() const { return speed_; }
   [[nodiscard]] bool paused() const { return paused_; }
+  // The wall time in which `simulated` passes at this speed, at least a
+  // millisecond and never longer than `simulated` itself (slower than the
+  // wall clock, or paused, a look that often is often enough): how long
+  // the card thread may sleep between looks at a model that only moves.
+  [[nodiscard]] std::chrono::milliseconds wallFor(std::chrono::milliseconds simulated) const;
   void advanceBy(lbp::SimTime t);  // while paused: step time by hand
   // The simulated time it was `wallAgo` of wall-clock time ago (now() while
   // paused; on the host clock, the time of the cycle a datagram came in, or

@@ -130,14 +130,9 @@ std::chrono::milliseconds SimDaemon::idleWait() const {
   // needs a tick only to keep each catch-up short.
   if (options_.demo || !ptyChannels_.empty() || (script_ && script_->pending())) return std::chrono::milliseconds(1);
   if (clock_.drivenByHost()) return SimClock::kHeldBackCheck;
-  if (machine_) {
-    // kMachineTick of simulated time between looks: faster than the wall
-    // clock, as often as the speed asks (a catch-up stays short).
-    const double speed = clock_.speed();
-    if (clock_.paused() || !(speed > 1.0)) return kMachineTick;
-    return std::max(std::chrono::milliseconds(1),
-                    std::chrono::milliseconds(static_cast<std::int64_t>(kMachineTick.count() / speed)));
-  }
+  // kMachineTick of simulated time between looks: faster than the wall
+  // clock, as often as the speed asks (a catch-up stays short).
+  if (machine_) return clock_.wallFor(kMachineTick);
   return std::chrono::hours(1);
 }
 
