@@ -45,13 +45,25 @@ void ServoThreadPriority::run() {
       const auto name = p.path().filename().string();
       if (name.empty() || std::isdigit(static_cast<unsigned char>(name[0])) == 0) continue;
       if (commandOf(p.path()) != "rtapi_app" || networkNamespaceOf(p.path()) != networkNamespace_) continue;
+      const long pid = std::atol(name.c_str());
       for (const auto& t : fs::directory_iterator(p.path() / "task", ec)) {
-        const auto task = commandOf(t.path());
         const long tid = std::atol(t.path().filename().c_str());
-        if ((task != "rtapi_app" && task.rfind("rtapi_app:T", 0) != 0) || done.count(tid) != 0) continue;
+        if (done.count(tid) != 0) continue;
+        // A new thread is "rtapi_app" until it names itself: the tasks and
+        // the message thread are told apart once they have.
+        const auto task = commandOf(t.path());
         sched_param sp{};
-        sp.sched_priority = kPriority;
-        if (::sched_setscheduler(static_cast<pid_t>(tid), SCHED_FIFO, &sp) == 0) done.insert(tid);
+        int policy = SCHED_FIFO;
+        if (task == "rtapi_app:mesg") {
+          // Created by the main thread, it has the main thread's class if
+          // that was raised first: back to the normal class.
+          policy = SCHED_OTHER;
+        } else if (tid == pid || task.rfind("rtapi_app:T", 0) == 0) {
+          sp.sched_priority = kPriority;
+        } else {
+          continue;
+        }
+        if (::sched_setscheduler(static_cast<pid_t>(tid), policy, &sp) == 0) done.insert(tid);
       }
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
