@@ -442,16 +442,17 @@ TEST(SimApi, AMachineNobodyTalksToWakesTheCardFourTimesASecond) {
   const long woke = cardThreadWakeUps(sim.pid()) - before;
   // Every millisecond it would be about 1000.
   EXPECT_LE(woke, 10) << "the card thread woke " << woke << " times in 1 s with a machine and no host";
+  EXPECT_GE(woke, 2) << "it still catches the machine up";
   // A look catches the machine up to the moment it is asked at.
   EXPECT_GE(ran() - t0, 0.999);
   // Faster than the wall clock it looks as often in simulated time: at
-  // speed 100 every 2 ms of wall time (about 400 times a second; the
-  // bound leaves room for a thread that a busy machine runs late).
+  // speed 100 every 2 ms of wall time (about 400 times a second), so that
+  // each catch-up stays short.
   ASSERT_EQ(sim.post("/api/time", {{"speed", 100}}).status, 200);
   const long fast = cardThreadWakeUps(sim.pid());
   std::this_thread::sleep_for(1000ms);
   const long wokeFast = cardThreadWakeUps(sim.pid()) - fast;
-  EXPECT_GE(wokeFast, 40) << "the card thread woke " << wokeFast << " times in 1 s at speed 100";
+  EXPECT_GE(wokeFast, 100) << "the card thread woke " << wokeFast << " times in 1 s at speed 100";
   EXPECT_EQ(sim.stopWithin(2000ms), 0);
 }
 
