@@ -351,9 +351,11 @@ CycleStatus SmartSerial::collectInputs() {
   st.replyLost = t_.linkCounters().failedExchanges() != failuresAtQueue_;
   const Nanoseconds start = t_.now();
   // Over a network every poll is a round trip: first wait about as long as
-  // a DOIT was last seen to be still running. The estimate is a lower bound
-  // (the last poll that found COMMAND busy), halved whenever the first poll
-  // already finds it done, so it cannot creep up.
+  // the last DOIT that a first poll found busy took to finish (an upper
+  // bound, within a poll interval). Each time the first poll already finds
+  // it done the wait shrinks by 1/32, so it follows a DOIT that got
+  // shorter, and a busy first poll costs one extra round trip in tens of
+  // cycles rather than every other one.
   if (busyEstimate_.count() > 0) t_.sleep(busyEstimate_);
   bool sawBusy = false;
   for (;;) {
@@ -373,7 +375,6 @@ CycleStatus SmartSerial::collectInputs() {
     }
     if (pollCommand_ == 0) break;
     sawBusy = true;
-    busyEstimate_ = std::min(t_.now() - start, kMaxBusyEstimate);
     if (t_.now() - start > options_.commandTimeout) {
       st.ok = false;
       st.commandBusy = true;
@@ -383,8 +384,8 @@ CycleStatus SmartSerial::collectInputs() {
     }
     t_.sleep(options_.pollInterval);
   }
-  if (!sawBusy) busyEstimate_ /= 2;
   st.doitTime = t_.now() - start;
+  busyEstimate_ = sawBusy ? std::min(st.doitTime, kMaxBusyEstimate) : busyEstimate_ - busyEstimate_ / 32;
   st.failedMask = static_cast<std::uint8_t>(pollData_);
   if (st.replyLost) ++lostCycles_;
   st.ok = st.failedMask == 0 && !st.replyLost;
