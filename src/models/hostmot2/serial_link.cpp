@@ -115,11 +115,20 @@ SerialLink::Reply SerialLink::exchange(std::span<const std::uint8_t> frame, SimT
   const bool heard = connected_ && remote_ != nullptr && remote_->powered() && remote_->baud() == baud;
   if (heard && clean(start)) {
     // The frame's characters reach the remote one character time apart;
-    // its reply comes back the same way after the turnaround.
-    for (const std::uint8_t b : frame) {
-      t += ch;
-      for (const auto x : remote_->receive(b, t))
+    // its reply comes back the same way after the turnaround. A process
+    // data exchange (one special RPC) is handed over whole.
+    auto take = [&](std::span<const std::uint8_t> bytes) {
+      for (const auto x : bytes)
         if (reply.size < reply.bytes.size()) reply.bytes[reply.size++] = x;
+    };
+    if (const auto whole = remote_->receiveSpecialRpc(frame, t + ch, ch)) {
+      t += ch * static_cast<SimTime::rep>(frame.size());
+      take(*whole);
+    } else {
+      for (const std::uint8_t b : frame) {
+        t += ch;
+        take(remote_->receive(b, t));
+      }
     }
     counters_.toRemote += frame.size();
     if (reply.size > 0) {

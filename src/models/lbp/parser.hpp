@@ -11,8 +11,10 @@
 // sees a timeout, which is how SSLBP notices it).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <span>
 
 #include "lbp/protocol.hpp"
@@ -58,6 +60,27 @@ class Parser {
     received_ = received;
     if (received == length_) complete(now);
     return {response_.data(), responseLength_};
+  }
+
+  // A whole special RPC (manual: SPECIAL RPCS) whose characters arrived
+  // `ch` apart, the first ending at `first`, between commands: what
+  // receive() of each character would do, at once. Characters `ch` apart
+  // never let a gap pass, so only the last one matters. Anything else (a
+  // half-received command, skipping, another command, a frame that is not
+  // exactly one command) returns nullopt with nothing changed: the caller
+  // hands the characters over one by one.
+  std::optional<std::span<const std::uint8_t>> receiveSpecialRpc(std::span<const std::uint8_t> frame, SimTime first,
+                                                                 SimTime ch) {
+    if (length_ != 0 || skipping_ || frame.size() < 2 || commandType(frame[0]) != CommandType::Rpc) return std::nullopt;
+    const auto sizes = target_.specialRpc(frame[0]);
+    if (!sizes || frame.size() != std::size_t{2} + sizes->fromHost) return std::nullopt;
+    responseLength_ = 0;
+    haveLast_ = true;
+    last_ = first + ch * static_cast<SimTime::rep>(frame.size() - 1);
+    std::copy(frame.begin(), frame.end(), command_.begin());
+    length_ = frame.size();
+    complete(last_);
+    return std::span<const std::uint8_t>{response_.data(), responseLength_};
   }
 
   // Let time pass without characters: a half-received command times out.

@@ -141,8 +141,15 @@ void RemoteDevice::buildTables(std::span<const ProcessDataDescriptor> own) {
     unsigned txBits = 0;
     for (ElementId id : modes_[m].processData) {
       const auto& d = elements_.at(id).d;
-      if (sendsToHost(d.direction)) rxBits += d.bits;
-      if (receivesFromHost(d.direction)) txBits += d.bits;
+      const bool pad = d.type == DataType::Pad;
+      if (sendsToHost(d.direction)) {
+        if (!pad) t.toHost.push_back({id, d.bits, static_cast<std::uint16_t>(rxBits)});
+        rxBits += d.bits;
+      }
+      if (receivesFromHost(d.direction)) {
+        if (!pad) t.fromHost.push_back({id, d.bits, static_cast<std::uint16_t>(txBits)});
+        txBits += d.bits;
+      }
     }
     t.rxSize = static_cast<std::uint8_t>(1 + (rxBits + 7) / 8);  // fault byte first
     t.txSize = static_cast<std::uint8_t>((txBits + 7) / 8);
@@ -456,23 +463,21 @@ void RemoteDevice::runSpecialRpc(std::uint8_t command, std::span<const std::uint
     }
     case rpc::kProcessData: {
       // Outputs from the host, then fault byte and inputs back, both packed
-      // in PTOC order (manual: PROCESS DATA RPC).
-      unsigned bit = 0;
-      for (ElementId id : currentMode().processData) {
-        const auto& d = elements_[id].d;
-        if (!receivesFromHost(d.direction)) continue;
-        if (d.type != DataType::Pad) setRaw(id, lbp::unpackBits(fromHost, bit, d.bits));
-        bit += d.bits;
-      }
+      // in PTOC order (manual: PROCESS DATA RPC). The bytes are worked on in
+      // a buffer with room past their end, so that every element is one
+      // whole-word load or store.
+      const ModeTables& t = currentTables();
+      constexpr std::size_t kRoom = 8;
+      std::array<std::uint8_t, 256 + kRoom> buffer{};
+      std::copy(fromHost.begin(), fromHost.end(), buffer.begin());
+      const std::span<const std::uint8_t> in{buffer.data(), fromHost.size() + kRoom};
+      for (const Packed& p : t.fromHost) setRaw(p.id, lbp::unpackBits(in, p.bit, p.bits));
       if (toHost.empty()) return;
       toHost[0] = faults_;
-      bit = 0;
-      for (ElementId id : currentMode().processData) {
-        const auto& d = elements_[id].d;
-        if (!sendsToHost(d.direction)) continue;
-        lbp::packBits(toHost.subspan(1), bit, d.bits, raw(id));
-        bit += d.bits;
-      }
+      std::fill_n(buffer.begin(), toHost.size() + kRoom, std::uint8_t{0});
+      const std::span<std::uint8_t> out{buffer.data(), toHost.size() - 1 + kRoom};
+      for (const Packed& p : t.toHost) lbp::packBits(out, p.bit, p.bits, raw(p.id));
+      std::copy_n(buffer.begin(), toHost.size() - 1, toHost.begin() + 1);
       ++processDataCount_;
       return;
     }

@@ -111,6 +111,18 @@ class RemoteDevice : public lbp::Target {
     wake_ = nextEvent();  // the command may have fed or set the watchdog, or be half received
     return reply;
   }
+  // A frame of characters `ch` apart, the first ending at `first`, that is
+  // one special RPC, received between commands with nothing due before its
+  // last character (no watchdog bite, no gap): the reply receive() of each
+  // character would give, at once. nullopt, with nothing changed, otherwise.
+  std::optional<std::span<const std::uint8_t>> receiveSpecialRpc(std::span<const std::uint8_t> frame, SimTime first,
+                                                                 SimTime ch) {
+    if (!powered_ || frame.empty() || first + ch * static_cast<SimTime::rep>(frame.size() - 1) >= wake_)
+      return std::nullopt;
+    const auto reply = parser_.receiveSpecialRpc(frame, first, ch);
+    if (reply) wake_ = nextEvent();
+    return reply;
+  }
   // Let simulated time pass (watchdog, framing gaps). Inline and cheap until
   // something is due: the card advances both processors at every host access.
   void advance(SimTime now) {
@@ -188,7 +200,7 @@ class RemoteDevice : public lbp::Target {
   // Element access by id: the device's own elements are 0..n-1, the standard
   // parameters follow (see standard()).
   [[nodiscard]] std::uint64_t raw(ElementId id) const {
-    const auto& e = elements_.at(id);
+    const auto& e = elements_[id];
     const std::uint8_t* p = bytesOf(e);
     if (p == nullptr) return 0;
     std::uint64_t v = 0;
@@ -217,7 +229,7 @@ class RemoteDevice : public lbp::Target {
  protected:
   // Working (RAM) value of an element; NV elements live in the EEPROM.
   void setRaw(ElementId id, std::uint64_t value) {
-    const auto& e = elements_.at(id);
+    const auto& e = elements_[id];
     auto* p = const_cast<std::uint8_t*>(bytesOf(e));  // this device's own memory
     if (p == nullptr) return;
     value &= e.mask;
@@ -255,11 +267,20 @@ class RemoteDevice : public lbp::Target {
     std::uint8_t bytes = 0;
     std::uint64_t mask = 0;  // the element's bits
   };
+  // Where one element of a mode's process data sits in the process data
+  // RPC's bytes (manual: PROCESS DATA RPC: packed in PTOC order, LSB first).
+  struct Packed {
+    ElementId id;
+    std::uint8_t bits;
+    std::uint16_t bit;  // offset from the first byte (after the fault byte, going to the host)
+  };
   struct ModeTables {
     std::uint16_t ptoc;
     std::uint16_t gtoc;
     std::uint8_t rxSize;
     std::uint8_t txSize;
+    std::vector<Packed> fromHost;  // outputs, pads left out
+    std::vector<Packed> toHost;    // inputs, pads left out (the answer starts cleared)
   };
 
   void buildTables(std::span<const ProcessDataDescriptor> own);
