@@ -84,6 +84,9 @@ HostMot2Card::HostMot2Card(Options options)
         if (m->decodes(static_cast<std::uint16_t>(block << 8 | off))) decoded_[block] |= std::uint64_t{1} << (off / 4);
       blockAccess_[block] = m->accessAt(static_cast<std::uint16_t>(block << 8));
     }
+  for (unsigned reg = 0; reg < 0x10000; reg += 4)
+    if (readOnlyIdentification(static_cast<std::uint16_t>(reg)) && moduleAt(static_cast<std::uint16_t>(reg)) != nullptr)
+      throw std::logic_error("a module of the " + std::string(firmware_->name) + " firmware decodes the identification area");
 
   const auto& b = card_->idrom;
   std::vector<PinDescriptor> pins(static_cast<std::size_t>(b.ioPorts) * b.portWidth);  // GPIO unless the firmware says
@@ -187,6 +190,9 @@ void HostMot2Card::reconfigure(SimTime now) {
 std::uint32_t HostMot2Card::read32(std::uint16_t address, SimTime now) {
   advance(now);
   const auto reg = static_cast<std::uint16_t>(address & 0xFFFCU);
+  // What Module::read does, with the map's answers looked up once per block
+  // (no module decodes the identification area: the constructor checks).
+  if (Module* m = moduleAt(reg)) return blockAccess_[reg >> 8] == map::Access::WriteOnly ? 0 : m->readRegister(reg, now_);
   if (reg >= idrom::kIdromAddress && reg < idrom::kIdromAddress + idrom::kWords * 4)
     return idrom_[static_cast<unsigned>(reg - idrom::kIdromAddress) / 4];
   switch (reg) {
@@ -196,8 +202,6 @@ std::uint32_t HostMot2Card::read32(std::uint16_t address, SimTime now) {
     case idrom::kIdromPointer: return idrom::kIdromAddress;
     default: break;
   }
-  // What Module::read does, with the map's answers looked up once per block.
-  if (Module* m = moduleAt(reg)) return blockAccess_[reg >> 8] == map::Access::WriteOnly ? 0 : m->readRegister(reg, now_);
   noteAccess(AccessKind::UnmappedRead, address, 0);
   return 0;
 }

@@ -1,6 +1,7 @@
 #include "hostmot2/sslbp.hpp"
 
 #include <algorithm>
+#include <bit>
 
 #include "lbp/protocol.hpp"
 
@@ -100,6 +101,7 @@ void SmartSerial::reset() {
     c = Channel{};
     c.link = link;
   }
+  scheduled_ = 0;
   command_ = 0;
   dataIn_ = 0;
   dataOut_ = 0;
@@ -221,7 +223,7 @@ WriteResult SmartSerial::store(std::uint16_t address, std::uint32_t value, SimTi
       command_ = cmd;
       busy_ = Busy::Idle;
       lost_ = false;
-      for (auto& c : channels_) c.scheduled = false;
+      scheduled_ = 0;
       return WriteResult::Accepted;
     }
     if (inReset_) {
@@ -365,7 +367,8 @@ void SmartSerial::initChannel(Channel& c) {
   // next SETUP START). Only the boot after the M bit clears it (initMem).
   c.errorCounts.fill(0);
   c.ready = c.startPending = c.requested = c.invalid = c.doitSeen = c.leftover = false;
-  c.scheduled = c.awaiting = false;
+  unschedule(c);
+  c.awaiting = false;
   c.externalSize = 0;
   c.rxSize = c.txSize = 0;
   // The host-read interface registers are cleared, all of them: initchannel
@@ -441,15 +444,21 @@ void SmartSerial::checkCommandDone(SimTime now) {
 // --- Time ---------------------------------------------------------------------------
 
 void SmartSerial::schedule(Channel& c, SimTime at) {
-  c.scheduled = true;
+  scheduled_ = static_cast<std::uint8_t>(scheduled_ | (1U << (&c - channels_.data())));
   c.due = at;
+}
+
+void SmartSerial::unschedule(Channel& c) {
+  scheduled_ = static_cast<std::uint8_t>(scheduled_ & ~(1U << (&c - channels_.data())));
 }
 
 SimTime SmartSerial::nextEvent() const {
   SimTime t = busy_ == Busy::Immediate || busy_ == Busy::Boot ? immediateDone_ : SimTime::max();
   if (romWrite_.pending && romWrite_.at < t) t = romWrite_.at;
-  for (unsigned i = 0; i < channelCount_; ++i)
-    if (channels_[i].scheduled && channels_[i].due < t) t = channels_[i].due;
+  for (unsigned m = scheduled_; m != 0; m &= m - 1) {
+    const SimTime due = channels_[static_cast<unsigned>(std::countr_zero(m))].due;
+    if (due < t) t = due;
+  }
   return t;
 }
 
@@ -466,9 +475,10 @@ void SmartSerial::runEvents(SimTime now) {
       at = immediateDone_;
       which = -1;
     }
-    for (unsigned i = 0; i < channelCount_; ++i) {
+    for (unsigned m = scheduled_; m != 0; m &= m - 1) {  // in channel order: the lowest first at equal times
+      const auto i = static_cast<unsigned>(std::countr_zero(m));
       const auto& c = channels_[i];
-      if (c.scheduled && c.due <= now && (which == -2 || c.due < at)) {
+      if (c.due <= now && (which == -2 || c.due < at)) {
         at = c.due;
         which = static_cast<int>(i);
       }
@@ -481,7 +491,7 @@ void SmartSerial::runEvents(SimTime now) {
         complete(immediateData_, at);
     } else {
       auto& c = channels_[static_cast<unsigned>(which)];
-      c.scheduled = false;
+      unschedule(c);
       if (c.awaiting) {  // an external reply's timeout: what came stays in the FIFO
         c.awaiting = false;
         if (c.externalSize > 0) c.leftover = true;

@@ -179,8 +179,7 @@ class SmartSerial final : public Module {
     std::uint8_t nameIndex = 0;
     std::uint8_t setupExpect = 0;  // reply bytes of the setup-mode command in flight
     SimTime measuredRpc{};
-    bool scheduled = false;
-    SimTime due{};
+    SimTime due{};  // its next event, while its bit in scheduled_ is set
     // Host-written and firmware-written halves of the per-channel registers.
     std::uint32_t csOut = 0;
     std::array<std::uint32_t, 3> ifOut{};
@@ -234,6 +233,7 @@ class SmartSerial final : public Module {
   void setError(Channel& c, std::uint8_t bit, unsigned counter);
   void restart(Channel& c, SimTime now);
   void schedule(Channel& c, SimTime at);
+  void unschedule(Channel& c);
   // START step timeouts count the firmware's hardware timer ticks: the time
   // from `now` to the reply timeout, and to the end of the quiet period.
   [[nodiscard]] SimTime startTimeout(const Channel& c, SimTime now) const;
@@ -244,6 +244,7 @@ class SmartSerial final : public Module {
   unsigned instance_;
   unsigned channelCount_;
   std::array<Channel, kMaxChannels> channels_{};
+  std::uint8_t scheduled_ = 0;  // bit i: channel i has an event at channels_[i].due
   std::array<std::uint8_t, local::kRamSize> ram_{};
 
   std::uint16_t command_ = 0;
