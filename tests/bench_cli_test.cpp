@@ -3,6 +3,8 @@
 // No timing is asserted here (benchmarks/ and the command itself measure).
 #include <gtest/gtest.h>
 
+#include <array>
+
 #include <nlohmann/json.hpp>
 
 #include "support/process.hpp"
@@ -52,17 +54,25 @@ TEST(BenchCli, RepliesPutTheSimBesideAnEchoServer) {
   const auto j = json::parse(r.out, nullptr, false);
   ASSERT_FALSE(j.is_discarded()) << r.out;
   const auto& points = j["replies"]["points"];
-  ASSERT_EQ(points.size(), 8U) << j;
+  // Per CPUs and load: the echo server, the sim, the sim holding the CPUs'
+  // wake-up latency at 0 us (--cpu-latency, the default row).
+  ASSERT_EQ(points.size(), 12U) << j;
+  constexpr std::array<const char*, 3> kServers{"echo", "sim", "sim L0"};
   for (std::size_t i = 0; i < points.size(); ++i) {
     const auto& p = points[i];
-    EXPECT_EQ(p["server"], i % 2 == 0 ? "echo" : "sim") << p;
-    EXPECT_EQ(p["load"], (i / 2) % 2 == 0 ? "idle" : "loaded") << p;
-    EXPECT_EQ(p["cpus"], i < 4 ? "any" : "one") << p;
+    EXPECT_EQ(p["server"], kServers[i % 3]) << p;
+    EXPECT_EQ(p["load"], (i / 3) % 2 == 0 ? "idle" : "loaded") << p;
+    EXPECT_EQ(p["cpus"], i < 6 ? "any" : "one") << p;
     EXPECT_EQ(p["sent"].get<unsigned>(), 200U) << p;
     EXPECT_LE(p["late"].get<unsigned>() + p["lost"].get<unsigned>(), 200U) << p;
     EXPECT_LE(p["us"]["median"].get<double>(), p["us"]["max"].get<double>()) << p;
+    EXPECT_GT(p["server_cpu_percent"].get<double>(), 0.0) << p;  // answering 200 datagrams takes some
   }
   EXPECT_NE(j["replies"]["goal"].get<std::string>().find("echo server"), std::string::npos);
+  // Without the latency rows: echo and sim alone.
+  const auto plain = test_support::run({"bench", "--only", "replies", "--seconds", "0.2", "--cpu-latency", "-1", "--json"});
+  ASSERT_EQ(plain.exit, 0) << plain.err;
+  EXPECT_EQ(json::parse(plain.out)["replies"]["points"].size(), 8U);
 }
 
 TEST(BenchCli, RefusesUnknownPartsAndBadDurations) {

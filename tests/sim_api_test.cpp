@@ -352,6 +352,32 @@ TEST(SimApi, OversizedBodiesAreRefusedWith413) {
 
 // httplib set SO_REUSEPORT: a second sim shared the first one's API port and
 // requests landed on either.
+// The kernel's PM QoS CPU latency request as it stands: the lowest any
+// process holds, 2000 s (no limit) when none does.
+std::optional<std::int32_t> cpuLatencyUs() {
+  std::ifstream f("/dev/cpu_dma_latency", std::ios::binary);
+  std::int32_t us = 0;
+  if (!f.read(reinterpret_cast<char*>(&us), sizeof us)) return std::nullopt;
+  return us;
+}
+
+TEST(SimApi, CpuLatencyHoldsTheMachinesWakeUpLatencyWhileTheSimRuns) {
+  const auto before = cpuLatencyUs();
+  if (!before || ::geteuid() != 0) GTEST_SKIP() << "needs root and /dev/cpu_dma_latency";
+  {
+    Sim sim(loopback(21), {"--cpu-latency", "0"});
+    ASSERT_TRUE(sim.up());
+    const auto state = sim.get();
+    ASSERT_TRUE(state.body.is_object());
+    EXPECT_NE(state.body["server"]["scheduling"].get<std::string>().find("CPU wake-up latency held at 0 us"),
+              std::string::npos)
+        << state.body["server"]["scheduling"];
+    EXPECT_EQ(cpuLatencyUs(), 0);
+    EXPECT_EQ(sim.stop(), 0);
+  }
+  EXPECT_EQ(cpuLatencyUs(), before) << "the request ends with the sim";
+}
+
 TEST(SimApi, ASecondSimOnTheSameApiPortIsRefused) {
   Sim first(loopback(3));
   ASSERT_TRUE(first.up());

@@ -19,6 +19,9 @@ struct Options {
   double seconds = 10;  // per measured point (the in-process part: simulated seconds)
   std::vector<unsigned> rates{1000, 2000, 4000, 10000};  // LinuxCNC servo thread, Hz
   std::vector<unsigned> boards{1, 10, 50};                // sims side by side
+  // The CPU wake-up latency of the rows where the sim holds it
+  // (`lbpkit sim --cpu-latency`), replies and network at 1 kHz; -1 leaves them out.
+  int cpuLatencyUs = 0;
   bool json = false;
 };
 

@@ -116,9 +116,11 @@ class LinuxCncLink {
 
 double number(const json& j, const char* key) { return j.contains(key) && j[key].is_number() ? j[key].get<double>() : NAN; }
 
-// One point: the servo thread at `rate` Hz for `seconds`.
-json networkPoint(LinuxCncLink& link, unsigned rate, double seconds, const char* load) {
-  SimProcess sim(link.cardIp());
+// One point: the servo thread at `rate` Hz for `seconds`, the sim started
+// with `variant` (a row name, "-" for the sim as it is, and its options).
+json networkPoint(LinuxCncLink& link, unsigned rate, double seconds, const char* load,
+                  const std::pair<std::string, std::vector<std::string>>& variant = {"-", {}}) {
+  SimProcess sim(link.cardIp(), variant.second);
   const auto period = 1'000'000'000U / rate;
   const auto file = (scratch() / "bench.hal").string();
   // timedelta first in the thread: its figures are the thread's wake-ups,
@@ -129,7 +131,7 @@ json networkPoint(LinuxCncLink& link, unsigned rate, double seconds, const char*
                       << "loadrt threads name1=servo period1=" << period << "\n"
                       << "loadrt timedelta count=1\n"
                       << "addf timedelta.0 servo\naddf hm2_7i92.0.read servo\naddf hm2_7i92.0.write servo\nstart\n";
-  json p{{"rate_hz", rate}, {"load", load}, {"seconds", seconds}};
+  json p{{"rate_hz", rate}, {"load", load}, {"seconds", seconds}, {"variant", variant.first}};
   const auto r = link.hal("halcmd -f " + file);
   std::filesystem::remove(file);
   if (r.exit != 0) {
@@ -147,6 +149,7 @@ json networkPoint(LinuxCncLink& link, unsigned rate, double seconds, const char*
   // the servo thread's wake-up error from after its first cycles (the load
   // itself holds it up once).
   const auto loaded = std::chrono::steady_clock::now();
+  const double simCpuAtLoad = cpuSeconds(sim.pid());
   sleepFor(std::chrono::milliseconds(300));
   const std::string board = "hm2_7i92.0.";
   link.hal("halcmd setp timedelta.0.reset 1");
@@ -158,6 +161,8 @@ json networkPoint(LinuxCncLink& link, unsigned rate, double seconds, const char*
   const auto maxGap = std::atof(link.getp("timedelta.0.max").c_str());
   const auto scheduling = link.rtapiScheduling();
   const auto s1 = sim.state();
+  const double simCpu = cpuSeconds(sim.pid()) - simCpuAtLoad;
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - loaded).count();
   link.unload();
   const auto& server = s1["server"];
   const double timeoutUs = 0.8 * period / 1000.0;  // hm2_eth's read timeout: 80 % of the period
@@ -188,6 +193,7 @@ json networkPoint(LinuxCncLink& link, unsigned rate, double seconds, const char*
                 {"p999", number(server, "queue_p999_us")},
                 {"max", number(server, "queue_max_us")}}},
               {"slower_than_timeout", slow},
+              {"cpu_percent", wall > 0 ? 100.0 * simCpu / wall : 0.0},
               {"datagrams_measured", server["datagrams"]}};
   p["linuxcnc"] = {{"scheduling", scheduling},
                    {"worst_wake_error_us", jitter / 1000.0},
@@ -297,6 +303,10 @@ json runNetwork(const Options& o) {
     }
     j["load_average_" + std::string(load)] = loadAverage();
     for (const unsigned rate : o.rates) j["points"].push_back(networkPoint(link, rate, o.seconds, load));
+    // The sim holding the CPUs' wake-up latency, at a servo thread's usual rate.
+    if (o.cpuLatencyUs >= 0)
+      j["points"].push_back(networkPoint(link, 1000, o.seconds, load,
+                                         {fmt::format("L{}", o.cpuLatencyUs), {"--cpu-latency", std::to_string(o.cpuLatencyUs)}}));
   }
   j["goal"] = "0 packet errors at every rate, idle and loaded; the sim's wake-to-reply p99.9 under 50 us";
   return j;
@@ -320,25 +330,28 @@ void printNetwork(const json& j) {
   if (printedSkip(j)) return;
   fmt::print("  {} s per point; loaded = {} spinning processes at normal priority\n", j["seconds_per_point"].get<double>(),
              j.value("hog_processes", 0));
-  fmt::print("  {:<7} {:>6} {:>9} {:>7} {:>8} | {:^26} | {:^26} | {:>6} | {:>9}\n", "load", "rate", "datagrams",
-             "errors", "io_error", "sim server us med/99/99.9/max", "sim wake-up us med/99/99.9/max", "slow",
-             "LCNC late");
+  fmt::print("  {:<7} {:>6} {:>5} {:>9} {:>7} {:>8} | {:^26} | {:^26} | {:>6} {:>5} | {:>9}\n", "load", "rate",
+             "sim", "datagrams", "errors", "io_error", "sim server us med/99/99.9/max",
+             "sim wake-up us med/99/99.9/max", "slow", "CPU%", "LCNC late");
   for (const auto& p : j["points"]) {
     if (p.contains("error")) {
-      fmt::print("  {:<7} {:>5}k  {}\n", p["load"].get<std::string>(), p["rate_hz"].get<unsigned>() / 1000,
-                 p["error"].get<std::string>());
+      fmt::print("  {:<7} {:>5}k {:>5}  {}\n", p["load"].get<std::string>(), p["rate_hz"].get<unsigned>() / 1000,
+                 p.value("variant", std::string("-")), p["error"].get<std::string>());
       continue;
     }
     const auto& s = p["sim"]["server_us"];
     const auto& w = p["sim"]["wake_us"];
-    fmt::print("  {:<7} {:>4}k {:>9} {:>7} {:>8} | {:>5}/{:>5}/{:>5}/{:>7}  | {:>5}/{:>5}/{:>5}/{:>7}  | {:>6} | {:>6} us\n",
+    fmt::print("  {:<7} {:>4}k {:>5} {:>9} {:>7} {:>8} | {:>5}/{:>5}/{:>5}/{:>7}  | {:>5}/{:>5}/{:>5}/{:>7}  | {:>6} {:>5.1f} | {:>6} us\n",
                p["load"].get<std::string>(), p["rate_hz"].get<unsigned>() / 1000.0,
-               p["datagrams"].get<std::uint64_t>(), p["packet_errors"].get<std::int64_t>(),
+               p.value("variant", std::string("-")), p["datagrams"].get<std::uint64_t>(), p["packet_errors"].get<std::int64_t>(),
                p["io_error"].get<bool>() ? "TRUE" : "FALSE", us(s["median"]), us(s["p99"]), us(s["p999"]),
                us(s["max"]), us(w["median"]), us(w["p99"]), us(w["p999"]), us(w["max"]),
-               p["sim"]["slower_than_timeout"].get<std::uint64_t>(), us(p["linuxcnc"]["worst_wake_error_us"]));
+               p["sim"]["slower_than_timeout"].get<std::uint64_t>(), p["sim"].value("cpu_percent", 0.0),
+               us(p["linuxcnc"]["worst_wake_error_us"]));
   }
   fmt::print("  slow: datagrams the sim took at least hm2_eth's read timeout (80 % of the period) to answer;\n"
+             "  sim: LN the sim holding the CPUs' wake-up latency at N us (lbpkit sim --cpu-latency N);\n"
+             "  CPU%: the sim's CPU time over the point;\n"
              "  LCNC late: LinuxCNC's servo thread's worst wake-up error (timedelta), its own lateness.\n");
   for (const auto& p : j["points"])
     if (p.contains("verdict") && p["verdict"] != "clean")

@@ -41,6 +41,7 @@ namespace lbp16 = lbpkit::wire::lbp16;
 
 constexpr const char* kEchoAddress = "127.78.0.1";
 constexpr const char* kSimAddress = "127.78.0.2";
+constexpr const char* kVariantAddress = "127.78.0.3";
 constexpr std::uint16_t kEchoPort = 27190;
 
 // The comparison: a UDP echo server in ten lines of Python, as anyone
@@ -180,10 +181,22 @@ double percentileUs(const std::vector<std::int64_t>& sorted, double p) {
   return static_cast<double>(sorted[i]) / 1000.0;
 }
 
-json point(const char* cpus, const char* load, const char* server, const Trips& t) {
+// The round trips to one server, and the CPU time its process took meanwhile.
+Trips measured(pid_t server, const std::string& address, std::uint16_t port, std::span<const std::uint8_t> request,
+               double seconds, int cpu, double& cpuPercent) {
+  const double before = cpuSeconds(server);
+  const auto start = std::chrono::steady_clock::now();
+  Trips t = roundTrips(address, port, request, seconds, cpu);
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  cpuPercent = wall > 0 ? 100.0 * (cpuSeconds(server) - before) / wall : 0.0;
+  return t;
+}
+
+json point(const char* cpus, const char* load, const std::string& server, const Trips& t, double cpuPercent) {
   return {{"cpus", cpus},
           {"load", load},
           {"server", server},
+          {"server_cpu_percent", cpuPercent},
           {"client", t.scheduling},
           {"sent", t.sent},
           {"late", t.late},
@@ -205,15 +218,36 @@ json runReplies(const Options& o) {
   const int last = static_cast<int>(std::max(1U, std::thread::hardware_concurrency())) - 1;
   for (const int cpu : {-1, last}) {
     EchoServer echo(cpu);
-    SimProcess sim(kSimAddress, cpu < 0 ? std::vector<std::string>{} : std::vector<std::string>{"--cpu", std::to_string(cpu)});
+    std::vector<std::string> simArgs;
+    if (cpu >= 0) simArgs = {"--cpu", std::to_string(cpu)};
+    SimProcess sim(kSimAddress, simArgs);
+    // The same sim holding the CPUs' wake-up latency (--cpu-latency), on an
+    // address of its own and running for its own point only: the latency
+    // request is the whole machine's.
+    std::vector<std::pair<std::string, std::vector<std::string>>> variants;
+    if (o.cpuLatencyUs >= 0)
+      variants.push_back({fmt::format("sim L{}", o.cpuLatencyUs), {"--cpu-latency", std::to_string(o.cpuLatencyUs)}});
     sleepFor(std::chrono::milliseconds(500));
     const char* cpus = cpu < 0 ? "any" : "one";
     for (const bool loaded : {false, true}) {
       std::unique_ptr<CpuHog> hog;
       if (loaded) hog = std::make_unique<CpuHog>();
       const char* load = loaded ? "loaded" : "idle";
-      j["points"].push_back(point(cpus, load, "echo", roundTrips(kEchoAddress, kEchoPort, read, o.seconds, cpu)));
-      j["points"].push_back(point(cpus, load, "sim", roundTrips(kSimAddress, lbp16::kPort, read, o.seconds, cpu)));
+      double busy = 0;
+      Trips t = measured(echo.pid(), kEchoAddress, kEchoPort, read, o.seconds, cpu, busy);
+      j["points"].push_back(point(cpus, load, "echo", t, busy));
+      t = measured(sim.pid(), kSimAddress, lbp16::kPort, read, o.seconds, cpu, busy);
+      j["points"].push_back(point(cpus, load, "sim", t, busy));
+      for (const auto& [name, extra] : variants) {
+        std::vector<std::string> args = simArgs;
+        args.insert(args.end(), extra.begin(), extra.end());
+        SimProcess variant(kVariantAddress, args);
+        sleepFor(std::chrono::milliseconds(300));
+        t = measured(variant.pid(), kVariantAddress, lbp16::kPort, read, o.seconds, cpu, busy);
+        auto pt = point(cpus, load, name, t, busy);
+        pt["sim_server"] = variant.state()["server"];
+        j["points"].push_back(pt);
+      }
     }
     j["sim_scheduling"] = sim.state()["server"]["scheduling"];
   }
@@ -224,20 +258,24 @@ void printReplies(const json& j) {
   fmt::print("Replies: a client's round trip at 1 kHz over loopback, to a ten-line Python UDP echo server and to\n"
              "`lbpkit sim` (an LBP16 read of 8 words), each reply awaited 800 us:\n");
   if (printedSkip(j)) return;
-  fmt::print("  {:<5} {:<7} {:<5} {:>8} | {:>32} | {:>6} {:>6}\n", "CPUs", "load", "to", "sent",
-             "round trip us med/99/99.9/max", "late", "lost");
+  fmt::print("  {:<5} {:<7} {:<7} {:>8} | {:>32} | {:>6} {:>6} | {:>7}\n", "CPUs", "load", "to", "sent",
+             "round trip us med/99/99.9/max", "late", "lost", "server%");
   for (const auto& p : j["points"]) {
     const auto& us = p["us"];
-    fmt::print("  {:<5} {:<7} {:<5} {:>8} | {:>8.1f}/{:>7.1f}/{:>7.1f}/{:>7.1f} | {:>6} {:>6}\n",
+    fmt::print("  {:<5} {:<7} {:<7} {:>8} | {:>8.1f}/{:>7.1f}/{:>7.1f}/{:>7.1f} | {:>6} {:>6} | {:>7.2f}\n",
                p.value("cpus", std::string("any")), p["load"].get<std::string>(), p["server"].get<std::string>(),
                p["sent"].get<std::uint64_t>(),
                us["median"].get<double>(), us["p99"].get<double>(), us["p999"].get<double>(),
-               us["max"].get<double>(), p["late"].get<std::uint64_t>(), p["lost"].get<std::uint64_t>());
+               us["max"].get<double>(), p["late"].get<std::uint64_t>(), p["lost"].get<std::uint64_t>(),
+               p.value("server_cpu_percent", 0.0));
   }
   if (!j["points"].empty())
     fmt::print("  client: {}; both servers at the sim's card thread's scheduling ({}).\n"
                "  CPUs: any (client and server where the kernel puts them), one (all on the last CPU, the server\n"
-               "  preempting the client); loaded: one spinning process per CPU at normal priority.\n",
+               "  preempting the client); loaded: one spinning process per CPU at normal priority.\n"
+               "  sim LN: the sim holding the CPUs' wake-up latency at N us (lbpkit sim --cpu-latency N);\n"
+               "  server%: the server process's CPU time over the point, in % of one CPU (the idle CPUs'\n"
+               "  polling under --cpu-latency is not in it).\n",
                j["points"][0]["client"].get<std::string>(), j.value("sim_scheduling", std::string("?")));
   fmt::print("  goal: {}\n\n", j["goal"].get<std::string>());
 }

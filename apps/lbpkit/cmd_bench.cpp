@@ -106,6 +106,11 @@ void addBenchCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--rates", c->rates, "network: the LinuxCNC servo thread's rates, Hz")->capture_default_str();
   cmd->add_option("--boards", c->boards, "boards: how many sims side by side, per point")->capture_default_str();
+  cmd->add_option("--cpu-latency", c->options.cpuLatencyUs,
+                  "replies, network at 1 kHz: rows with the sim holding the CPUs' wake-up latency at this many us "
+                  "(lbpkit sim --cpu-latency, root); -1: none")
+      ->check(CLI::Range(-1, 100000))
+      ->capture_default_str();
   cmd->add_flag("--json", c->options.json, "Machine-readable output");
   cmd->callback([c] { app::gRun = [c] { return runBench(*c); }; });
 }

@@ -47,6 +47,7 @@ struct SimCommandOptions {
   bool paused = false;
   bool noRealtime = false;
   int cpu = -1;  // --cpu N: the card thread on CPU N alone
+  int cpuLatencyUs = -1;     // --cpu-latency US
   bool demo = false;
   std::string machine;
   std::string record;
@@ -233,6 +234,7 @@ CardRun cardOptions(const SimCommandOptions& o, const std::string& bind, std::si
                         "cycle");
   s.realtime = !o.noRealtime;
   if (o.cpu != -1) s.cpu = app::checkedCpu(o.cpu, "--cpu");
+  if (o.cpuLatencyUs >= 0) s.cpuLatency = std::chrono::microseconds(o.cpuLatencyUs);
   s.demo = o.demo;
   if (!o.machine.empty()) {
     if (o.demo) throw lbpkit::Error("--machine and --demo exclude each other: both wire the 7I77's terminals");
@@ -423,6 +425,10 @@ void addSimCommand(CLI::App& app) {
   cmd->add_option("--cpu", o->cpu,
                   "Run the card thread on this CPU alone; start the host on the same CPU (taskset -c N) and every "
                   "reply is there before the host looks for it, however busy the PC is");
+  cmd->add_option("--cpu-latency", o->cpuLatencyUs,
+                  "US: while the sim runs, no CPU sleeps deeper than it can wake from in US (PM QoS, root); 0 keeps "
+                  "idle CPUs polling, so no thread waits for a CPU to wake (costs the idle CPUs' time; docs/sim.md)")
+      ->check(CLI::Range(0, 100000));
   cmd->add_flag("--paused", o->paused, "Start with simulated time stopped (the API can run or step it)");
   cmd->add_option("--remote", o->remotes,
                   "CH=pty: SSLBP channel CH (e.g. 2, TB6) on a pseudo-terminal for a remote of your own; repeatable");

@@ -1,6 +1,7 @@
 #include "daemon/sim_daemon.hpp"
 
 #include <arpa/inet.h>
+#include <fcntl.h>
 #include <poll.h>
 #include <pthread.h>
 #include <sched.h>
@@ -10,7 +11,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
@@ -117,6 +120,7 @@ SimDaemon::~SimDaemon() {
   // Stop the API first: its threads may be waiting on jobs for this daemon.
   api_.reset();
   if (jobsReady_ >= 0) ::close(jobsReady_);
+  if (cpuLatencyFd_ >= 0) ::close(cpuLatencyFd_);  // the PM QoS request ends with it
 }
 
 bool SimDaemon::ticks() const {
@@ -459,6 +463,21 @@ std::string SimDaemon::takeCardThread() {
       log(LogLevel::Warn, fmt::format("the card thread cannot run on CPU {} alone: it runs on any", *options_.cpu));
     else
       schedule += fmt::format(", on CPU {}", *options_.cpu);
+  }
+  if (options_.cpuLatency && cpuLatencyFd_ < 0) {
+    // The kernel's PM QoS CPU latency request: a 32-bit value in us, held
+    // while the file stays open (Documentation/power/pm_qos_interface.rst).
+    const auto us = static_cast<std::int32_t>(options_.cpuLatency->count());
+    const int fd = ::open("/dev/cpu_dma_latency", O_WRONLY | O_CLOEXEC);
+    if (fd >= 0 && ::write(fd, &us, sizeof us) == static_cast<ssize_t>(sizeof us)) {
+      cpuLatencyFd_ = fd;
+      schedule += fmt::format(", CPU wake-up latency held at {} us", us);
+    } else {
+      const std::string why = std::strerror(errno);
+      if (fd >= 0) ::close(fd);
+      log(LogLevel::Warn, fmt::format("cannot hold the CPUs' wake-up latency at {} us (/dev/cpu_dma_latency: {}; "
+                                      "it needs root)", us, why));
+    }
   }
   return schedule;
 }

@@ -61,6 +61,11 @@ struct SimOptions {
   // for it, however the machine around them is scheduled: a real card
   // answers in microseconds whatever the PC does (docs/sim.md: Scheduling).
   std::optional<unsigned> cpu;
+  // Hold the CPUs' wake-up latency at most this long while the sim runs
+  // (Linux PM QoS, /dev/cpu_dma_latency, root): 0 keeps idle CPUs polling
+  // instead of halting, so no thread waits for a CPU to wake. A machine-
+  // wide request, dropped when the sim exits; empty: none.
+  std::optional<std::chrono::microseconds> cpuLatency;
   // A little world for demonstrations: the 7I77's field outputs wired back
   // to its inputs 0..15, and encoder 0 turning at 10 000 counts/s.
   bool demo = false;
@@ -202,6 +207,7 @@ class SimDaemon {
   bool macFromInterface_ = false;
   // Readable while jobs wait: wakes the card thread from its sleep.
   int jobsReady_ = -1;
+  int cpuLatencyFd_ = -1;  // /dev/cpu_dma_latency, open while the request holds
   std::mutex jobsMutex_;
   std::deque<std::packaged_task<Answer()>> jobs_;
   std::deque<std::packaged_task<Answer()>> ready_;  // the jobs being run (card thread only)
