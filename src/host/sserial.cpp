@@ -360,8 +360,9 @@ CycleStatus SmartSerial::collectInputs() {
   // the last DOIT that a first poll found busy took to finish (an upper
   // bound, within a poll interval). Each time the first poll already finds
   // it done the wait shrinks by 1/32, so it follows a DOIT that got
-  // shorter, and a busy first poll costs one extra round trip in tens of
-  // cycles rather than every other one.
+  // shorter while a first poll finds COMMAND busy only once in tens of
+  // cycles (a wait halved at each done poll would alternate: two polls
+  // every other cycle).
   if (busyEstimate_.count() > 0) t_.sleep(busyEstimate_);
   bool sawBusy = false;
   for (;;) {
