@@ -20,11 +20,6 @@ namespace {
 using namespace wire::sslbp::command;
 namespace local = wire::sslbp::local;
 
-// Bytes past the end of the interface registers' 12 in the packing buffers:
-// with them, wire::lbp::packBits and unpackBits move each element as one
-// 64-bit word (they read and write only whole words that fit the buffer).
-constexpr std::size_t kPackingRoom = 8;
-
 // LBP through SSLBP setup mode: the command header in CS byte 3, the
 // address in bytes 1..0, data in interface 0/1; one DOIT per command
 // (manual: SETUP MODE OPERATION). Each DOIT is one write exchange and one
@@ -335,7 +330,7 @@ void SmartSerial::queueOutputs() {
   for (auto& s : slots_) {
     // PROCESS ELEMENT PACKING: PTOC order, LSB first across interface 0..2,
     // in a buffer with room past the 12 bytes so every element is one word.
-    std::array<std::uint8_t, 12 + kPackingRoom> bytes{};
+    std::array<std::uint8_t, 12 + wire::lbp::kPackingRoom> bytes{};
     const auto& pd = s.description.processData;
     for (std::size_t i = 0; i < pd.size(); ++i)
       if (pd[i].toRemote()) wire::lbp::packBits(bytes, s.outOffset[i], pd[i].bits, s.raw[i]);
@@ -406,7 +401,7 @@ CycleStatus SmartSerial::collectInputs() {
       continue;
     }
     st.freshMask = static_cast<std::uint8_t>(st.freshMask | bit);
-    std::array<std::uint8_t, 12 + kPackingRoom> bytes{};  // room past the end, as above
+    std::array<std::uint8_t, 12 + wire::lbp::kPackingRoom> bytes{};  // room past the end, as above
     for (unsigned r = 0; r < 3; ++r)
       for (unsigned b = 0; b < 4; ++b) bytes[4 * r + b] = static_cast<std::uint8_t>(s.ifIn[r] >> (8 * b));
     const auto& pd = s.description.processData;

@@ -84,7 +84,10 @@ HostMot2Card::HostMot2Card(Options options)
         if (m->decodes(static_cast<std::uint16_t>(block << 8 | off))) decoded_[block] |= std::uint64_t{1} << (off / 4);
       blockAccess_[block] = m->accessAt(static_cast<std::uint16_t>(block << 8));
     }
-  for (unsigned reg = 0; reg < 0x10000; reg += 4)
+  // read32() asks the module map first: no module may decode the
+  // identification area (the cookie's words up to the IDROM's end).
+  static_assert(idrom::kCookieAddress < idrom::kConfigName && idrom::kIdromPointer < idrom::kIdromAddress);
+  for (unsigned reg = idrom::kCookieAddress; reg < idrom::kIdromAddress + idrom::kWords * 4U; reg += 4)
     if (readOnlyIdentification(static_cast<std::uint16_t>(reg)) && moduleAt(static_cast<std::uint16_t>(reg)) != nullptr)
       throw std::logic_error("a module of the " + std::string(firmware_->name) + " firmware decodes the identification area");
 

@@ -464,17 +464,17 @@ void RemoteDevice::runSpecialRpc(std::uint8_t command, std::span<const std::uint
     case rpc::kProcessData: {
       // Outputs from the host, then fault byte and inputs back, both packed
       // in PTOC order (manual: PROCESS DATA RPC). The bytes are worked on in
-      // a buffer with room past their end, so that every element is one
-      // whole-word load or store.
+      // a buffer with room past their end (lbp::kPackingRoom), zero as
+      // bytes past the data read, so that every element is one word.
       const ModeTables& t = currentTables();
-      constexpr std::size_t kRoom = 8;
-      std::array<std::uint8_t, 256 + kRoom> buffer{};
-      std::copy(fromHost.begin(), fromHost.end(), buffer.begin());
+      constexpr std::size_t kRoom = lbp::kPackingRoom;
+      std::array<std::uint8_t, 256 + kRoom> buffer;  // only the bytes the spans below cover are set
+      std::fill_n(std::copy(fromHost.begin(), fromHost.end(), buffer.begin()), kRoom, std::uint8_t{0});
       const std::span<const std::uint8_t> in{buffer.data(), fromHost.size() + kRoom};
       for (const Packed& p : t.fromHost) setRaw(p.id, lbp::unpackBits(in, p.bit, p.bits));
       if (toHost.empty()) return;
       toHost[0] = faults_;
-      std::fill_n(buffer.begin(), toHost.size() + kRoom, std::uint8_t{0});
+      std::fill_n(buffer.begin(), toHost.size() - 1 + kRoom, std::uint8_t{0});
       const std::span<std::uint8_t> out{buffer.data(), toHost.size() - 1 + kRoom};
       for (const Packed& p : t.toHost) lbp::packBits(out, p.bit, p.bits, raw(p.id));
       std::copy_n(buffer.begin(), toHost.size() - 1, toHost.begin() + 1);

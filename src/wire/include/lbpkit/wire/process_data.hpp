@@ -2,6 +2,7 @@
 // PROCESS DATA DISCOVERY; docs/protocol-facts.md#process-data-discovery).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <string_view>
@@ -83,6 +84,10 @@ constexpr unsigned byteSize(const ProcessDataDescriptor& d) { return (d.bits + 7
 // beyond the buffer are dropped on packing and read as 0 on unpacking.
 void packBits(std::span<std::uint8_t> buffer, unsigned bitOffset, unsigned bits, std::uint64_t value);
 std::uint64_t unpackBits(std::span<const std::uint8_t> buffer, unsigned bitOffset, unsigned bits);
+// Both move an element as one 64-bit word when the eight bytes from its
+// first fit the buffer, and byte by byte otherwise: a buffer with this many
+// bytes past its data (zero, to read as nothing) makes every element one word.
+inline constexpr std::size_t kPackingRoom = 8;
 // Two's complement sign extension of a `bits`-wide raw value.
 constexpr std::int64_t signExtend(std::uint64_t raw, unsigned bits) {
   if (bits == 0 || bits >= 64) return static_cast<std::int64_t>(raw);
