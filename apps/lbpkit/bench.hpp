@@ -84,6 +84,21 @@ class CpuHog {
 
 // A process's CPU time so far (user + system, /proc/PID/stat), seconds.
 double cpuSeconds(pid_t pid);
+// The CPU time processes take from its construction on, beside the wall
+// time that passes.
+class CpuMeter {
+ public:
+  explicit CpuMeter(std::vector<pid_t> pids);
+  [[nodiscard]] double seconds() const;  // all of theirs since construction
+  [[nodiscard]] double wall() const;     // since construction
+  // seconds() as a share of wall(), in % of one CPU.
+  [[nodiscard]] double percent() const;
+
+ private:
+  std::vector<pid_t> pids_;
+  double start_ = 0;
+  std::chrono::steady_clock::time_point t0_;
+};
 // Its memory, kB: resident (VmRSS) and proportional (Pss: shared pages split
 // among their users, so N sims add up to what they really take).
 struct Memory {

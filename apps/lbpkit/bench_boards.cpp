@@ -138,13 +138,12 @@ Driven drive(const std::vector<std::unique_ptr<SimProcess>>& sims, double second
 template <typename During>
 double cpuPerBoard(const std::vector<std::unique_ptr<SimProcess>>& sims, unsigned boards, During&& during,
                    double& wall) {
-  double before = 0, after = 0;
-  for (const auto& s : sims) before += cpuSeconds(s->pid());
-  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<pid_t> pids;
+  for (const auto& s : sims) pids.push_back(s->pid());
+  const CpuMeter cpu(std::move(pids));
   during();
-  wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  for (const auto& s : sims) after += cpuSeconds(s->pid());
-  return (after - before) / static_cast<double>(boards);
+  wall = cpu.wall();
+  return cpu.seconds() / static_cast<double>(boards);
 }
 
 // N boards: N processes, or one process of N cards (`oneProcess`).

@@ -149,7 +149,7 @@ json networkPoint(LinuxCncLink& link, unsigned rate, double seconds, const char*
   // the servo thread's wake-up error from after its first cycles (the load
   // itself holds it up once).
   const auto loaded = std::chrono::steady_clock::now();
-  const double simCpuAtLoad = cpuSeconds(sim.pid());
+  const CpuMeter simCpu({sim.pid()});
   sleepFor(std::chrono::milliseconds(300));
   const std::string board = "hm2_7i92.0.";
   link.hal("halcmd setp timedelta.0.reset 1");
@@ -161,8 +161,7 @@ json networkPoint(LinuxCncLink& link, unsigned rate, double seconds, const char*
   const auto maxGap = std::atof(link.getp("timedelta.0.max").c_str());
   const auto scheduling = link.rtapiScheduling();
   const auto s1 = sim.state();
-  const double simCpu = cpuSeconds(sim.pid()) - simCpuAtLoad;
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - loaded).count();
+  const double simCpuPercent = simCpu.percent();
   link.unload();
   const auto& server = s1["server"];
   const double timeoutUs = 0.8 * period / 1000.0;  // hm2_eth's read timeout: 80 % of the period
@@ -193,7 +192,7 @@ json networkPoint(LinuxCncLink& link, unsigned rate, double seconds, const char*
                 {"p999", number(server, "queue_p999_us")},
                 {"max", number(server, "queue_max_us")}}},
               {"slower_than_timeout", slow},
-              {"cpu_percent", wall > 0 ? 100.0 * simCpu / wall : 0.0},
+              {"cpu_percent", simCpuPercent},
               {"datagrams_measured", server["datagrams"]}};
   p["linuxcnc"] = {{"scheduling", scheduling},
                    {"worst_wake_error_us", jitter / 1000.0},

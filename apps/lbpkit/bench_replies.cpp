@@ -184,11 +184,9 @@ double percentileUs(const std::vector<std::int64_t>& sorted, double p) {
 // The round trips to one server, and the CPU time its process took meanwhile.
 Trips measured(pid_t server, const std::string& address, std::uint16_t port, std::span<const std::uint8_t> request,
                double seconds, int cpu, double& cpuPercent) {
-  const double before = cpuSeconds(server);
-  const auto start = std::chrono::steady_clock::now();
+  const CpuMeter meter({server});
   Trips t = roundTrips(address, port, request, seconds, cpu);
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  cpuPercent = wall > 0 ? 100.0 * (cpuSeconds(server) - before) / wall : 0.0;
+  cpuPercent = meter.percent();
   return t;
 }
 
@@ -221,12 +219,6 @@ json runReplies(const Options& o) {
     std::vector<std::string> simArgs;
     if (cpu >= 0) simArgs = {"--cpu", std::to_string(cpu)};
     SimProcess sim(kSimAddress, simArgs);
-    // The same sim holding the CPUs' wake-up latency (--cpu-latency), on an
-    // address of its own and running for its own point only: the latency
-    // request is the whole machine's.
-    std::vector<std::pair<std::string, std::vector<std::string>>> variants;
-    if (o.cpuLatencyUs >= 0)
-      variants.push_back({fmt::format("sim L{}", o.cpuLatencyUs), {"--cpu-latency", std::to_string(o.cpuLatencyUs)}});
     sleepFor(std::chrono::milliseconds(500));
     const char* cpus = cpu < 0 ? "any" : "one";
     for (const bool loaded : {false, true}) {
@@ -238,13 +230,16 @@ json runReplies(const Options& o) {
       j["points"].push_back(point(cpus, load, "echo", t, busy));
       t = measured(sim.pid(), kSimAddress, lbp16::kPort, read, o.seconds, cpu, busy);
       j["points"].push_back(point(cpus, load, "sim", t, busy));
-      for (const auto& [name, extra] : variants) {
+      if (o.cpuLatencyUs >= 0) {
+        // The same sim holding the CPUs' wake-up latency (--cpu-latency), on
+        // an address of its own and running for this point only: the
+        // latency request is the whole machine's.
         std::vector<std::string> args = simArgs;
-        args.insert(args.end(), extra.begin(), extra.end());
+        args.insert(args.end(), {"--cpu-latency", std::to_string(o.cpuLatencyUs)});
         SimProcess variant(kVariantAddress, args);
         sleepFor(std::chrono::milliseconds(300));
         t = measured(variant.pid(), kVariantAddress, lbp16::kPort, read, o.seconds, cpu, busy);
-        auto pt = point(cpus, load, name, t, busy);
+        auto pt = point(cpus, load, fmt::format("sim L{}", o.cpuLatencyUs), t, busy);
         pt["sim_server"] = variant.state()["server"];
         j["points"].push_back(pt);
       }

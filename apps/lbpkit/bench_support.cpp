@@ -216,6 +216,23 @@ CpuHog::~CpuHog() {
   for (const pid_t pid : pids_) reap(pid);
 }
 
+CpuMeter::CpuMeter(std::vector<pid_t> pids) : pids_(std::move(pids)), t0_(std::chrono::steady_clock::now()) {
+  for (const pid_t pid : pids_) start_ += cpuSeconds(pid);
+}
+
+double CpuMeter::seconds() const {
+  double now = 0;
+  for (const pid_t pid : pids_) now += cpuSeconds(pid);
+  return now - start_;
+}
+
+double CpuMeter::wall() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count(); }
+
+double CpuMeter::percent() const {
+  const double w = wall();
+  return w > 0 ? 100.0 * seconds() / w : 0.0;
+}
+
 double cpuSeconds(pid_t pid) {
   // Every thread's time on a CPU in ns (schedstat's first field): exact,
   // where /proc/PID/stat counts in clock ticks.
