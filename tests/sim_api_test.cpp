@@ -20,6 +20,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <memory>
 #include <sstream>
 #include <nlohmann/json.hpp>
@@ -418,9 +419,25 @@ TEST(SimApi, SigtermAndSigintStopTheSimWhateverClientsDo) {
   }
 }
 
-// How often the card thread (the sim's main thread) has slept and woken:
-// its voluntary context switches (proc(5)).
+// The card thread's (the sim's main thread's) scheduling state, the field
+// after the name in /proc/PID/task/TID/stat (proc(5)): 'R' while it runs.
+char cardThreadState(pid_t pid) {
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/task/" + std::to_string(pid) + "/stat");
+  const std::string line((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+  const auto name = line.rfind(')');
+  return name == std::string::npos || name + 2 >= line.size() ? '?' : line[name + 2];
+}
+
+// How often the card thread has slept and woken: its voluntary context
+// switches (proc(5)). The kernel counts one when the thread goes to sleep,
+// not when it wakes, so a thread that has just answered a job is counted
+// only once it sleeps again: this reads the count once the thread is
+// asleep (or after two seconds of running, which the callers' bounds
+// then show).
 long cardThreadWakeUps(pid_t pid) {
+  const auto deadline = std::chrono::steady_clock::now() + 2s;
+  while (cardThreadState(pid) == 'R' && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(1ms);
   std::ifstream status("/proc/" + std::to_string(pid) + "/task/" + std::to_string(pid) + "/status");
   for (std::string line; std::getline(status, line);)
     if (line.rfind("voluntary_ctxt_switches:", 0) == 0) return std::stol(line.substr(line.find(':') + 1));
