@@ -20,7 +20,6 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <memory>
 #include <sstream>
 #include <nlohmann/json.hpp>
@@ -38,6 +37,7 @@
 #include "support/process.hpp"
 #include "support/sim_child.hpp"
 #include "support/temp_dir.hpp"
+#include "support/wait.hpp"
 
 namespace {
 
@@ -362,9 +362,17 @@ std::optional<std::int32_t> cpuLatencyUs() {
   return us;
 }
 
+// Whether process pid has /dev/cpu_dma_latency open: a PM QoS request
+// lasts as long as the file is open (kernel: Documentation/power/pm_qos_interface.rst).
+bool holdsCpuLatencyRequest(pid_t pid) {
+  std::error_code ec;
+  for (const auto& fd : std::filesystem::directory_iterator("/proc/" + std::to_string(pid) + "/fd", ec))
+    if (std::filesystem::read_symlink(fd.path(), ec) == "/dev/cpu_dma_latency") return true;
+  return false;
+}
+
 TEST(SimApi, CpuLatencyHoldsTheMachinesWakeUpLatencyWhileTheSimRuns) {
-  const auto before = cpuLatencyUs();
-  if (!before || ::geteuid() != 0) GTEST_SKIP() << "needs root and /dev/cpu_dma_latency";
+  if (!cpuLatencyUs() || ::geteuid() != 0) GTEST_SKIP() << "needs root and /dev/cpu_dma_latency";
   {
     Sim sim(loopback(21), {"--cpu-latency", "0"});
     ASSERT_TRUE(sim.up());
@@ -373,10 +381,14 @@ TEST(SimApi, CpuLatencyHoldsTheMachinesWakeUpLatencyWhileTheSimRuns) {
     EXPECT_NE(state.body["server"]["scheduling"].get<std::string>().find("CPU wake-up latency held at 0 us"),
               std::string::npos)
         << state.body["server"]["scheduling"];
+    // The kernel keeps the lowest request any process holds, so the value
+    // read is 0 whoever else holds one (lbpkit bench's sims do); that the
+    // request is this sim's shows in its open files. The kernel drops it
+    // when the file closes, at the latest when the sim exits.
     EXPECT_EQ(cpuLatencyUs(), 0);
+    EXPECT_TRUE(holdsCpuLatencyRequest(sim.pid())) << "the sim holds no /dev/cpu_dma_latency request";
     EXPECT_EQ(sim.stop(), 0);
   }
-  EXPECT_EQ(cpuLatencyUs(), before) << "the request ends with the sim";
 }
 
 TEST(SimApi, ASecondSimOnTheSameApiPortIsRefused) {
@@ -419,25 +431,11 @@ TEST(SimApi, SigtermAndSigintStopTheSimWhateverClientsDo) {
   }
 }
 
-// The card thread's (the sim's main thread's) scheduling state, the field
-// after the name in /proc/PID/task/TID/stat (proc(5)): 'R' while it runs.
-char cardThreadState(pid_t pid) {
-  std::ifstream stat("/proc/" + std::to_string(pid) + "/task/" + std::to_string(pid) + "/stat");
-  const std::string line((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
-  const auto name = line.rfind(')');
-  return name == std::string::npos || name + 2 >= line.size() ? '?' : line[name + 2];
-}
-
-// How often the card thread has slept and woken: its voluntary context
-// switches (proc(5)). The kernel counts one when the thread goes to sleep,
-// not when it wakes, so a thread that has just answered a job is counted
-// only once it sleeps again: this reads the count once the thread is
-// asleep (or after two seconds of running, which the callers' bounds
-// then show).
+// How often the card thread (the sim's main thread) has slept and woken:
+// its voluntary context switches (proc(5)). The kernel counts one when the
+// thread goes to sleep, not when it wakes: a thread that has just answered
+// a job is counted only once it sleeps again.
 long cardThreadWakeUps(pid_t pid) {
-  const auto deadline = std::chrono::steady_clock::now() + 2s;
-  while (cardThreadState(pid) == 'R' && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(1ms);
   std::ifstream status("/proc/" + std::to_string(pid) + "/task/" + std::to_string(pid) + "/status");
   for (std::string line; std::getline(status, line);)
     if (line.rfind("voluntary_ctxt_switches:", 0) == 0) return std::stol(line.substr(line.find(':') + 1));
@@ -460,7 +458,9 @@ TEST(SimApi, ACardNobodyTalksToSleepsUntilADatagramOrARequest) {
   EXPECT_LE(asleep, 5) << "the card thread woke " << asleep << " times in 500 ms with nothing to do";
   // A request is a job for the card thread: answered, so it woke for it.
   ASSERT_EQ(sim.get().status, 200);
-  EXPECT_GT(cardThreadWakeUps(sim.pid()), before + asleep);
+  // It is counted once it sleeps again, which may come after the reply.
+  EXPECT_TRUE(test_support::waitFor([&] { return cardThreadWakeUps(sim.pid()) > before + asleep; }, 2s))
+      << "the card thread did not sleep again after answering the request";
   EXPECT_EQ(sim.stopWithin(2000ms), 0);
 }
 
@@ -739,7 +739,7 @@ TEST(SimApi, ATokenIsRequiredWhenSet) {
 TEST(SimApi, WarnsWhenServingBeyondLoopback) {
   const auto state = tempPath("anywhere");
   const auto r = test_support::run(
-      {"sim", "--bind", "0.0.0.0:0", "--api", "0.0.0.0:0", "--no-realtime", "--state", state}, std::chrono::seconds(2));
+      {"sim", "--bind", "0.0.0.0:0", "--api", "0.0.0.0:0", "--no-realtime", "--state", state}, std::chrono::seconds(5));
   EXPECT_NE(r.err.find("warning: the control API on 0.0.0.0"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("--api-token"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("warning: LBP16 on 0.0.0.0"), std::string::npos) << r.err;
@@ -837,6 +837,20 @@ struct HostOnSim {
   lbpkit::SmartSerial ss;
 };
 
+// A test's host cycles the sim from an ordinary process: on a busy machine
+// it can be held back past the 7I77's 50 ms watchdog time, which bites and
+// switches the outputs off as it would with a host that stalled. Where a test
+// is not about the watchdog, both processors get 500 ms (WatchDogTime, as
+// Mesa's WPD sets it).
+void patient7i77Watchdogs(Sim& sim) {
+  for (const char* channel : {"0", "1"}) {
+    const auto w = test_support::run(
+        {"wpd", "WATCHDOGTIME", "500", "--addr", sim.address() + ":" + std::to_string(sim.udpPort()), "--channel",
+         channel});
+    ASSERT_EQ(w.exit, 0) << "channel " << channel << ": " << w.err;
+  }
+}
+
 // `--clock`: what it takes, and what it refuses, naming the option.
 TEST(SimApi, CliRefusesClocksItDoesNotKnow) {
   for (const auto& extra :
@@ -881,11 +895,15 @@ TEST(SimApi, OnTheHostClockEachHostCycleIsOnePeriod) {
   // that from a host that stopped) adds the wall-clock time it was silent.
   const auto silences =
       after["clock"]["host_silences"].get<std::uint64_t>() - before["clock"]["host_silences"].get<std::uint64_t>();
+  // A look at the clock over 40 ms after the last cycle reads it moved on
+  // with the wall clock too: exact only when both looks found the host
+  // driving it.
   const double elapsed = after["time_s"].get<double>() - before["time_s"].get<double>();
-  if (silences == 0)
+  const bool driven = before["clock"]["driven_by_host"] == true && after["clock"]["driven_by_host"] == true;
+  if (silences == 0 && driven)
     EXPECT_NEAR(elapsed, kCycles * 1e-3, 1e-9);
   else
-    EXPECT_GT(elapsed, kCycles * 1e-3 + static_cast<double>(silences) * 0.040) << silences << " silences";
+    EXPECT_GT(elapsed, kCycles * 1e-3) << silences << " silences";
   const auto speed = sim.post("/api/time", {{"speed", 2}});
   EXPECT_EQ(speed.status, 400);
   EXPECT_NE(speed.body.value("error", "").find("host"), std::string::npos) << speed.body;
@@ -1199,6 +1217,7 @@ TEST(SimMachine, RecordsEveryServoCycle) {
     Sim sim(loopback(17), {"--machine", "mill", "--record", csv});
     ASSERT_TRUE(sim.up());
     EXPECT_NE(sim.daemon().readUntil("recording:").find("recording: every servo cycle to " + csv), std::string::npos);
+    patient7i77Watchdogs(sim);
     HostOnSim host(sim);
     auto& t = host.t;
     auto& ss = host.ss;

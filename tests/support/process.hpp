@@ -52,12 +52,14 @@ inline pid_t spawn(const std::vector<std::string>& args, int& outFd, int& errFd)
   return pid;
 }
 
-// Appends what `fd` gives to `text` until `text` holds `marker` and the end
-// of its line (or `fd` closes, or `limit` passes); returns `text`.
-inline std::string& readUntil(int fd, std::string& text, const std::string& marker, std::chrono::milliseconds limit) {
+// Appends what `fd` gives to `text` until `text` holds `marker` (at `from`
+// or after) and the end of its line (or `fd` closes, or `limit` passes);
+// returns `text`.
+inline std::string& readUntil(int fd, std::string& text, const std::string& marker, std::chrono::milliseconds limit,
+                              std::size_t from = 0) {
   const auto deadline = std::chrono::steady_clock::now() + limit;
   while (std::chrono::steady_clock::now() < deadline) {
-    const auto at = text.find(marker);
+    const auto at = text.find(marker, from);
     if (at != std::string::npos && text.find('\n', at) != std::string::npos) break;
     pollfd p{fd, POLLIN, 0};
     if (::poll(&p, 1, 100) <= 0) continue;
@@ -113,9 +115,10 @@ class Daemon {
   Daemon(const Daemon&) = delete;
   Daemon& operator=(const Daemon&) = delete;
 
-  // Output up to a line containing `marker` (10 s at most).
-  std::string readUntil(const std::string& marker) {
-    return test_support::readUntil(out_, text_, marker, std::chrono::seconds(10));
+  // Output up to a line containing `marker` (10 s at most), looking from
+  // the output's `from`th character on.
+  std::string readUntil(const std::string& marker, std::size_t from = 0) {
+    return test_support::readUntil(out_, text_, marker, std::chrono::seconds(10), from);
   }
   // The rest of a line after `marker`.
   std::string value(const std::string& marker) {
