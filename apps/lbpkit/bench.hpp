@@ -68,8 +68,9 @@ class SimProcess {
   int apiPort_ = 0;
 };
 
-// One spinning process per CPU at normal priority: what a compile or a GUI
-// does to a commissioning laptop. Killed by the destructor.
+// One spinning process per CPU this process may run on, at normal priority:
+// what a compile or a GUI does to a commissioning laptop. Killed by the
+// destructor.
 class CpuHog {
  public:
   CpuHog();

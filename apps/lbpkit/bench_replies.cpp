@@ -213,7 +213,10 @@ json runReplies(const Options& o) {
   if (!have("python3")) return {{"skipped", "python3 is not installed (the echo server it is compared with)"}};
   const std::uint16_t cmd = lbp16::hm2Read(8);
   const std::uint8_t read[4] = {static_cast<std::uint8_t>(cmd), static_cast<std::uint8_t>(cmd >> 8), 0x00, 0x01};
-  const int last = static_cast<int>(std::max(1U, std::thread::hardware_concurrency())) - 1;
+  // The last CPU this process may run on (a cpuset or taskset may leave
+  // it fewer than the machine has).
+  const auto allowed = app::allowedCpus();
+  const int last = allowed.empty() ? 0 : static_cast<int>(allowed.back());
   for (const int cpu : {-1, last}) {
     EchoServer echo(cpu);
     std::vector<std::string> simArgs;

@@ -198,8 +198,9 @@ nlohmann::json SimProcess::state() const {
 }
 
 CpuHog::CpuHog() {
-  const unsigned n = std::max(1U, std::thread::hardware_concurrency());
-  for (unsigned i = 0; i < n; ++i) {
+  // One per CPU this process may run on: each keeps one busy.
+  const auto n = std::max<std::size_t>(1, app::allowedCpus().size());
+  for (std::size_t i = 0; i < n; ++i) {
     const pid_t pid = ::fork();
     if (pid < 0) throw lbpkit::Error("fork failed");
     if (pid == 0) {
