@@ -837,20 +837,6 @@ struct HostOnSim {
   lbpkit::SmartSerial ss;
 };
 
-// A test's host cycles the sim from an ordinary process: on a busy machine
-// it can be held back past the 7I77's 50 ms watchdog time, which bites and
-// switches the outputs off as it would with a host that stalled. Where a test
-// is not about the watchdog, both processors get 500 ms (WatchDogTime, as
-// Mesa's WPD sets it).
-void patient7i77Watchdogs(Sim& sim) {
-  for (const char* channel : {"0", "1"}) {
-    const auto w = test_support::run(
-        {"wpd", "WATCHDOGTIME", "500", "--addr", sim.address() + ":" + std::to_string(sim.udpPort()), "--channel",
-         channel});
-    ASSERT_EQ(w.exit, 0) << "channel " << channel << ": " << w.err;
-  }
-}
-
 // `--clock`: what it takes, and what it refuses, naming the option.
 TEST(SimApi, CliRefusesClocksItDoesNotKnow) {
   for (const auto& extra :
@@ -1217,7 +1203,8 @@ TEST(SimMachine, RecordsEveryServoCycle) {
     Sim sim(loopback(17), {"--machine", "mill", "--record", csv});
     ASSERT_TRUE(sim.up());
     EXPECT_NE(sim.daemon().readUntil("recording:").find("recording: every servo cycle to " + csv), std::string::npos);
-    patient7i77Watchdogs(sim);
+    // Not about the 7I77's watchdog: a held-back test is not a stalled host.
+    ASSERT_EQ(test_support::patient7i77Watchdogs(sim.address() + ":" + std::to_string(sim.udpPort()), {0, 1}), "");
     HostOnSim host(sim);
     auto& t = host.t;
     auto& ss = host.ss;

@@ -138,8 +138,7 @@ inline std::string patientDeadlines(const std::string& board) {
 // six). The tests that drive outputs and are not about that watchdog give
 // each processor's working WATCHDOGTIME 500 ms through LBP before LinuxCNC
 // loads (hostmot2 leaves it as it is), as the HostMot2 watchdog gets 200 ms
-// in patientDeadlines.
-inline constexpr const char* kPatient7i77WatchdogMs = "500";
+// in patientDeadlines (test_support::kPatient7i77WatchdogMs).
 
 class LinuxCnc : public ::testing::Test {
  protected:
@@ -200,12 +199,9 @@ class LinuxCnc : public ::testing::Test {
   // kPatient7i77WatchdogMs (or `ms`) for the processors on these
   // smart-serial channels (0: the first 7I77's field I/O, 1: its analog
   // side).
-  void patient7i77Watchdogs(std::initializer_list<unsigned> channels, const char* ms = kPatient7i77WatchdogMs) {
-    for (const unsigned channel : channels) {
-      const auto w =
-          test_support::run({"wpd", "WATCHDOGTIME", ms, "--addr", cardIp_, "--channel", std::to_string(channel)});
-      ASSERT_EQ(w.exit, 0) << "channel " << channel << ": " << w.err;
-    }
+  void patient7i77Watchdogs(std::initializer_list<unsigned> channels,
+                            const char* ms = test_support::kPatient7i77WatchdogMs) {
+    ASSERT_EQ(test_support::patient7i77Watchdogs(cardIp_, channels, ms), "");
   }
   // Loads hostmot2 and hm2_eth with `config`, `board`'s read and write in a
   // 1 kHz servo thread, hm2_eth waiting up to patientDeadlines for each

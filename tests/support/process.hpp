@@ -10,6 +10,7 @@
 
 #include <chrono>
 #include <cstdlib>
+#include <initializer_list>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -96,6 +97,25 @@ inline Result run(const std::vector<std::string>& args, std::chrono::seconds lim
   ::close(errFd);
   r.exit = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
+}
+
+// The 7I77's own watchdog (50 ms, manual: WATCHDOG AND FAULTS) bites when
+// its processor hears nothing from the host for that long: a test's host
+// held back by a busy machine looks like a host that stalled. Tests that are
+// not about that watchdog give the processors this working WatchDogTime.
+inline constexpr const char* kPatient7i77WatchdogMs = "500";
+
+// WatchDogTime `ms` for the processors on these smart-serial channels (0:
+// the first 7I77's field I/O, 1: its analog side) of the card at `address`
+// (HOST or HOST:PORT), through `lbpkit wpd` as Mesa's WPD sets it: empty
+// when every write was taken, else the channel and lbpkit's error.
+inline std::string patient7i77Watchdogs(const std::string& address, std::initializer_list<unsigned> channels,
+                                        const char* ms = kPatient7i77WatchdogMs) {
+  for (const unsigned channel : channels) {
+    const auto w = run({"wpd", "WATCHDOGTIME", ms, "--addr", address, "--channel", std::to_string(channel)});
+    if (w.exit != 0) return "channel " + std::to_string(channel) + ": " + w.err;
+  }
+  return {};
 }
 
 // A long-running lbpkit (a daemon) that is stopped when the test ends.
