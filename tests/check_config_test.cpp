@@ -280,6 +280,42 @@ TEST(CheckConfig, EveryBrokenConfigurationIsCaughtWhereItsCommentSays) {
   EXPECT_GE(n, 18);
 }
 
+// board_ip=[HM2]IPADDRESS: an address that is no card's is reported at the
+// INI's line that holds it, naming the HAL line that uses it.
+TEST(CheckConfig, ABoardAddressFromTheIniIsCheckedAtTheIniLine) {
+  struct Case {
+    const char* ini;
+    unsigned line;
+    const char* reason;
+  };
+  for (const Case& c : {Case{"injected.ini", 5,
+                             "board_ip=[HM2]IPADDRESS at injected.hal:3: \"$(touch${IFS}/tmp/x/PWNED1)10.77.1.5\" is "
+                             "not an IPv4 address (four numbers 0-255 joined by dots)"},
+                        Case{"loopback.ini", 4, "board_ip=[HM2](IPADDRESS) at loopback.hal:3: 127.0.0.1 is a loopback "
+                                                "address"},
+                        Case{"trailing.ini", 4, "\"10.77.1.5 $(reboot)\" is not an IPv4 address"}}) {
+    const auto r = check(corpus() / "address" / c.ini, true);
+    EXPECT_EQ(r.exit, 1) << c.ini << "\n" << r.out << r.err;
+    const auto j = json::parse(r.out, nullptr, false);
+    ASSERT_FALSE(j.is_discarded()) << r.out << r.err;
+    int found = 0;
+    for (const auto& f : j["findings"])
+      if (f["name"] == "board_ip") {
+        ++found;
+        EXPECT_EQ(f["file"], c.ini) << f.dump();
+        EXPECT_EQ(f["line"], c.line) << f.dump();
+        EXPECT_EQ(f["severity"], "error") << f.dump();
+        EXPECT_NE(f["reason"].get<std::string>().find(c.reason), std::string::npos) << f.dump();
+      }
+    EXPECT_EQ(found, 1) << j.dump(2);
+  }
+  // The text output: file:line, the value and the reason.
+  const auto text = check(corpus() / "address/injected.ini");
+  EXPECT_NE(text.out.find("injected.ini:5: error: board_ip=[HM2]IPADDRESS at injected.hal:3: \"$(touch"),
+            std::string::npos)
+      << text.out;
+}
+
 TEST(CheckConfig, ASignalWithNoWriterIsAWarningAsLinuxCncLoadsIt) {
   const auto r = check(corpus() / "warned/input_without_writer.hal", true);
   EXPECT_EQ(r.exit, 0) << r.out << r.err;

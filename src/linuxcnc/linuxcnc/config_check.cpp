@@ -3,6 +3,8 @@
 // hostmot2 name against what the driver creates (hm2_pins.hpp).
 #include "linuxcnc/config_check.hpp"
 
+#include "linuxcnc/board_address.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -333,6 +335,27 @@ CheckResult checkConfig(const std::filesystem::path& file, const BoardModel& mod
   const HalConfig hal = readConfiguration(file, result.findings);
   result.files = hal.files;
   Checker r{hal, &result.findings};
+
+  // hm2_eth's board_ip=: each board's address a card can have (board_address.hpp),
+  // reported where it is written: the INI's line for board_ip=[HM2]IPADDRESS.
+  for (const auto& d : hal.drivers) {
+    if (d.module != "hm2_eth" || !d.boardIpFound) continue;
+    const bool fromIni = d.boardIpAt.file != d.at.file || d.boardIpAt.line != d.at.line;
+    std::size_t from = 0;
+    for (unsigned board = 0;; ++board) {
+      const auto comma = d.boardIps.find(',', from);
+      const std::string address = d.boardIps.substr(from, comma == std::string::npos ? std::string::npos : comma - from);
+      if (const auto problem = boardAddressProblem(address)) {
+        const std::string which = comma == std::string::npos && from == 0 ? "" : fmt::format(" (board {})", board);
+        r.error(d.boardIpAt, "board_ip",
+                fromIni ? fmt::format("board_ip={}{} at {}:{}: {}", d.boardIpWritten, which, d.at.file, d.at.line,
+                                      *problem)
+                        : fmt::format("board_ip{}: {}", which, *problem));
+      }
+      if (comma == std::string::npos) break;
+      from = comma + 1;
+    }
+  }
 
   // The boards: each hostmot2 prefix the configuration names, made by the
   // driver that loads that kind of card.

@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <cctype>
 #include <fstream>
+#include <optional>
+#include <utility>
 
 namespace lbpkit::linuxcnc {
 
@@ -141,6 +143,20 @@ struct Reader {
     return out + text.substr(last);
   }
 
+  // `text` as one [SECTION]KEY or [SECTION](KEY) and nothing else: its
+  // section and key.
+  static std::optional<std::pair<std::string, std::string>> wholeReference(const std::string& text) {
+    auto isWord = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_'; };
+    if (text.size() < 4 || text[0] != '[') return std::nullopt;
+    const auto close = text.find(']');
+    if (close == std::string::npos || close == 1) return std::nullopt;
+    std::string section = text.substr(1, close - 1), key = text.substr(close + 1);
+    if (key.size() >= 2 && key.front() == '(' && key.back() == ')') key = key.substr(1, key.size() - 2);
+    if (key.empty() || !std::all_of(section.begin(), section.end(), isWord) || !std::all_of(key.begin(), key.end(), isWord))
+      return std::nullopt;
+    return std::make_pair(std::move(section), std::move(key));
+  }
+
   static std::vector<std::string> tokens(const std::string& line) {
     std::vector<std::string> out;
     std::string cur;
@@ -207,12 +223,29 @@ struct Reader {
     if (t.empty()) return;
     const auto& cmd = t[0];
     if (cmd == "loadrt" && t.size() >= 2 && t[1].rfind("hm2_", 0) == 0) {
-      DriverLine d{t[1], {}, w, {}};
+      DriverLine d{t[1], {}, w, {}, {}, {}, w, false};
       for (std::size_t i = 2; i < t.size(); ++i)
         if (t[i].rfind("config=", 0) == 0)
           d.config = t[i].substr(7);
         else if (t[i].rfind("board_ip=", 0) == 0)
-          d.boardIp = t[i].substr(9);
+          d.boardIp = d.boardIps = t[i].substr(9);
+      for (const auto& word : written)
+        if (word.rfind("board_ip=", 0) == 0) {
+          d.boardIpWritten = word.substr(9);
+          d.boardIpFound = true;
+          if (const auto ref = wholeReference(d.boardIpWritten)) {
+            const auto* v = hal.hasIni ? hal.ini.find(ref->first, ref->second) : nullptr;
+            if (v != nullptr) {
+              // The INI's value whole (quotes aside), also what would
+              // follow the address after a space.
+              d.boardIpAt = {hal.ini.file, v->line};
+              d.boardIps = v->value;
+              if (d.boardIps.size() >= 2 && d.boardIps.front() == '"' && d.boardIps.back() == '"')
+                d.boardIps = d.boardIps.substr(1, d.boardIps.size() - 2);
+            } else
+              d.boardIpFound = false;  // halcmd stops at it: reported by substitute()
+          }
+        }
       // One config per board, comma-separated (a module array parameter):
       // the first board's.
       if (const auto comma = d.config.find(','); comma != std::string::npos) d.config.resize(comma);

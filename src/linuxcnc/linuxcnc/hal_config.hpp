@@ -57,6 +57,15 @@ struct DriverLine {
   std::string config;  // the first board's config= string
   Where at;
   std::string boardIp;  // the first board's board_ip=
+  // board_ip= whole, one address per board (comma-separated), after
+  // substitution (when it is one [SECTION]KEY the INI has: the INI's value
+  // whole, quotes aside); as written ("[HM2]IPADDRESS"); and where its value
+  // is written: that INI line, else this line. boardIpFound is false when there is no board_ip= and when its
+  // [SECTION]KEY is not in the INI (reported as such).
+  std::string boardIps;
+  std::string boardIpWritten;
+  Where boardIpAt;
+  bool boardIpFound = false;
 };
 
 // loadrt of any other component, with its arguments (names=, count=).
