@@ -12,6 +12,8 @@
 #include <stdexcept>
 #include <string>
 
+#include <fmt/format.h>
+
 #include "config/machine_toml.hpp"
 #include "linuxcnc/machine_from_config.hpp"
 #include "support/temp_dir.hpp"
@@ -206,6 +208,127 @@ TEST(MachineFromConfig, WhatIsNotAConfigurationSaysSo) {
   EXPECT_FALSE(m.ok());
   EXPECT_TRUE(m.toml.empty());
   EXPECT_NE(errors(m).find("no joint drives a 7I77 analog output or a StepGen"), std::string::npos) << errors(m);
+}
+
+// The example mill's configuration copied into `dir` with its INI named
+// `name`, and `key` in [JOINT_0] (or the first `key` anywhere, for a
+// section-less key like JOINTS) set to `value` when given.
+fs::path millCopy(const test_support::TempDir& dir, const std::string& name, const std::string& key = {},
+                  const std::string& value = {}) {
+  for (const auto& e : fs::directory_iterator(kSource / "examples/linuxcnc/mill"))
+    fs::copy_file(e.path(), dir.path() / e.path().filename(), fs::copy_options::overwrite_existing);
+  std::ifstream in(dir.path() / "mill.ini");
+  std::string text, line;
+  bool inJoint0 = false, done = key.empty();
+  while (std::getline(in, line)) {
+    if (line.starts_with("[")) inJoint0 = line == "[JOINT_0]";
+    if (!done && (inJoint0 || key == "JOINTS") && line.starts_with(key + " =")) {
+      line = key + " = " + value;
+      done = true;
+    }
+    text += line + "\n";
+  }
+  if (!done) throw std::runtime_error("mill.ini has no " + key);
+  const auto ini = dir.path() / name;
+  std::ofstream(ini) << text;
+  return ini;
+}
+
+// The line of `key` in [JOINT_0] of the mill's INI (JOINTS: in [KINS]).
+unsigned lineOf(const std::string& key) {
+  std::ifstream in(kSource / "examples/linuxcnc/mill/mill.ini");
+  std::string line;
+  bool inJoint0 = false;
+  for (unsigned n = 1; std::getline(in, line); ++n) {
+    if (line.starts_with("[")) inJoint0 = line == "[JOINT_0]";
+    if ((inJoint0 || key == "JOINTS") && line.starts_with(key + " =")) return n;
+  }
+  return 0;
+}
+
+// A file name is no machine name: a machine file's name allows letters,
+// digits, '_' and '-', so the INI's name is made one; nothing in it is run.
+TEST(MachineFromConfig, AnyIniFileNameGivesAMachine) {
+  test_support::TempDir dir;
+  const std::string name = "a'$(touch PWNED2)'.ini";
+  const auto m = machineFromConfig(millCopy(dir, name));
+  ASSERT_TRUE(m.ok()) << errors(m);
+  EXPECT_EQ(load(m).name, "a---touch-PWNED2--");
+  // 41 characters and a newline: cut to 40, and the comment naming the
+  // file stays one line.
+  const auto m2 = machineFromConfig(millCopy(dir, std::string(41, 'n') + "\n\xff.ini"));
+  ASSERT_TRUE(m2.ok()) << errors(m2);
+  EXPECT_EQ(load(m2).name, std::string(40, 'n'));
+  EXPECT_FALSE(fs::exists(dir.path() / "PWNED2"));
+  EXPECT_FALSE(fs::exists("PWNED2"));
+}
+
+// LinuxCNC has 1 to EMCMOT_MAX_JOINTS (16) joints: anything else is refused
+// at its line, at once (4000000000 made lbpkit build that many).
+TEST(MachineFromConfig, JointsPastLinuxCncsAreRefusedAtTheirLine) {
+  for (const std::string joints : {"4000000000", "-5", "0", "1e300", "17", "2.5", "nan"}) {
+    SCOPED_TRACE(joints);
+    test_support::TempDir dir;
+    const auto m = machineFromConfig(millCopy(dir, "mill.ini", "JOINTS", joints));
+    EXPECT_FALSE(m.ok());
+    EXPECT_NE(errors(m).find(fmt::format("mill.ini:{}: error: [KINS]JOINTS = {} is not a number of joints LinuxCNC "
+                                         "has: 1 to 16",
+                                         lineOf("JOINTS"), joints)),
+              std::string::npos)
+        << errors(m);
+  }
+}
+
+// A scale, a velocity or a position no machine has is refused at the INI's
+// line with its key; values at the edge of the bounds give a machine that
+// loads; no machine file holds nan or inf.
+TEST(MachineFromConfig, ValuesNoMachineHasAreRefusedAtTheirLine) {
+  struct Case {
+    std::string key, value, what;
+  };
+  for (const Case& c : {Case{"ENCODER_SCALE", "1e308", "is not a scale a machine can have"},
+                        Case{"ENCODER_SCALE", "1e-320", "is not a scale a machine can have"},
+                        Case{"ENCODER_SCALE", "inf", "is not a scale a machine can have"},
+                        Case{"ENCODER_SCALE", "1e7", "encoder lines a motor turn of 1.25e+07"},
+                        Case{"OUTPUT_SCALE", "1e308", "is not an output scale a machine can have"},
+                        Case{"OUTPUT_SCALE", "-0", "is not an output scale a machine can have"},
+                        Case{"HOME_SEARCH_VEL", "1e308", "is not a velocity a machine can have"},
+                        Case{"HOME_LATCH_VEL", "nan", "is not a velocity a machine can have"},
+                        Case{"MAX_VELOCITY", "-1e300", "is not a velocity a machine can have"},
+                        Case{"MAX_ACCELERATION", "1e-300", "hard stops (mm) past the travel"},
+                        Case{"MIN_LIMIT", "-1e300", "is not a position a machine can have"},
+                        Case{"HOME_OFFSET", "1e99", "is not a position a machine can have"}}) {
+    SCOPED_TRACE(c.key + " = " + c.value);
+    test_support::TempDir dir;
+    const auto m = machineFromConfig(millCopy(dir, "mill.ini", c.key, c.value));
+    EXPECT_FALSE(m.ok());
+    EXPECT_TRUE(m.toml.empty());
+    const auto said = fmt::format("mill.ini:{}: error: [JOINT_0]{} = {}", lineOf(c.key), c.key, c.value);
+    EXPECT_NE(errors(m).find(said), std::string::npos) << errors(m);
+    EXPECT_NE(errors(m).find(c.what), std::string::npos) << errors(m);
+  }
+  {
+    // FF1 divides the output scale: the gain is said at OUTPUT_SCALE.
+    test_support::TempDir dir;
+    const auto m = machineFromConfig(millCopy(dir, "mill.ini", "FF1", "1e-12"));
+    EXPECT_NE(errors(m).find(fmt::format("mill.ini:{}: error: [JOINT_0]OUTPUT_SCALE = 250: over FF1 1e-12 (mill.ini:{}), "
+                                         "a drive gain (motor rev/s per V) of 5e+12",
+                                         lineOf("OUTPUT_SCALE"), lineOf("FF1"))),
+              std::string::npos)
+        << errors(m);
+  }
+  for (const Case& c : {Case{"ENCODER_SCALE", "8e5", ""}, Case{"ENCODER_SCALE", "-1e-3", ""},
+                        Case{"OUTPUT_SCALE", "-4000", ""}, Case{"HOME_SEARCH_VEL", "-1e3", ""},
+                        Case{"MAX_VELOCITY", "1e3", ""}, Case{"MIN_LIMIT", "-99999", ""},
+                        Case{"HOME_OFFSET", "99999", ""}, Case{"FF1", "0.05", ""}}) {
+    SCOPED_TRACE(c.key + " = " + c.value);
+    test_support::TempDir dir;
+    const auto m = machineFromConfig(millCopy(dir, "mill.ini", c.key, c.value));
+    ASSERT_TRUE(m.ok()) << errors(m);
+    EXPECT_NO_THROW((void)load(m));
+    EXPECT_EQ(m.toml.find("nan"), std::string::npos);
+    EXPECT_EQ(m.toml.find("inf"), std::string::npos);
+  }
 }
 
 }  // namespace

@@ -33,12 +33,103 @@ std::vector<std::string> split(const std::string& s, char by) {
   }
 }
 
+// A number as written, inf and nan included: the bounds each use puts on
+// it (Bounds below) refuse those with the key that holds them.
 std::optional<double> number(const std::string& s) {
   if (s.empty()) return std::nullopt;
   char* end = nullptr;
   const double v = std::strtod(s.c_str(), &end);
-  if (end == s.c_str() || *end != '\0' || !std::isfinite(v)) return std::nullopt;
+  if (end == s.c_str() || *end != '\0') return std::nullopt;
   return v;
+}
+
+// The joints LinuxCNC's motion controller has room for: EMCMOT_MAX_JOINTS
+// (src/emc/motion/emcmotcfg.h, 16 since LinuxCNC 2.8); [KINS]JOINTS past it
+// is refused by LinuxCNC at start.
+constexpr unsigned kMaxJoints = 16;
+
+// What a machine can have, each bound far past any real machine and inside
+// what a machine file takes (src/config/config/machine_toml.cpp), so that a
+// value within them gives a machine file that loads:
+// - a scale (encoder counts, steps per unit): |scale| 1e-6 to 1e9, a
+//   nanometre scale gives 1e6 counts/mm;
+// - an analog output's scale (units/s, or rpm, at 10 V): 1e-6 to 1e9;
+// - a velocity: at most 1e5 units/s (100 m/s in mm);
+// - an acceleration: at most 1e7 units/s^2 (1e7 mm/s^2 is a thousand g);
+// - a position (limits, HOME_OFFSET): within 1e5 mm (100 m) of 0; a rotary
+//   joint's "unlimited" limits (-9999999) are taken as +-1e5 degrees.
+// What a derived value must stay within (the machine file's own bounds) is
+// checked where it is worked out, naming the INI keys it comes from.
+struct Bound {
+  double low, high;  // on |v|; low 0 allows 0
+  const char* what;  // "a scale"
+  const char* range;  // "|scale| between 1e-6 and 1e9 counts per unit"
+};
+constexpr Bound kScaleBound{1e-6, 1e9, "a scale", "|scale| between 1e-6 and 1e9 counts or steps per unit"};
+constexpr Bound kOutputScaleBound{1e-6, 1e9, "an output scale",
+                                  "|scale| between 1e-6 and 1e9 units/s (or rpm) at 10 V"};
+constexpr Bound kVelocityBound{0.0, 1e5, "a velocity", "|velocity| at most 1e5 units/s"};
+constexpr Bound kAccelerationBound{0.0, 1e7, "an acceleration", "at most 1e7 units/s^2"};
+constexpr Bound kFf1Bound{0.0, 1e6, "a feed-forward", "|FF1| at most 1e6"};
+constexpr double kMaxPositionMm = 1e5;
+
+// The 7I77's and 7I76's terminals (the 7I77 manual: 32 inputs, 16 outputs,
+// 6 analog outputs, the 7I92's 7I77 firmware's 6 encoders; the 7I76 manual:
+// 32 inputs, 16 outputs), hostmot2's at most 16 StepGens, and a card's IO
+// pins (at most 6 ports of 24).
+constexpr unsigned kFieldInputs = 32, kFieldOutputs = 16, kAnalogOutputs = 6, kEncoders = 6, kStepGens = 16,
+                   kCardPins = 144;
+
+// The limits of a machine file (src/config/config/machine_toml.cpp) a
+// derived value must meet.
+constexpr double kMaxEncoderLines = 1e6, kMinGear = 1e-3, kMaxGear = 1e3, kMinGain = 1e-6, kMaxLimit = 1e4,
+                 kMinStepsPerMm = 1e-3, kMaxStepsPerMm = 1e6, kMaxStepRate = 1e7, kMaxOvertravel = 1e4,
+                 kMinRpmPerVolt = 1e-3, kMaxRpmPerVolt = 1e5, kMaxRpm = 1e6;
+
+// A machine's name from a file's: what a machine file's name allows (1 to
+// 40 letters, digits, '_' or '-'; config/toml_reader.hpp), anything else a
+// '-'.
+std::string machineName(const std::string& stem) {
+  std::string out;
+  for (const char c : stem) {
+    if (out.size() == 40) break;
+    out += std::isalnum(static_cast<unsigned char>(c)) != 0 && static_cast<unsigned char>(c) < 0x80 ? c
+           : c == '_' || c == '-'                                                                  ? c
+                                                                                                   : '-';
+  }
+  return out.empty() ? std::string("machine") : out;
+}
+
+// Text for a TOML comment: one line of valid UTF-8 with no control
+// character (what TOML allows in a comment), each byte that is not '?'.
+std::string commentText(const std::string& s) {
+  std::string out;
+  for (std::size_t i = 0; i < s.size();) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    if (c < 0x80) {
+      out += c < 0x20 || c == 0x7F ? (c == '\t' ? ' ' : '?') : static_cast<char>(c);
+      ++i;
+      continue;
+    }
+    // A well-formed sequence of 2 to 4 bytes (no overlong form, no
+    // surrogate, nothing past U+10FFFF), copied as it is.
+    const std::size_t n = c >= 0xC2 && c <= 0xDF ? 2 : c >= 0xE0 && c <= 0xEF ? 3 : c >= 0xF0 && c <= 0xF4 ? 4 : 0;
+    bool good = n > 0 && i + n <= s.size();
+    for (std::size_t k = 1; good && k < n; ++k) good = (static_cast<unsigned char>(s[i + k]) & 0xC0) == 0x80;
+    if (good && n >= 3) {
+      const auto c1 = static_cast<unsigned char>(s[i + 1]);
+      good = !(c == 0xE0 && c1 < 0xA0) && !(c == 0xED && c1 >= 0xA0) && !(c == 0xF0 && c1 < 0x90) &&
+             !(c == 0xF4 && c1 >= 0x90);
+    }
+    if (!good) {
+      out += '?';
+      ++i;
+      continue;
+    }
+    out.append(s, i, n);
+    i += n;
+  }
+  return out;
 }
 
 std::optional<unsigned> digits(const std::string& s) {
@@ -127,10 +218,14 @@ Lines encoderLines(double countsPerMm, double pitch) {
   return {static_cast<unsigned long>(lines), countsPerMm * pitch / (4.0 * lines)};
 }
 
-// A value the configuration gives, and where it says so.
+// A value the configuration gives, and where it says so: `from` for the
+// machine file's comment, `said` (the key or setp as written) and `at` for
+// an error.
 struct Value {
   double v = 0.0;
   std::string from;
+  std::string said;
+  Where at;
 };
 
 // A field input whose state reaches a pin, and whether it arrives inverted
@@ -188,6 +283,7 @@ class Deriver {
   }
 
   std::string run() {
+    checkPins();
     const auto joints = jointCount();
     const auto letters = coordinates();
     const auto units = hal_.ini.find("TRAJ", "LINEAR_UNITS");
@@ -221,6 +317,85 @@ class Deriver {
   }
   void warning(const Where& w, const std::string& name, const std::string& reason) {
     findings_.push_back({w.file, w.line, "warning", name, reason, {}});
+  }
+
+  // Whether a value (none: nothing to check) is within `b`; an error naming
+  // where it is written when not.
+  bool within(const std::optional<Value>& v, const Bound& b) {
+    if (!v) return true;
+    const double m = std::abs(v->v);
+    if (std::isfinite(v->v) && m <= b.high && (m >= b.low || (b.low == 0.0 && m == 0.0)) &&
+        (b.low == 0.0 || m > 0.0))
+      return true;
+    error(v->at, v->said, fmt::format("{} is not {} a machine can have ({})", v->said, b.what, b.range));
+    return false;
+  }
+  // A position (a limit, HOME_OFFSET) within kMaxPositionMm of 0; a rotary
+  // joint's beyond it is taken as there, with a warning.
+  bool position(std::optional<Value>& v, double mmPerUnit, bool angular) {
+    if (!v || (std::isfinite(v->v) && std::abs(v->v) * mmPerUnit <= kMaxPositionMm)) return true;
+    if (angular && !std::isnan(v->v)) {
+      warning(v->at, v->said,
+              fmt::format("{}: a rotary joint turning past {} degrees is taken as turning to there", v->said,
+                          fmtNumber(kMaxPositionMm)));
+      v->v = std::copysign(kMaxPositionMm, v->v);
+      v->from += fmt::format(", taken as {}", fmtNumber(v->v));
+      return true;
+    }
+    error(v->at, v->said,
+          fmt::format("{} is not a position a machine can have (within 1e5 mm, 100 m, of 0)", v->said));
+    return false;
+  }
+  // A derived value within [low, high] of a machine file, else an error at
+  // `v` (the INI key or setp it mostly comes from) saying what it gives.
+  bool derived(double x, double low, double high, const Value& v, const std::string& what) {
+    if (std::isfinite(x) && x >= low && x <= high) return true;
+    error(v.at, v.said,
+          fmt::format("{}: {} {:.6g}, and lbpkit's machine files take {:g} to {:g}", v.said, what, x, low, high));
+    return false;
+  }
+
+  // An encoder's lines and gearing on the assumed screw within a machine
+  // file's.
+  bool encoderFits(const Lines& e, const Value& scale) {
+    return derived(static_cast<double>(e.lines), 1.0, kMaxEncoderLines, scale,
+                   "on the assumed 5 mm screw, encoder lines a motor turn of") &&
+           derived(e.gear, kMinGear, kMaxGear, scale, "on the assumed 5 mm screw, a gear ratio of");
+  }
+
+  // Every 7I77, 7I76, encoder, StepGen and card pin the nets name exists on
+  // the card: a number past the terminals is a pin LinuxCNC refuses.
+  void checkPins() {
+    for (const auto& [pin, sig] : pinSignal_) {
+      std::optional<unsigned> n;
+      unsigned count = 0;
+      std::string what;
+      if (const auto f = fieldPin(pin, "input")) {
+        n = f->number;
+        count = f->daughtercard == "card" ? kCardPins : kFieldInputs;
+        what = f->daughtercard == "card" ? "card IO pins" : "inputs";
+      } else if (const auto o = fieldPin(pin, "output")) {
+        n = o->number;
+        count = kFieldOutputs;
+        what = "outputs";
+      } else if (const auto a = analogOut(pin)) {
+        n = a;
+        count = kAnalogOutputs;
+        what = "analog outputs";
+      } else if (const auto e = modulePin(pin, "encoder", "position")) {
+        n = e;
+        count = kEncoders;
+        what = "encoders";
+      } else if (const auto sg = modulePin(pin, "stepgen", "position-cmd"); sg || modulePin(pin, "stepgen", "velocity-cmd")) {
+        n = sg ? sg : modulePin(pin, "stepgen", "velocity-cmd");
+        count = kStepGens;
+        what = "StepGens";
+      }
+      if (n && *n >= count)
+        error(where(pin), pin,
+              fmt::format("{}: no such pin (the card has {} {}, 0 to {}): LinuxCNC refuses it", pin, count, what,
+                          count - 1));
+    }
   }
 
   [[nodiscard]] std::string signal(const std::string& pin) const {
@@ -289,7 +464,15 @@ class Deriver {
     if (const auto* s = hal_.setpOf(halName)) {
       if (const auto v = number(s->value)) {
         const auto written = s->written == s->value ? s->value : fmt::format("{} = {}", s->written, s->value);
-        return Value{*v, fmt::format("{}: setp {} {}", at(s->at), halName, written)};
+        Value out{*v, fmt::format("{}: setp {} {}", at(s->at), halName, written),
+                  fmt::format("setp {} {}", halName, written), s->at};
+        // A setp of [SECTION]KEY: an error names the INI's line.
+        if (const auto close = s->written.find(']'); s->written.starts_with("[") && close != std::string::npos)
+          if (const auto* e = hal_.ini.find(s->written.substr(1, close - 1), s->written.substr(close + 1))) {
+            out.said = fmt::format("{} = {}", s->written, e->value);
+            out.at = {ini_.filename().string(), e->line};
+          }
+        return out;
       }
     }
     return iniValue(section, key);
@@ -297,7 +480,8 @@ class Deriver {
   [[nodiscard]] std::optional<Value> iniValue(const std::string& section, const std::string& key) const {
     if (const auto* e = hal_.ini.find(section, key))
       if (const auto v = number(e->value))
-        return Value{*v, fmt::format("[{}]{} = {} ({}:{})", section, key, e->value, ini_.filename().string(), e->line)};
+        return Value{*v, fmt::format("[{}]{} = {} ({}:{})", section, key, e->value, ini_.filename().string(), e->line),
+                     fmt::format("[{}]{} = {}", section, key, e->value), Where{ini_.filename().string(), e->line}};
     return std::nullopt;
   }
   [[nodiscard]] Where sectionWhere(const std::string& section) const {
@@ -319,8 +503,24 @@ class Deriver {
         break;
       }
     }
-    if (const auto v = iniValue("KINS", "JOINTS")) return static_cast<unsigned>(std::max(0.0, v->v));
-    if (const auto v = iniValue("TRAJ", "AXES"); v && jointPins_ == "axis") return static_cast<unsigned>(std::max(0.0, v->v));
+    auto given = iniValue("KINS", "JOINTS");
+    if (!given && jointPins_ == "axis") given = iniValue("TRAJ", "AXES");
+    if (given) {
+      if (given->v >= 1 && given->v <= kMaxJoints && given->v == std::floor(given->v))
+        return static_cast<unsigned>(given->v);
+      error(given->at, given->said,
+            fmt::format("{} is not a number of joints LinuxCNC has: 1 to {} (EMCMOT_MAX_JOINTS)", given->said,
+                        kMaxJoints));
+      return 0;
+    }
+    if (n > kMaxJoints) {
+      const auto pin = std::find_if(pinSignal_.begin(), pinSignal_.end(), [&](const auto& p) {
+        return p.first.rfind(jointPins_ + ".", 0) == 0 && digits(split(p.first, '.')[1]).value_or(0) >= kMaxJoints;
+      });
+      error(where(pin->first), pin->first,
+            fmt::format("{}: LinuxCNC has joints 0 to {} (EMCMOT_MAX_JOINTS)", pin->first, kMaxJoints - 1));
+      return 0;
+    }
     return n;
   }
   [[nodiscard]] std::string coordinates() const {
@@ -398,23 +598,52 @@ class Deriver {
                         n, *analog, fbSig));
       return;
     }
+    // One joint to each: a second on the same output, encoder or StepGen is
+    // two writers on one pin (LinuxCNC refuses it).
+    for (const auto& [claimed, number, what, pin] :
+         {std::tuple{&claimedAnalogs_, analog, "analogout", analogPin},
+          std::tuple{&claimedEncoders_, encoder, "encoder", fmt::format("{}.encoder.{:02d}.position", board, encoder.value_or(0))},
+          std::tuple{&claimedStepgens_, stepgen, "stepgen", fmt::format("{}.stepgen.{:02d}", board, stepgen.value_or(0))}})
+      if (number && claimed->count(*number)) {
+        error(where(jp + "motor-pos-cmd"), jp + "motor-pos-cmd",
+              fmt::format("joint {}: {} {} already serves another joint ({})", n, what, *number, pin));
+        return;
+      }
     const bool angular = [&] {
       const auto* t = hal_.ini.find(section, "TYPE");
       return t && lower(t->value) == "angular";
     }();
     const double mmPerUnit = angular || !inch_ ? 1.0 : 25.4;
-    const auto minLimit = iniValue(section, "MIN_LIMIT"), maxLimit = iniValue(section, "MAX_LIMIT");
+    auto minLimit = iniValue(section, "MIN_LIMIT"), maxLimit = iniValue(section, "MAX_LIMIT");
+    auto homeOffset = iniValue(section, "HOME_OFFSET");
+    const auto maxVel = iniValue(section, "MAX_VELOCITY");
+    const auto maxAcc = iniValue(section, "MAX_ACCELERATION");
+    const auto searchVel = iniValue(section, "HOME_SEARCH_VEL"), latchVel = iniValue(section, "HOME_LATCH_VEL");
+    // Each checked, so that every value out of bounds is said at once.
+    bool good = true;
+    for (auto* p : {&minLimit, &maxLimit, &homeOffset}) good = position(*p, mmPerUnit, angular) && good;
+    for (const auto* v : {&maxVel, &searchVel, &latchVel}) good = within(*v, kVelocityBound) && good;
+    good = within(maxAcc, kAccelerationBound) && good;
+    if (!good) return;
     if (!minLimit || !maxLimit || !(minLimit->v < maxLimit->v)) {
       error(iniAt, section, fmt::format("[{}] needs MIN_LIMIT below MAX_LIMIT: they give the axis its travel", section));
       return;
     }
-    const auto maxVel = iniValue(section, "MAX_VELOCITY");
-    const auto maxAcc = iniValue(section, "MAX_ACCELERATION");
+    // Six significant digits in the machine file: a travel narrower than
+    // they tell apart would read as none.
+    if ((maxLimit->v - minLimit->v) * mmPerUnit < 1e-3 ||
+        maxLimit->v - minLimit->v < 1e-4 * std::max(std::abs(minLimit->v), std::abs(maxLimit->v))) {
+      error(maxLimit->at, section,
+            fmt::format("[{}] MIN_LIMIT {} to MAX_LIMIT {} is no travel a machine moves over (at least 1e-3 mm, and "
+                        "1e-4 of its distance from 0)",
+                        section, fmtNumber(minLimit->v), fmtNumber(maxLimit->v)));
+      return;
+    }
     const double vmax = maxVel ? std::abs(maxVel->v) : 25.0 / mmPerUnit;
     const double amax = maxAcc && maxAcc->v > 0 ? maxAcc->v : 250.0 / mmPerUnit;
-    const double sv = iniValue(section, "HOME_SEARCH_VEL").value_or(Value{}).v;
-    const double lv = iniValue(section, "HOME_LATCH_VEL").value_or(Value{}).v;
-    const auto offset = iniValue(section, "HOME_OFFSET").value_or(Value{0.0, "LinuxCNC's default HOME_OFFSET = 0"});
+    const double sv = searchVel.value_or(Value{}).v;
+    const double lv = latchVel.value_or(Value{}).v;
+    const auto offset = homeOffset.value_or(Value{0.0, "LinuxCNC's default HOME_OFFSET = 0", {}, iniAt});
     const auto* useIndexEntry = hal_.ini.find(section, "HOME_USE_INDEX");
     const bool useIndex = useIndexEntry && yes(useIndexEntry->value);
 
@@ -438,8 +667,14 @@ class Deriver {
         return;
       }
       auto maxStepVel = value(fmt::format("{}.stepgen.{:02d}.maxvel", board, *stepgen), section, "STEPGEN_MAXVEL");
+      if (!within(scale, kScaleBound) || !within(maxStepVel, kVelocityBound)) return;
       const double stepVel = maxStepVel && maxStepVel->v > 0 ? maxStepVel->v : vmax * 1.25;
       const double stepsPerMm = std::abs(scale->v) / mmPerUnit;
+      if (!derived(stepsPerMm, kMinStepsPerMm, kMaxStepsPerMm, *scale, "steps/mm") ||
+          !derived(std::ceil(stepVel * std::abs(scale->v) * 1.25), 1.0, kMaxStepRate,
+                   maxStepVel && maxStepVel->v > 0 ? *maxStepVel : maxVel.value_or(*scale),
+                   "with the scale, a StepGen pull-out rate (steps/s) of"))
+        return;
       a.keys.emplace_back("screw_pitch", fmtNumber(pitch) + "|assumed: a configuration gives steps per unit, not the screw");
       a.tableName = "axis.stepper";
       a.drive.emplace_back("stepgen", fmt::format("{}|{}.stepgen.{:02d}{}", *stepgen, board, *stepgen,
@@ -459,7 +694,9 @@ class Deriver {
                                             *encoder, section));
           return;
         }
+        if (!within(encScale, kScaleBound)) return;
         const auto e = encoderLines(std::abs(encScale->v) / mmPerUnit, pitch);
+        if (!encoderFits(e, *encScale)) return;
         gear = e.gear;
         a.keys.emplace_back("gear_ratio", fmtNumber(gear) + "|motor revolutions per screw revolution");
         a.drive.emplace_back("encoder_input", fmt::format("{}|{}.encoder.{:02d} ({}), its feedback", *encoder, board,
@@ -477,9 +714,11 @@ class Deriver {
         return;
       }
       const auto outScale = value(analogPin + "-scalemax", section, "OUTPUT_SCALE")
-                                .value_or(Value{10.0, "hostmot2's default scalemax 10 (none set)"});
+                                .value_or(Value{10.0, "hostmot2's default scalemax 10 (none set)", {}, iniAt});
       const auto ff1 = value(pid + ".FF1", section, "FF1");
+      if (!within(encScale, kScaleBound) || !within(outScale, kOutputScaleBound) || !within(ff1, kFf1Bound)) return;
       const auto e = encoderLines(std::abs(encScale->v) / mmPerUnit, pitch);
+      if (!encoderFits(e, *encScale)) return;
       const double lines = static_cast<double>(e.lines);
       gear = e.gear;
       std::string linesWhy = fmt::format("{} counts/{} ({}), 4 counts a line, the assumed pitch", fmtNumber(std::abs(encScale->v)),
@@ -503,6 +742,12 @@ class Deriver {
       const double f = ff1 && ff1->v > 0 ? ff1->v : 1.0;
       const double unitsPerSecondPerVolt = std::abs(outScale.v) / 10.0 / f;
       const double gain = unitsPerSecondPerVolt * mmPerUnit / lead;
+      // The amplifier's limit is 11 V of it.
+      if (!derived(gain, kMinGain, kMaxLimit / 11.0, outScale,
+                   ff1 && ff1->v > 0 ? fmt::format("over FF1 {:g} ({}), a drive gain (motor rev/s per V) of",
+                                                   ff1->v, at(ff1->at))
+                                     : std::string("on the assumed 5 mm screw, a drive gain (motor rev/s per V) of")))
+        return;
       a.amplifier.emplace_back("mode", "\"velocity\"|assumed: the PID's output is a velocity (FF1 feed-forward)");
       a.amplifier.emplace_back(
           "gain", fmtNumber(gain) + "|" +
@@ -563,6 +808,10 @@ class Deriver {
     const double marginHigh = 2.0 / mmPerUnit + leadUnits + (sv > 0 ? stopDistance : 0.0);
     const double stopAtSpeed = vmax * vmax / (2 * amax);
     const double overtravel = std::max(marginLow, marginHigh) * mmPerUnit + std::max(3.0, stopAtSpeed * mmPerUnit + 1.0);
+    if (!derived(overtravel, 0.0, kMaxOvertravel,
+                 maxAcc && maxAcc->v > 0 ? *maxAcc : maxVel ? *maxVel : searchVel.value_or(offset),
+                 "stopping from MAX_VELOCITY or HOME_SEARCH_VEL, hard stops (mm) past the travel at"))
+      return;
     a.keys.emplace_back("travel", fmt::format("[{}, {}]|{} to {}", fmtNumber(lo * mmPerUnit), fmtNumber(hi * mmPerUnit),
                                               minLimit->from, maxLimit->from));
     a.keys.emplace_back("overtravel", fmtNumber(std::ceil(overtravel)) +
@@ -733,7 +982,11 @@ class Deriver {
     }
     if (!analog && !on7I76) return;
     const auto scale = value(pin + "-scalemax", "SPINDLE_0", "OUTPUT_SCALE")
-                           .value_or(Value{10.0, "hostmot2's default scalemax 10 (none set)"});
+                           .value_or(Value{10.0, "hostmot2's default scalemax 10 (none set)", {}, where(pin)});
+    if (!within(scale, kOutputScaleBound) ||
+        !derived(std::abs(scale.v), std::max(1.0, 10.0 * kMinRpmPerVolt), std::min(kMaxRpm, 10.0 * kMaxRpmPerVolt), scale,
+                 "the spindle's rpm at 10 V"))
+      return;
     spindle_.emplace_back("daughtercard", on7I76 ? "\"7I76\"|the 7I76's SpinOut, SpinEna, SpinDir" : "\"7I77\"|");
     if (!on7I76) {
       spindle_.emplace_back("analog_output", fmt::format("{}|{} ({})", *analog, pin, at(where(pin))));
@@ -760,7 +1013,11 @@ class Deriver {
       return;
     }
     const auto encScale = value(fmt::format("{}.encoder.{:02d}.scale", board, *encoder), "SPINDLE_0", "ENCODER_SCALE")
-                              .value_or(Value{4096.0, "assumed 1024 lines (no scale set)"});
+                              .value_or(Value{4096.0, "assumed 1024 lines (no scale set)", {}, where(pin)});
+    if (!within(encScale, kScaleBound) ||
+        !derived(std::max(1.0, std::round(std::abs(encScale.v) / 4.0)), 1.0, kMaxEncoderLines, encScale,
+                 "the spindle encoder's lines (counts a revolution / 4)"))
+      return;
     const bool encoderOn7I76 = sevenI76_ && *encoder == 6;
     spindle_.emplace_back("encoder_daughtercard", encoderOn7I76 ? "\"7I76\"|muxed counter 6 is the 7I76's" : "\"7I77\"|");
     spindle_.emplace_back("encoder_input", fmt::format("{}|{}.encoder.{:02d}", encoderOn7I76 ? 0 : *encoder, board, *encoder));
@@ -778,9 +1035,13 @@ class Deriver {
         if (const auto o = fieldPin(p, "output")) {
           const auto key = fmt::format("{}:{}", o->daughtercard, o->number);
           if (!seen.insert(key).second) continue;
-          std::string name;
-          for (char c : sig)
-            name += std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' ? c : '-';
+          // A machine name from the signal's (at most 40 characters), made
+          // unique where two signals give the same.
+          std::string name = machineName(sig);
+          for (unsigned k = 2; std::any_of(outputs_.begin(), outputs_.end(), [&](const OutputOut& x) { return x.name == name; }); ++k) {
+            const auto suffix = fmt::format("-{}", k);
+            name = machineName(sig).substr(0, 40 - suffix.size()) + suffix;
+          }
           outputs_.push_back({name, o->daughtercard, fmt::format("{} ({}), signal {}", p, at(where(p)), sig), o->number});
         }
   }
@@ -790,24 +1051,26 @@ class Deriver {
     const auto v = valueAndWhy.substr(0, bar);
     const auto why = bar == std::string::npos ? std::string() : valueAndWhy.substr(bar + 1);
     auto text = fmt::format("{}{} = {}", indent, key, v);
-    if (!why.empty()) text += fmt::format("{}# {}", std::string(text.size() < 30 ? 30 - text.size() : 1, ' '), why);
+    if (!why.empty())
+      text += fmt::format("{}# {}", std::string(text.size() < 30 ? 30 - text.size() : 1, ' '), commentText(why));
     return text + "\n";
   }
 
   [[nodiscard]] std::string toml() const {
     std::string t;
-    t += fmt::format("# The machine {} expects, derived from it by lbpkit machine --from-config\n", ini_.filename().string());
-    t += fmt::format("# (read: {}).\n", [&] {
+    t += fmt::format("# The machine {} expects, derived from it by lbpkit machine --from-config\n",
+                     commentText(ini_.filename().string()));
+    t += fmt::format("# (read: {}).\n", commentText([&] {
       std::string files;
       for (const auto& f : hal_.files) files += (files.empty() ? "" : ", ") + std::filesystem::path(f).filename().string();
       return files;
-    }());
+    }()));
     t += "# Each value says where it came from. Assumed, because a configuration cannot say: the screw's\n"
          "# pitch (5 mm, 0.2 in), the masses, inertias and friction (the schema's defaults,\n"
          "# examples/machines/mill.toml), that drives are velocity-mode and that no axis is vertical.\n\n";
-    t += fmt::format("name = \"{}\"\n\n", ini_.stem().string());
+    t += fmt::format("name = \"{}\"\n\n", machineName(ini_.stem().string()));
     for (const auto& a : axes_) {
-      t += fmt::format("# {}\n[[axis]]\nname = \"{}\"\n", a.comment, a.name);
+      t += fmt::format("# {}\n[[axis]]\nname = \"{}\"\n", commentText(a.comment), a.name);
       for (const auto& [k, v] : a.keys) t += line("", k, v);
       if (a.brakeOutput >= 0) {
         t += line("", "brake_output", fmt::format("{}|{}", a.brakeOutput, a.brakeComment));
@@ -834,20 +1097,20 @@ class Deriver {
       const auto& s = switchAt_.at(key);
       if (s.kind == "held-off") continue;
       t += fmt::format("# {}\n[[switch]]\nname = \"{}\"\nkind = \"{}\"\ndaughtercard = \"{}\"\ninput = {}\ncontact = \"{}\"\n",
-                       s.comment, s.name, s.kind, s.daughtercard, s.input, s.contact);
+                       commentText(s.comment), s.name, s.kind, s.daughtercard, s.input, s.contact);
       if (!s.axis.empty()) {
         t += fmt::format("axis = \"{}\"\nposition = {}\ntrip_above = {}\n", s.axis, fmtNumber(*s.position),
                          s.tripAbove ? "true" : "false");
       }
       t += "\n";
     }
-    for (const auto& h : heldOff_) t += "# " + h + "\n";
+    for (const auto& h : heldOff_) t += "# " + commentText(h) + "\n";
     for (const auto& key : homeInPlaceInputs_)
       if (switchAt_.at(key).kind.empty())
         t += fmt::format("# {} input {}: a home switch its joint never searches for (it homes in place)\n",
                          key.substr(0, key.find(':')), key.substr(key.find(':') + 1));
     for (const auto& o : outputs_) {
-      t += fmt::format("# {}\n[[output]]\nname = \"{}\"\ndaughtercard = \"{}\"\noutput = {}\n\n", o.comment, o.name,
+      t += fmt::format("# {}\n[[output]]\nname = \"{}\"\ndaughtercard = \"{}\"\noutput = {}\n\n", commentText(o.comment), o.name,
                        o.daughtercard, o.output);
     }
     return t;
