@@ -20,6 +20,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <map>
 #include <memory>
 #include <sstream>
 #include <nlohmann/json.hpp>
@@ -534,6 +536,113 @@ TEST(SimApi, OneProcessServesACardOnEachBindAddress) {
   const auto refused = test_support::run({"sim", "--bind", a + ":0", "--bind", b + ":0", "--record", "x.csv"});
   EXPECT_NE(refused.exit, 0);
   EXPECT_NE(refused.err.find("--record names one card's file"), std::string::npos) << refused.err;
+}
+
+// The files in `folder`, each with its bytes.
+std::map<std::string, std::string> filesIn(const std::filesystem::path& folder) {
+  std::map<std::string, std::string> out;
+  for (const auto& f : std::filesystem::directory_iterator(folder)) {
+    std::ifstream in(f.path(), std::ios::binary);
+    out[f.path().filename().string()] = std::string(std::istreambuf_iterator<char>(in), {});
+  }
+  return out;
+}
+
+// Two --bind of one address and port clash on the command line: refused,
+// naming both, before a socket or a file is opened.
+TEST(SimApi, TwoBindsOfOneAddressAndPortAreRefusedNamingBoth) {
+  test_support::TempDir folder("lbpkit-cards");
+  const std::string a = loopback(42), b = loopback(43);
+  for (const auto& [first, second, says] :
+       {std::tuple{a + ":27181", a + ":27181", "are one address and port"}, std::tuple{a + ":0", a + ":0", "are one address and port"},
+        std::tuple{a, a + ":27181", "are one address and port"},
+        std::tuple{std::string("0.0.0.0:27181"), b + ":27181", "0.0.0.0 takes port 27181 on every address"}}) {
+    const auto r = test_support::run(
+        {"sim", "--bind", first, "--bind", b + ":0", "--bind", second, "--api", "0", "--no-realtime", "--state",
+         folder.path().string()},
+        std::chrono::seconds(10));
+    EXPECT_EQ(r.exit, 1) << first << " " << second << "\n" << r.out << r.err;
+    EXPECT_NE(r.err.find("--bind " + first + " and --bind " + second + " (options 1 and 3 of --bind)"),
+              std::string::npos)
+        << r.err;
+    EXPECT_NE(r.err.find(says), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("another card"), std::string::npos) << r.err;
+    EXPECT_TRUE(filesIn(folder.path()).empty()) << first;
+  }
+}
+
+// An address that is not a dotted quad is refused, naming it, before any
+// file is written: with one card and with several.
+TEST(SimApi, AnInvalidBindAddressIsRefusedAndWritesNothing) {
+  test_support::TempDir folder("lbpkit-cards");
+  const auto state = (folder.path() / "eeprom").string();
+  for (const std::string bad : {"10.1.2", "localhost", "010.1.1.1", "1.2.3.4.5", "::1", "127.0.0.1 :0"}) {
+    auto r = test_support::run({"sim", "--bind", bad, "--api", "0", "--no-realtime", "--state", state},
+                               std::chrono::seconds(10));
+    EXPECT_EQ(r.exit, 1) << bad << "\n" << r.out << r.err;
+    EXPECT_NE(r.err.find("--bind \"" + bad + "\""), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("is not an IPv4 address"), std::string::npos) << r.err;
+    r = test_support::run({"sim", "--bind", loopback(44) + ":0", "--bind", bad, "--api", "0", "--no-realtime", "--state",
+                           folder.path().string()},
+                          std::chrono::seconds(10));
+    EXPECT_EQ(r.exit, 1) << bad << "\n" << r.out << r.err;
+    EXPECT_NE(r.err.find("--bind \"" + bad + "\""), std::string::npos) << r.err;
+    EXPECT_TRUE(filesIn(folder.path()).empty()) << bad;
+  }
+}
+
+// A bind that fails (the port taken by another program) takes back every
+// file the start wrote, with one card and with several, and leaves the
+// files that were there as they were.
+TEST(SimApi, ABindThatFailsLeavesNoStateFileBehind) {
+  test_support::TempDir folder("lbpkit-cards");
+  const std::string a = loopback(45), b = loopback(46);
+  const int taken = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  ASSERT_GE(taken, 0);
+  sockaddr_in sa{};
+  sa.sin_family = AF_INET;
+  ASSERT_EQ(::inet_pton(AF_INET, b.c_str(), &sa.sin_addr), 1);
+  ASSERT_EQ(::bind(taken, reinterpret_cast<sockaddr*>(&sa), sizeof sa), 0);
+  socklen_t length = sizeof sa;
+  ASSERT_EQ(::getsockname(taken, reinterpret_cast<sockaddr*>(&sa), &length), 0);
+  const std::string busy = b + ":" + std::to_string(ntohs(sa.sin_port));
+  // Card a's EEPROM from an earlier run: kept, byte for byte.
+  const auto kept = folder.path() / ("7i77-" + a + "-0.eeprom");
+  ASSERT_EQ(test_support::run({"wpd", "NVWATCHDOGTIME", "60", "--state", kept.string()}).exit, 0);
+  const auto before = filesIn(folder.path());
+  ASSERT_FALSE(before.empty());
+
+  auto r = test_support::run({"sim", "--bind", a + ":0", "--bind", busy, "--api", "0", "--no-realtime", "--state",
+                              folder.path().string()},
+                             std::chrono::seconds(10));
+  EXPECT_EQ(r.exit, 1) << r.out << r.err;
+  EXPECT_NE(r.err.find("cannot listen on " + busy), std::string::npos) << r.err;
+  EXPECT_EQ(filesIn(folder.path()), before);
+
+  r = test_support::run({"sim", "--bind", busy, "--api", "0", "--no-realtime", "--state",
+                         (folder.path() / "one").string()},
+                        std::chrono::seconds(10));
+  EXPECT_EQ(r.exit, 1) << r.out << r.err;
+  EXPECT_EQ(filesIn(folder.path()), before);
+  ::close(taken);
+}
+
+// A --state folder (several cards) or a --state file's folder (one card)
+// that does not exist is refused alike, naming it, and not created.
+TEST(SimApi, AMissingStateFolderIsRefusedWithOneCardAndWithSeveral) {
+  test_support::TempDir folder("lbpkit-cards");
+  const auto missing = (folder.path() / "missing").string();
+  const std::string a = loopback(47), b = loopback(48);
+  auto r = test_support::run(
+      {"sim", "--bind", a + ":0", "--bind", b + ":0", "--api", "0", "--no-realtime", "--state", missing},
+      std::chrono::seconds(10));
+  EXPECT_EQ(r.exit, 1) << r.out << r.err;
+  EXPECT_NE(r.err.find("the directory " + missing + " does not exist"), std::string::npos) << r.err;
+  r = test_support::run({"sim", "--bind", a + ":0", "--api", "0", "--no-realtime", "--state", missing + "/eeprom"},
+                        std::chrono::seconds(10));
+  EXPECT_EQ(r.exit, 1) << r.out << r.err;
+  EXPECT_NE(r.err.find("the directory " + missing + " does not exist"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(missing));
 }
 
 // --- The card thread never locks up -------------------------------------

@@ -22,6 +22,7 @@
 #include "lbpkit/wire/seven_i77.hpp"
 #include "daemon/sim_daemon.hpp"
 #include "hostmot2/cards/catalogue.hpp"
+#include "linuxcnc/board_address.hpp"
 #include "lbp16/flash_file.hpp"
 #include "remote/nv_store.hpp"
 #include "remote/remote_device.hpp"
@@ -183,7 +184,8 @@ struct CardRun {
   std::filesystem::path state;
 };
 
-CardRun cardOptions(const SimCommandOptions& o, const std::string& bind, std::size_t card, std::size_t cards) {
+CardRun cardOptions(const SimCommandOptions& o, const std::string& bind, std::size_t card, std::size_t cards,
+                    const std::filesystem::path& state) {
   servers::SimOptions s;
   const auto [bindHost, bindPort] = hostPort(bind, servers::lbp16::kPort, "--bind");
   s.bindAddress = bindHost;
@@ -215,7 +217,7 @@ CardRun cardOptions(const SimCommandOptions& o, const std::string& bind, std::si
   }
   // Beyond loopback, anyone who can reach this machine can use what it
   // serves: said, not refused (a lab network may be what the user wants).
-  auto loopback = [](const std::string& a) { return a.rfind("127.", 0) == 0 || a == "localhost"; };
+  auto loopback = [](const std::string& a) { return a.rfind("127.", 0) == 0; };
   if (!loopback(bindHost))
     fmt::print(stderr, "lbpkit sim: warning: LBP16 on {} answers anyone who can reach this machine: they can read and "
                        "write the virtual card's registers, EEPROM and flash (as a real card on that network)\n",
@@ -253,11 +255,6 @@ CardRun cardOptions(const SimCommandOptions& o, const std::string& bind, std::si
       {"error", servers::LogLevel::Error}, {"warn", servers::LogLevel::Warn}, {"info", servers::LogLevel::Info}, {"debug", servers::LogLevel::Debug}};
   if (!kLevels.count(o.logLevel)) throw lbpkit::Error("--log-level: error, warn, info or debug");
   s.logLevel = kLevels.at(o.logLevel);
-  // A --state FILE is taken as given: a missing directory is the user's
-  // typo to hear about, not something to create (the store says so).
-  const std::filesystem::path state = o.state.empty() ? defaultStatePath(bindHost, bindPort)
-                                      : cards > 1  ? defaultStatePath(bindHost, bindPort, o.state)
-                                                   : std::filesystem::path(o.state);
   s.card.first.fieldIo.nvFile = state;
   s.card.first.analog.nvFile = state.string() + ".analog";
   if (!o.card.empty()) {  // before the TOML, whose pinout must be one this card has
@@ -294,24 +291,27 @@ CardRun cardOptions(const SimCommandOptions& o, const std::string& bind, std::si
   const auto owner = fmt::format("lbpkit sim on {}:{}{}", bindHost, bindPort, bindPort == 0 ? " (any free port)" : "");
   const bool warn = s.logLevel >= servers::LogLevel::Warn;
   std::vector<std::filesystem::path> files;
-  auto watch = [&](auto& processor, std::string what) {
+  // A processor whose program flash holds no valid program is named by its
+  // smart-serial channel, where a host misses it (3 per connector).
+  auto watch = [&](auto& processor, std::string what, unsigned channel) {
     files.push_back(processor.nvFile);
     processor.nvOwner = owner;
-    processor.nvReport = [what, warn](const remote::NvEvent& e) {
+    processor.nvReport = [what, channel, warn](const remote::NvEvent& e) {
       using Kind = remote::NvEvent::Kind;
       const bool error = e.kind == Kind::Refused || e.kind == Kind::WriteFailed;
       if (!error && !warn) return;
+      const auto from = e.kind == Kind::NoProgram ? fmt::format("channel {}", channel) : what;
       // fputs, not fmt::print: a log that cannot be written must not throw
       // out of the card thread.
-      std::fputs(fmt::format("lbpkit sim: {}: {}: {}\n", error ? "error" : "warning", what, e.message).c_str(), stderr);
+      std::fputs(fmt::format("lbpkit sim: {}: {}: {}\n", error ? "error" : "warning", from, e.message).c_str(), stderr);
       std::fflush(stderr);
     };
   };
-  watch(s.card.first.fieldIo, "connector 0 field I/O EEPROM");
-  watch(s.card.first.analog, "connector 0 analog EEPROM");
+  watch(s.card.first.fieldIo, "connector 0 field I/O EEPROM", 0);
+  watch(s.card.first.analog, "connector 0 analog EEPROM", 1);
   if (s.card.second) {
-    watch(s.card.second->fieldIo, "connector 1 field I/O EEPROM");
-    watch(s.card.second->analog, "connector 1 analog EEPROM");
+    watch(s.card.second->fieldIo, "connector 1 field I/O EEPROM", 3);
+    watch(s.card.second->analog, "connector 1 analog EEPROM", 4);
   }
   // A file the sim will not use (not an EEPROM image, a symlink, held by
   // another sim, ...) stops it before it starts: the same checks the
@@ -338,6 +338,94 @@ CardRun cardOptions(const SimCommandOptions& o, const std::string& bind, std::si
   return {std::move(s), state};
 }
 
+// Each --bind as an address and port, checked before anything is opened:
+// the address a dotted quad (linuxcnc/board_address.hpp: parseIpv4), and no
+// two cards on one address and port (the second could never listen there;
+// with port 0, their state files would be one). 0.0.0.0 listens on a port
+// of every address, so it clashes with any other on that port.
+std::vector<std::pair<std::string, int>> checkedBinds(const std::vector<std::string>& binds) {
+  std::vector<std::pair<std::string, int>> out;
+  for (std::size_t i = 0; i < binds.size(); ++i) {
+    // The address first: "::1" is an address lbpkit does not serve, not a
+    // port.
+    const auto address = binds[i].substr(0, binds[i].find(':'));
+    if (!lbpkit::linuxcnc::parseIpv4(address))
+      throw lbpkit::Error(fmt::format("--bind \"{}\": \"{}\" is not an IPv4 address (four numbers 0-255 joined by "
+                                      "dots; ADDR[:PORT], e.g. 127.0.0.1 or 127.0.0.1:27181)",
+                                      binds[i], address));
+    auto [host, port] = hostPort(binds[i], servers::lbp16::kPort, "--bind");
+    for (std::size_t j = 0; j < out.size(); ++j) {
+      const auto& [otherHost, otherPort] = out[j];
+      if (port != otherPort) continue;
+      if (host == otherHost)
+        throw lbpkit::Error(fmt::format("--bind {} and --bind {} (options {} and {} of --bind) are one address and "
+                                        "port: give each card its own",
+                                        binds[j], binds[i], j + 1, i + 1));
+      if (port != 0 && (host == "0.0.0.0" || otherHost == "0.0.0.0"))
+        throw lbpkit::Error(fmt::format("--bind {} and --bind {} (options {} and {} of --bind) clash: 0.0.0.0 takes "
+                                        "port {} on every address of this machine",
+                                        binds[j], binds[i], j + 1, i + 1, port));
+    }
+    out.emplace_back(std::move(host), port);
+  }
+  return out;
+}
+
+// Each card's EEPROM file: --state FILE with one card, one file a card in
+// the --state folder with several, else one a card in lbpkit's own folder.
+// A --state folder, or a --state file's folder, that does not exist is the
+// user's typo to hear about, not something to create.
+std::vector<std::filesystem::path> statePaths(const SimCommandOptions& o,
+                                              const std::vector<std::pair<std::string, int>>& binds) {
+  namespace fs = std::filesystem;
+  std::vector<fs::path> out;
+  if (!o.state.empty()) {
+    const fs::path given = o.state;
+    const fs::path folder = binds.size() > 1 ? given : given.parent_path();
+    std::error_code ec;
+    if (!folder.empty() && !fs::is_directory(folder, ec))
+      throw lbpkit::Error(
+          fs::exists(fs::symlink_status(folder, ec))
+              ? fmt::format("--state {}: {} is not a directory{}", o.state, folder.string(),
+                            binds.size() > 1 ? " (with several --bind, --state is the folder for each card's files)"
+                                             : "")
+              : fmt::format("--state {}: the directory {} does not exist; lbpkit sim creates no folder for --state: "
+                            "create it first",
+                            o.state, folder.string()));
+  }
+  for (const auto& [host, port] : binds)
+    out.push_back(o.state.empty()        ? defaultStatePath(host, port)
+                  : binds.size() > 1 ? defaultStatePath(host, port, o.state)
+                                     : fs::path(o.state));
+  return out;
+}
+
+// The files beside each state file that belong to it: FILE itself and
+// FILE.<anything> (FILE.analog, FILE.program, FILE.flash, FILE.2, ...).
+std::vector<std::filesystem::path> filesBeside(const std::vector<std::filesystem::path>& states) {
+  namespace fs = std::filesystem;
+  std::vector<fs::path> out;
+  for (const auto& state : states) {
+    const auto name = state.filename().string();
+    const auto folder = state.parent_path().empty() ? fs::path(".") : state.parent_path();
+    std::error_code ec;
+    for (fs::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
+      const auto entry = it->path().filename().string();
+      if (entry == name || entry.rfind(name + ".", 0) == 0) out.push_back(it->path());
+    }
+  }
+  return out;
+}
+
+void removeFilesWritten(const std::vector<std::filesystem::path>& states,
+                        const std::vector<std::filesystem::path>& before) {
+  for (const auto& file : filesBeside(states))
+    if (std::find(before.begin(), before.end(), file) == before.end()) {
+      std::error_code ec;
+      std::filesystem::remove(file, ec);
+    }
+}
+
 int runSim(const SimCommandOptions& o) {
   if (o.bind.empty()) throw lbpkit::Error("--bind: give ADDR[:PORT]");
   if (o.bind.size() > 1) {
@@ -349,10 +437,28 @@ int runSim(const SimCommandOptions& o) {
                                         "cards)",
                                         what, o.bind.size()));
   }
+  const auto binds = checkedBinds(o.bind);
+  const auto states = statePaths(o, binds);
+  // What the start writes beside each state file (the EEPROMs of both
+  // connectors, their program flash, the configuration flash) and did not
+  // find there, removed again when the start fails: a refused option or a
+  // bind that fails leaves the folder as it was.
+  const auto before = filesBeside(states);
   std::vector<CardRun> runs;
-  for (std::size_t i = 0; i < o.bind.size(); ++i) runs.push_back(cardOptions(o, o.bind[i], i, o.bind.size()));
   std::vector<std::unique_ptr<servers::SimDaemon>> daemons;
-  for (auto& r : runs) daemons.push_back(std::make_unique<servers::SimDaemon>(r.options));
+  try {
+    std::vector<CardRun> starting;
+    for (std::size_t i = 0; i < o.bind.size(); ++i)
+      starting.push_back(cardOptions(o, o.bind[i], i, o.bind.size(), states[i]));
+    std::vector<std::unique_ptr<servers::SimDaemon>> started;
+    for (auto& r : starting) started.push_back(std::make_unique<servers::SimDaemon>(r.options));
+    runs = std::move(starting);
+    daemons = std::move(started);
+  } catch (...) {
+    // The cards started so far are gone (and have closed their files).
+    removeFilesWritten(states, before);
+    throw;
+  }
   app::installSignalHandlers();
   for (std::size_t i = 0; i < runs.size(); ++i) {
     const auto& s = runs[i].options;
@@ -387,8 +493,8 @@ void addSimCommand(CLI::App& app) {
   auto o = std::make_shared<SimCommandOptions>();
   auto* cmd = app.add_subcommand("sim", "Run a virtual 7I92 with a 7I77 on the network (LBP16, UDP port 27181)");
   cmd->add_option("--bind", o->bind,
-                  "ADDR[:PORT] to serve LBP16 on (127.0.0.1:27181 unless you say otherwise); repeated, a card on each "
-                  "address, all served by one thread")
+                  "ADDR[:PORT] to serve LBP16 on, ADDR an IPv4 address (127.0.0.1:27181 unless you say otherwise); "
+                  "repeated, a card on each address and port, all served by one thread")
       ->capture_default_str();
   cmd->add_option("--card", o->card, "Which Mesa card: " + hm2::cards::names() + " (default 7I92; docs/cards.md)");
   cmd->add_option("--config", o->config,
@@ -398,7 +504,7 @@ void addSimCommand(CLI::App& app) {
                   "examples/scenarios/, docs/faults.md)");
   cmd->add_option("--state", o->state,
                   "EEPROM file of the 7I77 (non-volatile parameters); with several --bind, a folder: each card's "
-                  "files in it, named by its address");
+                  "files in it, named by its address. The folder must exist");
   cmd->add_option("--api", o->api, "[ADDR:]PORT of the HTTP control API (0: any free port)")->capture_default_str();
   cmd->add_flag("--no-api", o->noApi, "No control API");
   cmd->add_option("--log-level", o->logLevel, "error, warn, info or debug")->capture_default_str();
