@@ -8,6 +8,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -16,6 +17,7 @@
 
 #include "config/machine_toml.hpp"
 #include "linuxcnc/machine_from_config.hpp"
+#include "support/process.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {
@@ -329,6 +331,69 @@ TEST(MachineFromConfig, ValuesNoMachineHasAreRefusedAtTheirLine) {
     EXPECT_EQ(m.toml.find("nan"), std::string::npos);
     EXPECT_EQ(m.toml.find("inf"), std::string::npos);
   }
+}
+
+std::string fileBytes(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// lbpkit machine --from-config as a user (or lbpkit linuxcnc, as root) runs
+// it: -o writes nothing over a running sim's EEPROM whatever --force says,
+// names a missing folder, and every error names the user's file and line,
+// never the temporary file the machine is checked in.
+TEST(MachineFromConfigCli, OutputIsNeverASimsStateFileAndErrorsNameTheUsersFiles) {
+  test_support::TempDir dir;
+  const auto ini = millCopy(dir, "a'$(touch PWNED2)'.ini").string();
+  const auto state = dir / "sim.eeprom";
+  {
+    test_support::Daemon sim({"sim", "--bind", "127.0.0.1:0", "--api", "0", "--state", state});
+    ASSERT_FALSE(sim.value("on UDP ").empty());
+    const auto before = fileBytes(state);
+    const auto r = test_support::run({"machine", "--from-config", ini, "-o", state, "--force"});
+    EXPECT_EQ(r.exit, 1);
+    EXPECT_NE(r.err.find("-o " + state + ": is held locked by process"), std::string::npos) << r.err;
+    EXPECT_EQ(fileBytes(state), before);
+    EXPECT_EQ(sim.stop(), 0);
+  }
+  // Not running, the EEPROM image is still no machine file.
+  auto r = test_support::run({"machine", "--from-config", ini, "-o", state, "--force"});
+  EXPECT_EQ(r.exit, 1);
+  EXPECT_NE(r.err.find("-o " + state + ": exists and is not what this option writes"), std::string::npos) << r.err;
+
+  r = test_support::run({"machine", "--from-config", ini, "-o", dir / "nodir/x.toml"});
+  EXPECT_EQ(r.exit, 1);
+  EXPECT_NE(r.err.find("the folder " + (dir / "nodir") + " does not exist"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find(".part"), std::string::npos) << r.err;
+
+  // The quote in the file name: a machine, written and on standard output.
+  const auto out = dir / "out.toml";
+  r = test_support::run({"machine", "--from-config", ini, "-o", out});
+  EXPECT_EQ(r.exit, 0) << r.err;
+  EXPECT_NO_THROW((void)config::loadMachineFile(out));
+  r = test_support::run({"machine", "--from-config", ini});
+  EXPECT_EQ(r.exit, 0) << r.err;
+  EXPECT_NE(r.out.find("name = \"a---touch-PWNED2--\""), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir / "PWNED2"));
+  EXPECT_FALSE(fs::exists("PWNED2"));
+
+  // A hostile scale: said at the INI's line, with -o and without; nothing
+  // written, nothing on standard output.
+  const auto hostile = millCopy(dir, "hostile.ini", "ENCODER_SCALE", "1e308").string();
+  for (const bool toFile : {true, false}) {
+    std::vector<std::string> args{"machine", "--from-config", hostile};
+    if (toFile) args.insert(args.end(), {"-o", dir / "hostile.toml"});
+    r = test_support::run(args);
+    EXPECT_EQ(r.exit, 1);
+    EXPECT_TRUE(r.out.empty()) << r.out;
+    EXPECT_NE(r.err.find(fmt::format("hostile.ini:{}: error: [JOINT_0]ENCODER_SCALE = 1e308 is not a scale",
+                                     lineOf("ENCODER_SCALE"))),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(r.err.find(".part"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("a fault in lbpkit"), std::string::npos) << r.err;
+  }
+  EXPECT_FALSE(fs::exists(dir / "hostile.toml"));
 }
 
 }  // namespace

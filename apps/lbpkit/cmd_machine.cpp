@@ -2,6 +2,7 @@
 // of the machine a LinuxCNC configuration expects (linuxcnc/machine_from_config.hpp),
 // checked by loading it as lbpkit sim would.
 #include <fmt/core.h>
+#include <stdlib.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -11,44 +12,82 @@
 #include "common.hpp"
 #include "config/machine_toml.hpp"
 #include "config/toml_reader.hpp"
+#include "daemon/output_file.hpp"
 #include "lbpkit/error.hpp"
 #include "linuxcnc/machine_from_config.hpp"
 
 namespace app {
 extern std::function<int()> gRun;
 
-std::string deriveMachineFile(const std::filesystem::path& ini, const std::filesystem::path& out, bool force) {
-  namespace fs = std::filesystem;
+namespace {
+
+// The machine file at `file` loaded as lbpkit sim loads it. Everything a
+// configuration may say is checked as it is derived (the INI's file and
+// line in each error), so a derived machine that does not load is lbpkit's
+// fault; the message names the file it would have been (`shownAs`), not the
+// temporary one.
+void checkLoads(const std::string& file, const std::filesystem::path& ini, const std::string& shownAs) {
+  try {
+    (void)config::loadMachineFile(file);
+  } catch (const std::exception& e) {
+    std::string why = e.what();
+    for (auto at = why.find(file); at != std::string::npos; at = why.find(file, at + shownAs.size()))
+      why.replace(at, file.size(), shownAs);
+    throw lbpkit::Error(fmt::format("the machine derived from {} does not load (a fault in lbpkit: the configuration "
+                                    "passed every check of machine --from-config): {}",
+                                    ini.string(), why));
+  }
+}
+
+// The derived machine, its findings printed; an error when there is none.
+std::string derive(const std::filesystem::path& ini) {
   const auto m = lbpkit::linuxcnc::machineFromConfig(ini);
   for (const auto& f : m.findings)
     fmt::print(stderr, "{}:{}: {}: {}\n", f.file, f.line, f.severity, f.reason);
   if (!m.ok() || m.toml.empty())
     throw lbpkit::Error(fmt::format("{}: no machine file: the errors above say what is missing", ini.string()));
+  return m.toml;
+}
+
+}  // namespace
+
+std::string deriveMachineFile(const std::filesystem::path& ini, const std::filesystem::path& out, bool force) {
+  namespace fs = std::filesystem;
+  const auto toml = derive(ini);
+  // An existing file is replaced only when it is text no process holds
+  // locked: never a running sim's EEPROM, its flash or another binary
+  // state file, whatever --force says (daemon/output_file.hpp).
+  try {
+    servers::checkReplaceable("-o", out.string(), servers::isText);
+  } catch (const std::runtime_error& e) {
+    throw lbpkit::Error(e.what());
+  }
   std::error_code ec;
-  const auto status = fs::symlink_status(out, ec);
-  if (fs::exists(status) && !fs::is_regular_file(status))
-    throw lbpkit::Error(fmt::format("{}: not a regular file (a link, a folder, a FIFO): lbpkit writes only files",
-                                    out.string()));
-  if (fs::exists(status) && !force)
+  if (fs::exists(fs::symlink_status(out, ec)) && !force)
     throw lbpkit::Error(fmt::format("{}: exists; --force writes over it", out.string()));
+  const auto folder = out.parent_path().empty() ? fs::path(".") : out.parent_path();
+  if (!fs::is_directory(folder, ec))
+    throw lbpkit::Error(fmt::format("-o {}: the folder {} does not exist", out.string(), folder.string()));
   // Written beside, checked as lbpkit sim reads it, then renamed over: the
   // file is the old one or the whole new one, never a part.
   const auto part = out.string() + fmt::format(".lbpkit-{}.part", ::getpid());
   {
     std::ofstream f(part, std::ios::trunc);
-    f << m.toml;
+    f << toml;
     f.flush();
-    if (!f) throw lbpkit::Error(fmt::format("{}: cannot write", part));
+    if (!f) {
+      fs::remove(part, ec);
+      throw lbpkit::Error(fmt::format("-o {}: cannot write in {}", out.string(), folder.string()));
+    }
   }
   try {
-    (void)config::loadMachineFile(part);
-  } catch (const std::exception& e) {
+    checkLoads(part, ini, out.string());
+  } catch (...) {
     fs::remove(part, ec);
-    throw lbpkit::Error(fmt::format("the machine derived from {} does not load (a fault in lbpkit): {}", ini.string(),
-                                    e.what()));
+    throw;
   }
   fs::rename(part, out);
-  return m.toml;
+  return toml;
 }
 
 }  // namespace app
@@ -68,10 +107,20 @@ int runMachine(const MachineOptions& o) {
                o.output, o.fromConfig, o.output);
     return 0;
   }
-  const auto m = lbpkit::linuxcnc::machineFromConfig(o.fromConfig);
-  for (const auto& f : m.findings) fmt::print(stderr, "{}:{}: {}: {}\n", f.file, f.line, f.severity, f.reason);
-  if (!m.ok() || m.toml.empty()) return 1;
-  fmt::print("{}", m.toml);
+  const auto toml = app::derive(o.fromConfig);
+  // Checked as with -o, from a file of this process's own.
+  std::string file = (std::filesystem::temp_directory_path() / "lbpkit-machine-XXXXXX").string();
+  const int fd = ::mkstemp(file.data());
+  if (fd < 0) throw lbpkit::Error(fmt::format("cannot create a file like {} to check the machine", file));
+  struct Remove {
+    std::string path;
+    ~Remove() { ::unlink(path.c_str()); }
+  } remove{file};
+  const bool written = ::write(fd, toml.data(), toml.size()) == static_cast<ssize_t>(toml.size());
+  ::close(fd);
+  if (!written) throw lbpkit::Error(fmt::format("{}: cannot write", file));
+  app::checkLoads(file, o.fromConfig, "(standard output)");
+  fmt::print("{}", toml);
   return 0;
 }
 
