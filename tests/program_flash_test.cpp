@@ -4,6 +4,7 @@
 // page buffer.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <vector>
 
@@ -150,6 +151,71 @@ TEST(ProgramFlash, AnUpdateCutShortLeavesTheBootBlockAndASecondUpdateRestoresIt)
   EXPECT_TRUE(h.transact({lbp::special_rpc::kDiscovery}, 6).has_value());
 }
 
+TEST(ProgramFlash, APowerUpWithoutAValidProgramSaysSoNamingTheFile) {
+  test_support::TempDir dir("lbpkit-flash");
+  const auto eeprom = dir.path() / "7i77.eeprom";
+  std::vector<remote::NvEvent> events;
+  auto o = setupMode(eeprom);
+  o.nvReport = [&](const remote::NvEvent& e) { events.push_back(e); };
+  auto noProgram = [&] {
+    return std::count_if(events.begin(), events.end(),
+                         [](const remote::NvEvent& e) { return e.kind == remote::NvEvent::Kind::NoProgram; });
+  };
+  FieldIoProcessor io(o);
+  Host h(io);
+  EXPECT_EQ(noProgram(), 0);  // the factory program
+  const auto file = ProgramFlash::image("7I77", remote::kFieldIoProcessor, 0x33, test_support::remoteProgram(5000, 4));
+  flashLikeSetsserial(h, file, 3);  // cut after block 3's erase
+  powerCycle(io, h);
+  ASSERT_FALSE(io.programRuns());
+  ASSERT_EQ(noProgram(), 1);
+  const auto& said = events.back().message;
+  EXPECT_NE(said.find("the 7I77 field I/O processor's program in " + eeprom.string() + ".program is not valid"),
+            std::string::npos)
+      << said;
+  EXPECT_NE(said.find("boot block"), std::string::npos) << said;
+  EXPECT_NE(said.find("lbpkit flash-remote"), std::string::npos) << said;
+  // The boot block takes the whole image again; the next power-up is quiet.
+  flashLikeSetsserial(h, file);
+  powerCycle(io, h);
+  EXPECT_TRUE(io.programRuns());
+  EXPECT_EQ(noProgram(), 1);
+}
+
+TEST(ProgramFlash, APowerCutDuringACommitLeavesTheFlashAsBeforeOrAfterIt) {
+  test_support::TempDir dir("lbpkit-flash");
+  const auto eeprom = dir.path() / "7i77.eeprom";
+  const auto file = ProgramFlash::image("7I77", remote::kFieldIoProcessor, 0x34, test_support::remoteProgram(900, 5));
+  std::vector<std::uint8_t> before;
+  {
+    FieldIoProcessor io(setupMode(eeprom));
+    Host h(io);
+    flashLikeSetsserial(h, file);
+    before.assign(io.programFlash().contents().begin(), io.programFlash().contents().end());
+  }
+  const std::size_t slot = [&] {
+    FieldIoProcessor io(setupMode(eeprom));
+    return io.programFlash().store().slotBytes();
+  }();
+  for (const std::size_t cut : {std::size_t{0}, std::size_t{1}, slot / 2, slot - 1}) {
+    {
+      FieldIoProcessor io(setupMode(eeprom));
+      Host h(io);
+      ASSERT_TRUE(io.programRuns());
+      // Power goes mid-way through the erase of block 1 (the header's).
+      io.programFlash().store().cutPowerAfter(cut);
+      ASSERT_TRUE(h.setLocal(lbp::local_write::kNonVolatile, lbp::nonvolatile::kFlash));
+      ASSERT_TRUE(h.setLocal(lbp::local_write::kStatus, 0));
+      ASSERT_TRUE(h.write(flash::kOffset, 4, ProgramFlash::kEraseBytes));
+      h.write(flash::kCommit, 1, flash::kErase);
+      EXPECT_TRUE(invalidWrite(io)) << cut;
+    }
+    FieldIoProcessor again(setupMode(eeprom));
+    EXPECT_TRUE(again.programRuns()) << cut;
+    EXPECT_TRUE(std::equal(before.begin(), before.end(), again.programFlash().contents().begin())) << cut;
+  }
+}
+
 TEST(ProgramFlash, AnImageForAnotherProcessorOrCardDoesNotRun) {
   for (const auto& file : {ProgramFlash::image("7I77", remote::kAnalogProcessor, 0x10, test_support::remoteProgram(700, 1)),
                            ProgramFlash::image("7I76", remote::kFieldIoProcessor, 0x10, test_support::remoteProgram(700, 1))}) {
@@ -181,3 +247,4 @@ TEST(ProgramFlash, TheBootBlockUnalignedAndOutOfRangeCommitsAreRefused) {
 }
 
 }  // namespace
+

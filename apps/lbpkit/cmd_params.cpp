@@ -1,10 +1,13 @@
 // lbpkit rpd / wpd: read and write a remote's parameters by name, like
 // Mesa's RPD and WPD (manual: RPD, WPD, AND UFLBP).
+#include <fcntl.h>
 #include <fmt/core.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
-#include <fstream>
+#include <cerrno>
+#include <cstring>
 #include <functional>
-#include <iterator>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -14,6 +17,7 @@
 #include "lbpkit/parameters.hpp"
 #include "lbpkit/remote_flash.hpp"
 #include "lbpkit/serial_remote.hpp"
+#include "lbpkit/wire/seven_i77.hpp"
 
 namespace app {
 extern std::function<int()> gRun;
@@ -90,13 +94,60 @@ Target open(const ParamOptions& o, bool setupBaud = false) {
   return t;
 }
 
+const char* fileKind(mode_t mode) {
+  if (S_ISDIR(mode)) return "a folder";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
+std::string tooLarge(const std::string& file, std::size_t bytes) {
+  constexpr std::size_t flash = lbpkit::wire::i7i77::kProgramFlashBytes;
+  return fmt::format("{}: {} bytes, larger than the 7I77 processor's {}-byte ({} KiB) program flash: not a firmware "
+                     "image for it; nothing was erased",
+                     file, bytes, flash, flash / 1024);
+}
+
+// The firmware image, whole, before the remote is touched: a regular file no
+// larger than the flash. Opened without blocking (a FIFO with no writer
+// would hold the open) and checked for what it is before a byte is read;
+// never more than the flash's size plus one is read (a file that grows).
+std::vector<std::uint8_t> readImage(const std::string& file) {
+  constexpr std::size_t bound = lbpkit::wire::i7i77::kProgramFlashBytes;
+  const int fd = ::open(file.c_str(), O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+  if (fd < 0) throw lbpkit::Error(fmt::format("{}: cannot read it: {}", file, std::strerror(errno)));
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) throw lbpkit::Error(fmt::format("{}: cannot read it: {}", file, std::strerror(errno)));
+  if (!S_ISREG(st.st_mode))
+    throw lbpkit::Error(fmt::format("{}: is {}, not a firmware image file (flash-remote reads regular files only)",
+                                    file, fileKind(st.st_mode)));
+  if (static_cast<std::uintmax_t>(st.st_size) > bound)
+    throw lbpkit::Error(tooLarge(file, static_cast<std::size_t>(st.st_size)));
+  std::vector<std::uint8_t> image(bound + 1);
+  std::size_t got = 0;
+  while (got < image.size()) {
+    const ssize_t n = ::read(fd, image.data() + got, image.size() - got);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) throw lbpkit::Error(fmt::format("{}: cannot read it: {}", file, std::strerror(errno)));
+    if (n == 0) break;
+    got += static_cast<std::size_t>(n);
+  }
+  if (got > bound) throw lbpkit::Error(tooLarge(file, got) + " (the file grew while it was read)");
+  if (got == 0) throw lbpkit::Error(fmt::format("{}: the file is empty", file));
+  image.resize(got);
+  return image;
+}
+
 // lbpkit flash-remote FILE: UFLBP's update, with each commit checked and the
 // flash read back (docs/tools.md#a-remotes-firmware-flash-remote).
 int runFlashRemote(const ParamOptions& o) {
-  std::ifstream in(o.file, std::ios::binary);
-  if (!in) throw lbpkit::Error(fmt::format("{}: cannot read it", o.file));
-  const std::vector<std::uint8_t> image((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (image.empty()) throw lbpkit::Error(fmt::format("{}: the file is empty", o.file));
+  const std::vector<std::uint8_t> image = readImage(o.file);
   auto t = open(o, true);
   const auto g = lbpkit::flashGeometry(*t.access);
   fmt::print("{}: {} bytes to {}: flash of {}-byte blocks in {}-byte pages\n", o.file, image.size(), t.access->where(),

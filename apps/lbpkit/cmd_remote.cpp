@@ -52,7 +52,10 @@ int runRemote(const RemoteOptions& o) {
     using Kind = remote::NvEvent::Kind;
     const bool error = e.kind == Kind::Refused || e.kind == Kind::WriteFailed;
     // fputs, not fmt::print: a log that cannot be written must not throw out of the serving loop.
-    std::fputs(fmt::format("lbpkit remote: {}: EEPROM: {}\n", error ? "error" : "warning", e.message).c_str(), stderr);
+    std::fputs(fmt::format("lbpkit remote: {}: {}{}\n", error ? "error" : "warning",
+                           e.kind == Kind::NoProgram ? "" : "EEPROM: ", e.message)
+                   .c_str(),
+               stderr);
     std::fflush(stderr);
   };
 

@@ -5,6 +5,7 @@
 
 #include "lbpkit/error.hpp"
 #include "lbpkit/wire/lbp.hpp"
+#include "lbpkit/wire/seven_i77.hpp"
 
 namespace lbpkit {
 
@@ -70,12 +71,18 @@ FlashGeometry flashGeometry(RemoteAccess& remote) {
     throw Error(remote.where() + ": the remote reports a flash of " + std::to_string(1U << std::min(erase, 20U)) +
                 "-byte blocks in " + std::to_string(1U << std::min(write, 20U)) +
                 "-byte pages, which 8-byte LBP writes cannot program");
-  return {std::size_t{1} << erase, std::size_t{1} << write};
+  return {std::size_t{1} << erase, std::size_t{1} << write, wire::i7i77::kProgramFlashBytes};
 }
 
 std::size_t flashRemote(RemoteAccess& remote, std::span<const std::uint8_t> image, bool verify,
                         const std::function<void(const FlashProgress&)>& progress) {
   const FlashGeometry g = flashGeometry(remote);
+  // An image past the flash's end would be cut at the first block the
+  // remote refuses, after the blocks before it were erased: refused whole.
+  if (image.size() > g.flashBytes)
+    throw Error(remote.where() + ": an image of " + std::to_string(image.size()) + " bytes is larger than the " +
+                std::to_string(g.flashBytes) + "-byte (" + std::to_string(g.flashBytes / 1024) +
+                " KiB) program flash: nothing was erased");
   const std::size_t blocks = (image.size() + g.eraseBytes - 1) / g.eraseBytes;
   auto tell = [&](FlashProgress::Step step, std::size_t block) {
     if (progress) progress({step, block, blocks});

@@ -28,7 +28,17 @@ class SetupChannelAccess final : public RemoteAccess {
  public:
   SetupChannelAccess(Transport& t, const SmartSerialRegisters& regs, unsigned channel, Nanoseconds timeout,
                      Nanoseconds poll)
-      : t_(t), regs_(regs), channel_(channel), timeout_(timeout), poll_(poll) {}
+      : t_(t), regs_(regs), channel_(channel), timeout_(timeout), poll_(poll) {
+    // The CS error byte as START left it: a setup START counts the special
+    // RPCs a remote running only its boot block does not answer (unit
+    // number, discovery) as timeouts and goes on (manual: SETUP START;
+    // docs/protocol-facts.md#sslbp-start-and-timeouts). Only errors after
+    // this are a command's.
+    std::uint32_t cs = 0;
+    t_.queueRead(regs_.cs(channel_), &cs);
+    t_.flush();
+    lastErrors_ = static_cast<std::uint8_t>(cs);
+  }
 
   std::uint64_t read(std::uint16_t address, unsigned size) override {
     const std::uint8_t header = wire::lbp::readHeader(static_cast<std::uint8_t>(size), true);

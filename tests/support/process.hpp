@@ -140,6 +140,10 @@ class Daemon {
   std::string readUntil(const std::string& marker, std::size_t from = 0) {
     return test_support::readUntil(out_, text_, marker, std::chrono::seconds(10), from);
   }
+  // The same for its standard error (its warnings).
+  std::string readErrUntil(const std::string& marker, std::size_t from = 0) {
+    return test_support::readUntil(err_, errText_, marker, std::chrono::seconds(10), from);
+  }
   // The rest of a line after `marker`.
   std::string value(const std::string& marker) {
     const std::string t = readUntil(marker);
@@ -174,6 +178,7 @@ class Daemon {
   pid_t pid_ = -1;
   int out_ = -1, err_ = -1;
   std::string text_;
+  std::string errText_;
 };
 
 }  // namespace test_support

@@ -36,6 +36,7 @@ struct NvEvent {
     Defaults,     // the file holds no readable image: the processor starts from factory defaults
     ReadOnly,     // the file can be read but not written: every write will be refused
     WriteFailed,  // a write did not reach the file (the processor refuses it to the host: LBP Invalid write)
+    NoProgram,    // at power-up the program flash (program_flash.hpp) holds no valid program: only the boot block runs
   };
   Kind kind;
   std::string message;

@@ -56,7 +56,10 @@ std::optional<std::uint8_t> ProgramFlash::programRevision(std::span<const std::u
 }
 
 ProgramFlash::ProgramFlash(std::filesystem::path file, std::string owner, NvReporter report)
-    : store_(kSize, std::move(file), std::move(owner), std::move(report)), flash_(kSize, 0xFF), page_(kWriteBytes, 0xFF) {}
+    : report_(report),
+      store_(kSize, std::move(file), std::move(owner), std::move(report)),
+      flash_(kSize, 0xFF),
+      page_(kWriteBytes, 0xFF) {}
 
 void ProgramFlash::load(std::span<const std::uint8_t> factory) {
   if (store_.load()) {

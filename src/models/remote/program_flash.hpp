@@ -30,7 +30,10 @@
 //
 // The flash is kept in a file of its own beside the EEPROM's (FILE.program)
 // by an NvStore: a power cut at any moment leaves the whole flash as it was
-// before the erase or write being committed, or after it.
+// before the erase or write being committed, or after it. An update cut
+// between two commits (the host gone, the power cut) leaves a flash whose
+// program is not valid: the boot block runs at the next power-up, says so
+// (NvEvent::Kind::NoProgram), and takes a new image.
 #pragma once
 
 #include <cstddef>
@@ -42,6 +45,7 @@
 #include <string_view>
 #include <vector>
 
+#include "lbpkit/wire/seven_i77.hpp"
 #include "remote/nv_store.hpp"
 
 namespace remote {
@@ -52,7 +56,7 @@ class ProgramFlash {
   static constexpr std::uint8_t kWriteLog2 = 6;
   static constexpr std::size_t kEraseBytes = std::size_t{1} << kEraseLog2;
   static constexpr std::size_t kWriteBytes = std::size_t{1} << kWriteLog2;
-  static constexpr std::size_t kSize = 32 * 1024;
+  static constexpr std::size_t kSize = lbpkit::wire::i7i77::kProgramFlashBytes;
   // The image header, at the start of block 1: card name (4 ASCII bytes),
   // processor (gtoc_parameters.hpp: kFieldIoProcessor or kAnalogProcessor),
   // software revision, two zero bytes, the program's length after the
@@ -88,12 +92,17 @@ class ProgramFlash {
   [[nodiscard]] std::span<const std::uint8_t> contents() const { return flash_; }
   [[nodiscard]] const NvStore& store() const { return store_; }
   NvStore& store() { return store_; }
+  // Tells whoever runs the model (as NvStore's events): a model cannot log.
+  void report(NvEvent::Kind kind, std::string message) const {
+    if (report_) report_(NvEvent{kind, std::move(message)});
+  }
   [[nodiscard]] std::uint32_t erases() const { return erases_; }
   [[nodiscard]] std::uint32_t pageWrites() const { return pageWrites_; }
 
  private:
   bool commit(std::uint8_t command);
 
+  NvReporter report_;
   NvStore store_;
   std::vector<std::uint8_t> flash_;
   std::vector<std::uint8_t> page_;

@@ -209,6 +209,17 @@ void RemoteDevice::powerUp(SimTime now) {
   // (lbpkit's image; a blank flash file holds the factory program).
   flash_.load(ProgramFlash::image(identity_.cardName, identity_.processor, identity_.swRevision, {}));
   program_ = ProgramFlash::programRevision(flash_.contents(), identity_.cardName, identity_.processor);
+  if (!program_) {
+    const auto where = flash_.store().file().empty() ? std::string("its flash")
+                                                     : flash_.store().file().string();
+    flash_.report(NvEvent::Kind::NoProgram,
+                  "the " + std::string(identity_.cardName) + " " +
+                      (identity_.processor == kFieldIoProcessor ? "field I/O" : "analog") + " processor's program in " +
+                      where +
+                      " is not valid (an update was cut?): it stays in its boot block, which answers LBP but has no "
+                      "process data; lbpkit flash-remote puts a new image in it (setup mode: W12 for the field I/O "
+                      "processor, W4 for the analog one)");
+  }
   // NV values become working values only here (manual: NON-VOLATILE FIELD I/O PARAMETERS).
   const auto baudIndex = raw(standard(Standard::NvBaudRate));
   const std::uint32_t baud = setupJumper_                      ? kSetupBaud

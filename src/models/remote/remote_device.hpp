@@ -169,6 +169,7 @@ class RemoteDevice : public lbp::Target {
   [[nodiscard]] bool programRuns() const { return program_.has_value(); }
   [[nodiscard]] std::uint8_t softwareRevision() const { return program_.value_or(0); }
   NvStore& nvStore() { return nv_; }
+  ProgramFlash& programFlash() { return flash_; }
   [[nodiscard]] const lbp::Parser& parser() const { return parser_; }
 
   // What every processor shows an observer; each processor's State adds its

@@ -18,6 +18,9 @@ namespace lbpkit {
 struct FlashGeometry {
   std::size_t eraseBytes = 0;  // 1 << the byte at 0x8004
   std::size_t writeBytes = 0;  // 1 << the byte at 0x8005
+  // The whole flash, boot block included: LBP does not report it; a 7I77
+  // processor's (wire::i7i77::kProgramFlashBytes, lbpkit's choice).
+  std::size_t flashBytes = 0;
 };
 
 struct FlashProgress {
@@ -35,7 +38,8 @@ FlashGeometry flashGeometry(RemoteAccess& remote);
 // Writes `image` (a whole-flash file: block 0 ignored, all-zero blocks
 // skipped, as setsserial does) and, with `verify`, reads every block
 // written back and compares it. Throws lbpkit::Error naming the block and
-// what went wrong (a refused commit, a lost cookie, a byte that differs).
+// what went wrong (a refused commit, a lost cookie, a byte that differs),
+// or, before anything is erased, that the image is larger than the flash.
 // Returns how many blocks were written.
 std::size_t flashRemote(RemoteAccess& remote, std::span<const std::uint8_t> image, bool verify,
                         const std::function<void(const FlashProgress&)>& progress = {});

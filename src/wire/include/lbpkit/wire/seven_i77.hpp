@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <string_view>
 
@@ -40,5 +41,9 @@ inline constexpr std::array<std::uint32_t, 12> kBaudRates = {9600,   19200,  384
 inline constexpr std::uint8_t kDefaultBaudIndex = 9;  // 2.5 MBaud
 inline constexpr std::uint32_t kSetupBaud = 115200;   // setup mode jumpers
 inline constexpr std::uint16_t kDefaultWatchdogMs = 50;
+// Each processor's program flash: no public source gives its size; lbpkit's
+// choice (docs/protocol-facts.md#the-program-flash). A firmware image larger
+// than this cannot be the processor's.
+inline constexpr std::size_t kProgramFlashBytes = 32 * 1024;
 
 }  // namespace lbpkit::wire::i7i77
