@@ -1093,11 +1093,17 @@ class Deriver {
       for (const auto& [k, v] : spindle_) t += line("", k, v);
       t += "\n";
     }
+    // Names are unique in a machine file: a second switch of one kind on an
+    // axis (two inputs reach its home-sw-in through or2), or held on a 7I77
+    // and a 7I76 input of one number, is numbered.
+    std::set<std::string> switchNames;
     for (const auto& key : switchOrder_) {
       const auto& s = switchAt_.at(key);
       if (s.kind == "held-off") continue;
+      std::string name = s.name;
+      for (unsigned k = 2; !switchNames.insert(name).second; ++k) name = fmt::format("{}-{}", s.name, k);
       t += fmt::format("# {}\n[[switch]]\nname = \"{}\"\nkind = \"{}\"\ndaughtercard = \"{}\"\ninput = {}\ncontact = \"{}\"\n",
-                       commentText(s.comment), s.name, s.kind, s.daughtercard, s.input, s.contact);
+                       commentText(s.comment), name, s.kind, s.daughtercard, s.input, s.contact);
       if (!s.axis.empty()) {
         t += fmt::format("axis = \"{}\"\nposition = {}\ntrip_above = {}\n", s.axis, fmtNumber(*s.position),
                          s.tripAbove ? "true" : "false");
