@@ -333,6 +333,28 @@ TEST(MachineFromConfig, ValuesNoMachineHasAreRefusedAtTheirLine) {
   }
 }
 
+// Two inputs reaching one joint's home-sw-in (through or2): two home
+// switches, each with a name of its own.
+TEST(MachineFromConfig, TwoInputsOnOneHomeGiveTwoNamedSwitches) {
+  test_support::TempDir dir;
+  const auto ini = millCopy(dir, "mill.ini");
+  std::ifstream in(dir.path() / "mill.hal");
+  std::string hal, line;
+  while (std::getline(in, line)) {
+    if (line == "net home-x         <=  hm2_7i92.0.7i77.0.0.input-00")
+      line = "loadrt or2 count=1\naddf or2.0 servo-thread\nnet home-x-a <= hm2_7i92.0.7i77.0.0.input-00 => or2.0.in0\n"
+             "net home-x-b <= hm2_7i92.0.7i77.0.0.input-20 => or2.0.in1\nnet home-x <= or2.0.out";
+    hal += line + "\n";
+  }
+  ASSERT_NE(hal.find("or2.0.out"), std::string::npos);
+  std::ofstream(dir.path() / "mill.hal") << hal;
+  const auto m = machineFromConfig(ini);
+  ASSERT_TRUE(m.ok()) << errors(m);
+  const auto d = load(m);
+  EXPECT_EQ(switchNamed(d, "x-home").input, 0U);
+  EXPECT_EQ(switchNamed(d, "x-home-2").input, 20U);
+}
+
 std::string fileBytes(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
