@@ -30,6 +30,7 @@
 #include "support/interop.hpp"
 #include "support/sim_child.hpp"
 #include "support/temp_dir.hpp"
+#include "support/temporary_user.hpp"
 #include "support/wait.hpp"
 
 namespace {
@@ -75,6 +76,31 @@ unsigned long doits(const std::string& url) {
 
 constexpr const char* kCardAddress = "10.10.10.12";
 
+// The folder a run of `lbpkit linuxcnc` with this pid made
+// (/tmp/lbpkit-linuxcnc-PID-XXXXXX), or an empty path.
+fs::path runFolder(pid_t run) {
+  std::error_code ec;
+  const std::string prefix = "lbpkit-linuxcnc-" + std::to_string(run) + "-";
+  for (const auto& e : fs::directory_iterator("/tmp", ec))
+    if (e.path().filename().string().rfind(prefix, 0) == 0) return e.path();
+  return {};
+}
+
+// What is left of the run with this pid: its network namespace, its link,
+// a route to `card`, its folder; empty when nothing is.
+std::string leftOf(pid_t run, const std::string& card) {
+  std::string left;
+  const auto id = std::to_string(run);
+  if (fs::exists("/run/netns/lbpkit-linuxcnc-" + id)) left += "network namespace lbpkit-linuxcnc-" + id + "; ";
+  if (fs::exists("/sys/class/net/lbl" + id)) left += "link lbl" + id + "; ";
+  if (!sh("ip -4 route show exact " + card + "/32").out.empty()) left += "a route to " + card + "; ";
+  if (!runFolder(run).empty()) left += "folder " + runFolder(run).string() + "; ";
+  return left;
+}
+
+// The network namespaces of lbpkit linuxcnc runs there are now.
+std::string runNamespaces() { return sh("ls /run/netns 2>/dev/null | grep '^lbpkit-linuxcnc-' || true").out; }
+
 class LinuxCncCommand : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -97,20 +123,76 @@ class LinuxCncCommand : public ::testing::Test {
     atAddressOfItsOwn();
   }
   // The card at 10.10.10.12 ([HM2]IPADDRESS), apart from the mills' (tests/CMakeLists.txt).
-  void atAddressOfItsOwn() {
-    const auto ini = slurp(config_ / "mill.ini");
-    std::ofstream(config_ / "mill.ini")
-        << std::regex_replace(ini, std::regex(R"(^IPADDRESS = 10\.10\.10\.10$)", std::regex::multiline),
-                              "IPADDRESS = " + std::string(kCardAddress));
+  void atAddressOfItsOwn() { atAddress(kCardAddress); }
+  // The example INI's line that starts with `key` (e.g. "IPADDRESS = ")
+  // made `key` + `value`, taken as it is.
+  void setLine(const std::string& key, const std::string& value) {
+    std::istringstream in(slurp(config_ / "mill.ini"));
+    std::string text;
+    for (std::string line; std::getline(in, line);) text += (line.rfind(key, 0) == 0 ? key + value : line) + "\n";
+    std::ofstream(config_ / "mill.ini") << text;
+  }
+  // The card's address ([HM2]IPADDRESS), whatever the text.
+  void atAddress(const std::string& address) {
+    setLine("IPADDRESS = ", address);
+  }
+  // A display program that ends at once with `status`.
+  void displayEndingWith(int status) {
+    const auto display = dir_.path() / "ending_display";
+    std::ofstream(display) << "#!/bin/sh\nexit " << status << "\n";
+    fs::permissions(display, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                                 fs::perms::others_read | fs::perms::others_exec);
+    setLine("DISPLAY = ", display.string());
+  }
+  // In a forked child: lbpkit linuxcnc on the example mill as a user calls
+  // it (the machine auto, the CPU last), its output in log_; the sim's
+  // state in the test's folder and on the host clock.
+  [[noreturn]] void execAsAUser() {
+    const int fd = ::open(log_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(fd, 1);
+    ::dup2(fd, 2);
+    const std::string ini = (config_ / "mill.ini").string();
+    const std::string state = (dir_.path() / "sim.eeprom").string();
+    ::execl(LBPKIT_BINARY, LBPKIT_BINARY, "linuxcnc", ini.c_str(), "--", "--state", state.c_str(), "--clock",
+            "host=1ms", static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  // What is left of the run (pid_) 10 s after a SIGKILL, empty when
+  // nothing is: leftOf(), the sim, and LinuxCNC's processes (in `linuxCnc`,
+  // its PID namespace, when given).
+  std::string killedLeaves(unsigned long linuxCnc = 0) {
+    const pid_t run = pid_;
+    if (::kill(run, SIGKILL) != 0) return "no run to kill";
+    ::waitpid(run, nullptr, 0);
+    pid_ = -1;
+    std::string left;
+    test_support::waitFor(
+        [&] {
+          left = leftOf(run, kCardAddress);
+          if (linuxCnc != 0 && processesIn(linuxCnc) != 0) left += "LinuxCNC's processes; ";
+          // ([s]: not the shell that runs pgrep, whose command line holds the words)
+          if (!sh("pgrep -f '[s]im --bind " + std::string(kCardAddress) + "'").out.empty()) left += "the sim; ";
+          return left.empty();
+        },
+        10s);
+    return left;
+  }
+  // lbpkit linuxcnc run to its end with `args` after the INI: what it
+  // printed (stdout and stderr together) and its exit status.
+  test_support::Result runToEnd(const fs::path& ini, std::vector<std::string> args = {}) {
+    args.insert(args.begin(), {"linuxcnc", ini.string()});
+    auto r = test_support::run(args, 90s);
+    r.out += r.err;
+    return r;
   }
 
   // lbpkit linuxcnc started, its output in a file; true once LinuxCNC's
   // servo thread runs the card (the sim has counted DOITs). `display`: the X
   // display LinuxCNC's own display program shows on (DISPLAY), or none.
-  bool start(const std::string& display = {}) {
+  bool start(const std::string& display = {}, const fs::path& iniFile = {}, const std::vector<std::string>& more = {}) {
     log_ = dir_.path() / "linuxcnc.log";
     pid_ = ::fork();
-    id_ = std::to_string(pid_ % 100000);
+    id_ = std::to_string(pid_);
     if (pid_ == 0) {
       // LinuxCNC's files in its user's home (linuxcnc_debug.txt, AXIS's
       // preferences) go to the test's folder.
@@ -122,7 +204,7 @@ class LinuxCncCommand : public ::testing::Test {
       const int fd = ::open(log_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
       ::dup2(fd, 1);
       ::dup2(fd, 2);
-      const std::string ini = (config_ / "mill.ini").string();
+      const std::string ini = (iniFile.empty() ? config_ / "mill.ini" : iniFile).string();
       const std::string state = (dir_.path() / "sim.eeprom").string();
       // On the sim's host clock (docs/clocks.md): a servo thread held back
       // here still finds each DoIt done, and hostmot2 keeps the smart-serial
@@ -130,8 +212,13 @@ class LinuxCncCommand : public ::testing::Test {
       // On the CPU before the last (tests/CMakeLists.txt locks it): one
       // LinuxCNC a CPU beside the other end-to-end runs.
       const auto cpu = std::to_string(test_support::cardCpu(1));
-      ::execl(LBPKIT_BINARY, LBPKIT_BINARY, "linuxcnc", ini.c_str(), "--machine", "mill", "--cpu", cpu.c_str(), "--",
-              "--state", state.c_str(), "--clock", "host=1ms", static_cast<char*>(nullptr));
+      std::vector<std::string> words = {LBPKIT_BINARY, "linuxcnc", ini, "--machine", "mill", "--cpu", cpu};
+      words.insert(words.end(), more.begin(), more.end());
+      words.insert(words.end(), {"--", "--state", state, "--clock", "host=1ms"});
+      std::vector<char*> argv;
+      for (auto& w : words) argv.push_back(w.data());
+      argv.push_back(nullptr);
+      ::execv(LBPKIT_BINARY, argv.data());
       ::_exit(127);
     }
     std::string url;
@@ -204,7 +291,7 @@ TEST_F(LinuxCncCommand, CtrlCStopsLinuxCncAndTheSimAndRemovesTheNamespace) {
   // LinuxCNC's lock file is in a /tmp of its own: another LinuxCNC on this
   // PC neither finds it nor cleans this one up.
   EXPECT_FALSE(fs::exists("/tmp/linuxcnc.lock"));
-  const auto own = fs::path("/tmp/lbpkit-linuxcnc-" + id_) / "tmp";
+  const auto own = runFolder(pid_) / "tmp";
   EXPECT_TRUE(fs::exists(own / "linuxcnc.lock")) << own;
   // rtapi_app's main thread and its servo thread at SCHED_FIFO 30, as on a
   // real-time kernel; its message thread where LinuxCNC puts it, at the
@@ -246,6 +333,231 @@ TEST_F(LinuxCncCommand, AKilledSimStopsLinuxCnc) {
   EXPECT_EQ(end(), 1) << slurp(log_);
   expectNothingLeft();
   EXPECT_NE(slurp(log_).find("lbpkit sim ended"), std::string::npos) << slurp(log_);
+}
+
+// What a configuration holds is data, never a command: an address that is
+// not a unicast IPv4 address (a shell substitution among them) is refused,
+// naming the INI's line, before anything is built.
+TEST_F(LinuxCncCommand, ABoardAddressThatIsNotAUnicastOneIsRefusedBeforeAnythingIsBuilt) {
+  const auto marker = dir_.path() / "PWNED1";
+  const auto before = runNamespaces();
+  for (const std::string& address : std::vector<std::string>{"$(touch${IFS}" + marker.string() + ")10.77.1.5", std::string("0.0.0.0"),
+                                    std::string("127.0.0.1"), std::string("10.77.1.255"),
+                                    std::string("255.255.255.255"), std::string("224.0.0.1"), std::string("::1"),
+                                    std::string("localhost"), std::string("10.1.2")}) {
+    atAddress(address);
+    const auto r = runToEnd(config_ / "mill.ini");
+    EXPECT_EQ(r.exit, 1) << address << ":\n" << r.out;
+    EXPECT_NE(r.out.find("mill.ini:"), std::string::npos) << address << ":\n" << r.out;
+    EXPECT_EQ(r.out.find("cannot set up network namespace"), std::string::npos) << address << ":\n" << r.out;
+    EXPECT_FALSE(fs::exists(marker)) << address;
+  }
+  EXPECT_EQ(runNamespaces(), before);
+}
+
+// An address this PC already has, or routes through, is refused by name:
+// in a network namespace of the test's own, with an address on a link and
+// a default route through a gateway beside it (a veth pair stands for the
+// LAN).
+TEST_F(LinuxCncCommand, AnAddressOfThisPcOrItsGatewayIsRefused) {
+  const std::string net = "lbpkit-pc-" + std::to_string(::getpid());
+  const std::string lan = "10.79." + std::to_string(::getpid() % 250) + ".";
+  ASSERT_EQ(sh("ip netns add " + net + " && ip -n " + net + " link set lo up && ip -n " + net +
+               " link add lan0 type veth peer name lan1 && ip -n " + net + " addr add " + lan + "2/24 dev lan0 && ip -n " +
+               net + " link set lan1 up && ip -n " + net + " link set lan0 up && ip -n " + net + " route add default via " + lan + "1")
+                .exit,
+            0);
+  struct RemoveNetns {
+    std::string name;
+    ~RemoveNetns() { sh("ip netns del " + name); }
+  } removeNetns{net};
+  auto inPc = [&](const std::string& address) {
+    atAddress(address);
+    return sh("ip netns exec " + net + " " + LBPKIT_BINARY + " linuxcnc " + (config_ / "mill.ini").string());
+  };
+  const auto gateway = inPc(lan + "1");
+  EXPECT_NE(gateway.exit, 0);
+  EXPECT_NE(gateway.out.find(lan + "1 is this PC's gateway"), std::string::npos) << gateway.out;
+  const auto own = inPc(lan + "2");
+  EXPECT_NE(own.exit, 0);
+  EXPECT_NE(own.out.find(lan + "2 is this PC's own address (on lan0)"), std::string::npos) << own.out;
+  EXPECT_EQ(gateway.out.find("cannot set up network namespace"), std::string::npos) << gateway.out;
+}
+
+// A configuration's file name is only a name: one that would be a command
+// in a shell is converted by update_ini (an argument, not a command line)
+// and runs.
+TEST_F(LinuxCncCommand, AConfigurationsFileNameIsNeverACommand) {
+  const std::string hostile = "a'$(touch PWNED2)'.ini";
+  auto ini = slurp(config_ / "mill.ini");
+  // No [EMC]VERSION: a configuration from before LinuxCNC 2.8, converted.
+  ini = std::regex_replace(ini, std::regex(R"(^VERSION = .*$)", std::regex::multiline), "");
+  std::ofstream(config_ / hostile) << ini;
+  ASSERT_TRUE(start({}, config_ / hostile, {"--display", (dir_.path() / "waiting_display").string()})) << slurp(log_);
+  const auto text = slurp(log_);
+  EXPECT_NE(text.find("converted with update_ini -f"), std::string::npos) << text;
+  EXPECT_EQ(text.find("a fault in lbpkit"), std::string::npos) << text;
+  ::kill(pid_, SIGINT);
+  EXPECT_EQ(end(), 130) << slurp(log_);
+  expectNothingLeft();
+  EXPECT_EQ(sh("find / -xdev -name PWNED2 2>/dev/null").out, "");
+}
+
+// SUDO_UID, SUDO_GID and SUDO_USER that name no account, or disagree, are
+// refused before anything is built: no guessing who LinuxCNC runs as, and
+// no older run's LinuxCNC log shown.
+TEST_F(LinuxCncCommand, SudoVariablesThatNameNoAccountAreRefused) {
+  const auto before = runNamespaces();
+  std::ofstream(dir_.path() / "linuxcnc_debug.txt") << "AN OLDER RUN'S LOG\n";
+  struct Case {
+    const char* user;
+    const char* uid;
+    const char* gid;
+    const char* named;
+  };
+  for (const auto& c : {Case{"nobody", "abc", "65534", "SUDO_UID"}, Case{"nobody", "4000000000", "65534", "SUDO_UID"},
+                        Case{"nobody", "3999999", "65534", "SUDO_UID"}, Case{"root", "65534", "65534", "SUDO_USER"},
+                        Case{"nobody", "65534", "x", "SUDO_GID"}}) {
+    ::setenv("SUDO_USER", c.user, 1);
+    ::setenv("SUDO_UID", c.uid, 1);
+    ::setenv("SUDO_GID", c.gid, 1);
+    const auto r = runToEnd(config_ / "mill.ini");
+    EXPECT_EQ(r.exit, 1) << c.uid << ":\n" << r.out;
+    EXPECT_NE(r.out.find(c.named), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("OLDER RUN"), std::string::npos) << r.out;
+  }
+  ::unsetenv("SUDO_USER");
+  ::unsetenv("SUDO_UID");
+  ::unsetenv("SUDO_GID");
+  EXPECT_EQ(runNamespaces(), before);
+}
+
+// What another user planted where a run would work, and a link in the
+// invoking user's home, are neither followed nor shown: the run's folder is
+// new (a folder by the old predictable name, and one by the new pattern,
+// both made by nobody, are left as they are), and LinuxCNC's log, a link
+// to a root-only file, is not printed when LinuxCNC fails.
+TEST_F(LinuxCncCommand, WhatAnotherUserPlantedIsNeitherFollowedNorShown) {
+  const auto home = dir_.path() / "home";
+  test_support::TemporaryUser user(home);
+  const auto secret = dir_.path() / "root-only";
+  std::ofstream(secret) << "ROOT-ONLY-BYTES\n";
+  fs::permissions(secret, fs::perms::owner_read | fs::perms::owner_write);
+  const auto rootFolder = dir_.path() / "root-folder";
+  fs::create_directory(rootFolder);
+  fs::permissions(rootFolder, fs::perms::owner_all);
+  fs::create_symlink(secret, home / "linuxcnc_debug.txt");
+  ASSERT_EQ(::lchown((home / "linuxcnc_debug.txt").c_str(), user.uid(), user.gid()), 0);
+  displayEndingWith(1);
+  // The run, held until its folders are planted.
+  int go[2];
+  ASSERT_EQ(::pipe(go), 0);
+  log_ = dir_.path() / "linuxcnc.log";
+  pid_ = ::fork();
+  if (pid_ == 0) {
+    ::close(go[1]);
+    char c;
+    (void)!::read(go[0], &c, 1);
+    user.asSudoUser();
+    execAsAUser();
+  }
+  ::close(go[0]);
+  id_ = std::to_string(pid_);
+  const pid_t run = pid_;
+  const std::vector<fs::path> planted = {"/tmp/lbpkit-linuxcnc-" + std::to_string(pid_),
+                                         "/tmp/lbpkit-linuxcnc-" + std::to_string(pid_) + "-AAAAAA"};
+  for (const auto& f : planted) {
+    fs::create_directory(f);
+    fs::create_symlink(rootFolder, f / "tmp");
+    fs::create_symlink(secret, f / "machine.toml");
+    fs::create_symlink(secret, f / "machine.toml.part");
+    sh("chown -hR nobody: " + f.string());
+  }
+  (void)!::write(go[1], "g", 1);
+  ::close(go[1]);
+  const int status = end();
+  const auto text = slurp(log_);
+  EXPECT_EQ(status, 1) << text;
+  EXPECT_NE(text.find("LinuxCNC ended (exit status 1)"), std::string::npos) << text;
+  EXPECT_EQ(text.find("ROOT-ONLY"), std::string::npos) << text;
+  EXPECT_EQ(slurp(secret), "ROOT-ONLY-BYTES\n");
+  EXPECT_EQ(fs::status(rootFolder).permissions(), fs::perms::owner_all);
+  EXPECT_TRUE(fs::is_empty(rootFolder));
+  for (const auto& f : planted) {
+    struct stat st {};
+    EXPECT_EQ(::lstat(f.c_str(), &st), 0) << f;
+    EXPECT_EQ(st.st_uid, 65534U) << f;
+    EXPECT_TRUE(fs::is_symlink(f / "tmp")) << f;
+    EXPECT_TRUE(fs::is_symlink(f / "machine.toml.part")) << f;
+    fs::remove_all(f);
+  }
+  EXPECT_EQ(leftOf(run, kCardAddress), "");
+}
+
+// A second run on the address of a live one is refused, naming that run;
+// the first runs on. Then a SIGKILL of the first: within 10 s nothing of it
+// is left (its reaper, PID 1 of the run's PID namespace, kills whatever
+// the run started and removes its namespace, link and folder).
+TEST_F(LinuxCncCommand, ASecondRunOnALiveRunsAddressIsRefusedAndASigkillLeavesNothing) {
+  ASSERT_TRUE(start()) << slurp(log_);
+  const auto second = runToEnd(config_ / "mill.ini", {"--", "--state", (dir_.path() / "second.eeprom").string()});
+  EXPECT_EQ(second.exit, 1) << second.out;
+  EXPECT_NE(second.out.find(std::string(kCardAddress) + " is in use: the card of another lbpkit linuxcnc (pid " + id_),
+            std::string::npos)
+      << second.out;
+  EXPECT_EQ(::kill(pid_, 0), 0);
+  EXPECT_GT(processesIn(linuxCncNs_), 0);
+  EXPECT_EQ(killedLeaves(linuxCncNs_), "") << sh("ps -ef").out;
+}
+
+// A SIGKILL while the run is being set up (its folder made, its namespace
+// built, the sim started): within 10 s nothing of it is left.
+TEST_F(LinuxCncCommand, ASigkillDuringSetUpLeavesNothing) {
+  for (const std::string& moment : std::vector<std::string>{"folder", "namespace", "sim"}) {
+    log_ = dir_.path() / ("linuxcnc-" + moment + ".log");
+    pid_ = ::fork();
+    if (pid_ == 0) execAsAUser();
+    const pid_t run = pid_;
+    const bool reached = test_support::waitFor(
+        [&] {
+          if (moment == "folder") return !runFolder(run).empty();
+          if (moment == "namespace") return fs::exists("/run/netns/lbpkit-linuxcnc-" + std::to_string(run));
+          return slurp(log_).find("web view: ") != std::string::npos;
+        },
+        30s, 1ms);
+    EXPECT_TRUE(reached) << moment << "\n" << slurp(log_);
+    EXPECT_EQ(killedLeaves(), "") << moment << "\n" << slurp(log_);
+  }
+}
+
+// What a run that is gone left (killed where nothing could clean up, or
+// by an older lbpkit) is removed by the next run: its namespace, link and
+// folder, found by their names, once their owner is gone; a folder of that
+// name that is not root's is not taken for a run's.
+TEST_F(LinuxCncCommand, WhatADeadRunLeftIsRemovedByTheNext) {
+  const pid_t dead = ::fork();
+  if (dead == 0) ::_exit(0);
+  ::waitpid(dead, nullptr, 0);
+  const auto id = std::to_string(dead);
+  ASSERT_EQ(sh("ip netns add lbpkit-linuxcnc-" + id + " && ip link add lbl" + id + " type veth peer name lbl" + id +
+               "h && ip link set lbl" + id + "h netns lbpkit-linuxcnc-" + id)
+                .exit,
+            0);
+  const fs::path folder = "/tmp/lbpkit-linuxcnc-" + id + "-Dead00";
+  const fs::path notRoots = "/tmp/lbpkit-linuxcnc-" + id + "-Other0";
+  fs::create_directories(folder / "user");
+  std::ofstream(folder / "machine.toml") << "\n";
+  fs::create_directory(notRoots);
+  sh("chown nobody: " + notRoots.string());
+  atAddress("127.0.0.1");  // refused once the dead run's are removed
+  const auto r = runToEnd(config_ / "mill.ini");
+  EXPECT_EQ(r.exit, 1) << r.out;
+  EXPECT_NE(r.out.find("removed network namespace lbpkit-linuxcnc-" + id), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists("/run/netns/lbpkit-linuxcnc-" + id));
+  EXPECT_TRUE(test_support::waitFor([&] { return !fs::exists("/sys/class/net/lbl" + id); }, 5s));
+  EXPECT_FALSE(fs::exists(folder));
+  EXPECT_TRUE(fs::exists(notRoots));
+  fs::remove_all(notRoots);
 }
 
 // The real AXIS on an X server of its own (Xvfb), the example mill's

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lbpkit linuxcnc CONFIG.ini: a user's own LinuxCNC configuration against
 // `lbpkit sim`, in one command (docs/linuxcnc.md#your-configuration-in-one-command).
 //
@@ -9,19 +10,28 @@
 // memory end with it and its /tmp is its own; as the user who ran sudo
 // (SUDO_UID), with that user's home and DISPLAY, or as nobody (RTAPI_UID)
 // when root ran it; its servo thread SCHED_FIFO, as on a real-time kernel.
-// On every way out (LinuxCNC closed or killed, the sim gone, Ctrl-C)
-// everything started is stopped and the namespace removed.
+//
+// What runs as root is kept to sudo's rules (docs/linuxcnc.md#what-runs-as-root):
+// the configuration is read, checked, derived and copied by a child that
+// runs as the user; every program is started by an argument vector; the
+// run's folder is new (mkdtemp) and its files are made through its
+// descriptor; everything the run starts is in a PID namespace whose PID 1
+// is a reaper of lbpkit's (linuxcnc_run.hpp), so that on every way out,
+// SIGKILL included, every process, the namespace, the link and the folder
+// go.
 #include <fcntl.h>
 #include <poll.h>
 #include <pwd.h>
 #include <sched.h>
 #include <signal.h>
+#include <sys/mount.h>
 #include <sys/prctl.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <fmt/core.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -39,7 +49,10 @@
 #include "common.hpp"
 #include "hostmot2/cards/catalogue.hpp"
 #include "lbpkit/error.hpp"
+#include "linuxcnc/board_address.hpp"
 #include "linuxcnc/config_check.hpp"
+#include "linuxcnc/program.hpp"
+#include "linuxcnc_run.hpp"
 #include "linuxcnc/network_namespace.hpp"
 #include "linuxcnc/servo_priority.hpp"
 
@@ -66,7 +79,7 @@ struct LinuxCncOptions {
 // starts with it). In a process group of its own, so that a terminal's
 // Ctrl-C reaches only lbpkit, which stops it in order.
 pid_t spawn(const std::vector<std::string>& argv, int out, std::optional<unsigned> cpu = {}) {
-  const pid_t pid = ::fork();
+  const pid_t pid = app::linuxcnc_run::forkInRun();
   if (pid < 0) throw lbpkit::Error(fmt::format("cannot start {}: fork failed", argv.front()));
   if (pid == 0) {
     ::setpgid(0, 0);
@@ -118,11 +131,12 @@ unsigned long pidNamespace(const std::string& pid) {
 
 // Stops LinuxCNC as closing its display does: SIGTERM to every process of
 // its PID namespace (the display, whose end the linuxcnc script waits for,
-// the task, the servers, rtapi_app) and to the script (unshare's child,
+// the task, the servers, rtapi_app) and to the script (the starting child's,
 // PID 1 there), whose trap then unloads HAL. If it has not ended in 10 s,
-// SIGKILL to unshare, whose --kill-child takes the namespace with it.
-int stopLinuxCnc(pid_t unshare) {
-  std::ifstream children(fmt::format("/proc/{}/task/{}/children", unshare, unshare));
+// SIGKILL to the child that waits for it (startLinuxCnc), whose death takes
+// LinuxCNC's PID 1, and with it the namespace, along (PR_SET_PDEATHSIG).
+int stopLinuxCnc(pid_t starter) {
+  std::ifstream children(fmt::format("/proc/{}/task/{}/children", starter, starter));
   pid_t script = 0;
   children >> script;
   if (const unsigned long ns = script > 0 ? pidNamespace(std::to_string(script)) : 0; ns != 0) {
@@ -135,10 +149,10 @@ int stopLinuxCnc(pid_t unshare) {
   }
   const auto deadline = std::chrono::steady_clock::now() + 10s;
   int status = 0;
-  while (::waitpid(unshare, &status, WNOHANG) == 0) {
+  while (::waitpid(starter, &status, WNOHANG) == 0) {
     if (std::chrono::steady_clock::now() > deadline || script <= 0) {
-      ::kill(unshare, SIGKILL);
-      ::waitpid(unshare, &status, 0);
+      ::kill(starter, SIGKILL);
+      ::waitpid(starter, &status, 0);
       break;
     }
     std::this_thread::sleep_for(20ms);
@@ -146,41 +160,35 @@ int stopLinuxCnc(pid_t unshare) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
-// The home of the user LinuxCNC runs as: the one who ran sudo (sudo sets
-// HOME to root's), or root's own HOME.
-std::string linuxCncHome() {
-  if (const char* user = std::getenv("SUDO_USER"); user != nullptr && std::string(user) != "root")
-    if (const passwd* pw = ::getpwnam(user); pw != nullptr && pw->pw_dir != nullptr) return pw->pw_dir;
-  const char* home = std::getenv("HOME");
-  return home != nullptr && *home == '/' ? home : "/root";
-}
-
 // What LinuxCNC said before it failed: started without a terminal, the
 // linuxcnc script writes its messages to linuxcnc_debug.txt in the home of
-// the user it runs as.
-void printLinuxCncLog() {
-  const fs::path log = fs::path(linuxCncHome()) / "linuxcnc_debug.txt";
-  std::ifstream in(log);
+// the user it runs as. Read by root only if it is that user's own regular
+// file, written by this run (linuxcnc_run::readUsersFile).
+void printLinuxCncLog(const app::linuxcnc_run::RunAs& user, std::chrono::system_clock::time_point started) {
+  const fs::path log = fs::path(user.home) / "linuxcnc_debug.txt";
+  const auto text = app::linuxcnc_run::readUsersFile(log, user.uid, started, 64 * 1024);
+  if (!text) return;
   std::vector<std::string> lines;
-  for (std::string line; std::getline(in, line);)
+  std::size_t from = 0;
+  for (std::size_t nl; (nl = text->find('\n', from)) != std::string::npos; from = nl + 1) {
+    const auto line = text->substr(from, nl - from);
     if (line.find("Running with fallback_uid") == std::string::npos) lines.push_back(line);
+  }
   if (lines.empty()) return;
   fmt::print("lbpkit linuxcnc: the end of LinuxCNC's {}:\n", log.string());
   for (std::size_t i = lines.size() > 12 ? lines.size() - 12 : 0; i < lines.size(); ++i) fmt::print("  {}\n", lines[i]);
 }
 
-// The words that run a command with `priv` as its /tmp, in a mount
-// namespace of its own (as root, before any change of user): what it needs
-// of the PC's /tmp stays there, bound in: the X server's sockets
-// (/tmp/.X11-unix, for the user's display) and the folder under /tmp of
-// every absolute path in `paths` (the configuration, a display program
-// and its files). The command follows these words.
-std::vector<std::string> privateTmp(const fs::path& priv, const std::vector<std::string>& paths) {
-  fs::create_directories(priv);
-  fs::permissions(priv, fs::perms::all | fs::perms::sticky_bit);  // as /tmp: LinuxCNC may run as another user
+// The folders under /tmp that LinuxCNC's own /tmp keeps, bound in from the
+// PC's: the X server's sockets (/tmp/.X11-unix, for the user's display) and
+// the folder under /tmp of every absolute path in `paths` (the
+// configuration, a display program and its files).
+std::vector<std::string> keptInTmp(const std::vector<std::string>& paths) {
   std::vector<std::string> keep;
   auto add = [&](const std::string& name) {
-    if (!name.empty() && std::find(keep.begin(), keep.end(), name) == keep.end() && fs::exists("/tmp/" + name))
+    struct stat st {};
+    if (!name.empty() && name != "." && name != ".." && std::find(keep.begin(), keep.end(), name) == keep.end() &&
+        ::lstat(("/tmp/" + name).c_str(), &st) == 0 && S_ISDIR(st.st_mode))
       keep.push_back(name);
   };
   add(".X11-unix");
@@ -190,14 +198,110 @@ std::vector<std::string> privateTmp(const fs::path& priv, const std::vector<std:
         const auto name = text.substr(at + 5, text.find_first_of("/ \t", at + 5) - (at + 5));
         add(name);
       }
-  std::vector<std::string> argv = {"sh", "-c",
-                                   "priv=$1; shift; while [ \"$1\" != -- ]; do mkdir -p \"$priv/$1\" && "
-                                   "mount --bind \"/tmp/$1\" \"$priv/$1\" || exit 126; shift; done; shift; "
-                                   "mount --rbind \"$priv\" /tmp || exit 126; exec \"$@\"",
-                                   "sh", priv.string()};
-  argv.insert(argv.end(), keep.begin(), keep.end());
-  argv.push_back("--");
-  return argv;
+  return keep;
+}
+
+// How LinuxCNC is started (startLinuxCnc).
+struct LinuxCncLaunch {
+  app::linuxcnc_run::RunAs user;
+  std::string netns;           // the network namespace's name (/run/netns/NAME)
+  std::string privateTmp;      // the run's folder for LinuxCNC's /tmp (root's, 0700 until bound)
+  std::vector<std::string> keep;  // keptInTmp
+  std::string linuxcnc;        // the linuxcnc script's absolute path
+  std::string ini;
+  std::string fifo;            // rtapi_app's socket (RTAPI_FIFO_PATH)
+  std::optional<unsigned> cpu;
+};
+
+// In the forked child that becomes LinuxCNC's PID 1: says why it cannot
+// go on, and ends.
+[[noreturn]] void refuse(const char* what) {
+  const int e = errno;
+  const std::string text = fmt::format("lbpkit linuxcnc: cannot start LinuxCNC: {}: {}\n", what, std::strerror(e));
+  (void)!::write(2, text.data(), text.size());
+  ::_exit(126);
+}
+
+// Starts LinuxCNC without a shell: a child (the caller waits for it) that
+// enters new PID, mount and IPC namespaces and forks LinuxCNC's PID 1, which
+// joins the network namespace, mounts its own /proc and /tmp, drops to the
+// user and execs the linuxcnc script. Each dies with its parent
+// (PR_SET_PDEATHSIG), so that a killed lbpkit takes LinuxCNC with it. The
+// child's pid, which ends with LinuxCNC's exit status.
+pid_t startLinuxCnc(const LinuxCncLaunch& l) {
+  const pid_t pid = app::linuxcnc_run::forkInRun();
+  if (pid < 0) throw lbpkit::Error("cannot start LinuxCNC: fork failed");
+  if (pid > 0) {
+    ::setpgid(pid, pid);
+    return pid;
+  }
+  // The child (as unshare --fork would be): in a process group of its own,
+  // so that a terminal's Ctrl-C reaches only lbpkit, which stops it in order.
+  ::setpgid(0, 0);
+  ::prctl(PR_SET_PDEATHSIG, SIGKILL);  // and should lbpkit be gone already, the reaper kills it
+  if (l.cpu) {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(*l.cpu, &set);
+    ::sched_setaffinity(0, sizeof set, &set);
+  }
+  if (::unshare(CLONE_NEWPID | CLONE_NEWNS | CLONE_NEWIPC) != 0) refuse("new PID, mount and IPC namespaces");
+  const pid_t script = ::fork();
+  if (script < 0) refuse("fork");
+  if (script > 0) {
+    int status = 0;
+    while (::waitpid(script, &status, 0) < 0 && errno == EINTR) {
+    }
+    if (WIFSIGNALED(status)) {  // killed: said as a kill, as a shell's child would be
+      ::signal(WTERMSIG(status), SIG_DFL);
+      ::kill(::getpid(), WTERMSIG(status));
+    }
+    ::_exit(WIFEXITED(status) ? WEXITSTATUS(status) : 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0));
+  }
+  // LinuxCNC's PID 1: when it ends, everything LinuxCNC started ends.
+  ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+  if (::mount(nullptr, "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0) refuse("a private mount namespace");
+  if (::mount("proc", "/proc", "proc", MS_NOSUID | MS_NODEV | MS_NOEXEC, nullptr) != 0) refuse("its own /proc");
+  const int net = ::open(("/run/netns/" + l.netns).c_str(), O_RDONLY | O_CLOEXEC);
+  if (net < 0 || ::setns(net, CLONE_NEWNET) != 0) refuse("the network namespace");
+  ::close(net);
+  // As `ip netns exec` does: /sys shows this namespace's links.
+  if (::umount2("/sys", MNT_DETACH) == 0) ::mount("sysfs", "/sys", "sysfs", 0, nullptr);
+  // Its own /tmp: the run's folder, with what it keeps bound in. Every
+  // path is opened without following a link and mounted through its
+  // descriptor.
+  const int priv = ::open(l.privateTmp.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+  if (priv < 0) refuse(l.privateTmp.c_str());
+  for (const auto& name : l.keep) {
+    const int from = ::open(("/tmp/" + name).c_str(), O_PATH | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+    if (from < 0) continue;
+    if (::mkdirat(priv, name.c_str(), 0755) != 0) refuse(name.c_str());
+    const int to = ::openat(priv, name.c_str(), O_PATH | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+    if (to < 0 || ::mount(fmt::format("/proc/self/fd/{}", from).c_str(), fmt::format("/proc/self/fd/{}", to).c_str(),
+                          nullptr, MS_BIND | MS_REC, nullptr) != 0)
+      refuse(("/tmp/" + name).c_str());
+    ::close(from);
+    ::close(to);
+  }
+  if (::mount(fmt::format("/proc/self/fd/{}", priv).c_str(), "/tmp", nullptr, MS_BIND | MS_REC, nullptr) != 0)
+    refuse("its own /tmp");
+  ::close(priv);
+  // As /tmp: LinuxCNC runs as the user, rtapi_app perhaps as nobody.
+  const int tmp = ::open("/tmp", O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+  if (tmp < 0 || ::fchmod(tmp, 01777) != 0) refuse("/tmp's mode");
+  ::close(tmp);
+  if (!app::linuxcnc_run::dropTo(l.user)) refuse(("the user " + l.user.name).c_str());
+  ::prctl(PR_SET_PDEATHSIG, SIGKILL);  // a change of user clears it
+  if (l.user.root) {
+    ::setenv("RTAPI_UID", "65534", 1);
+  } else {
+    ::setenv("HOME", l.user.home.c_str(), 1);
+    ::setenv("USER", l.user.name.c_str(), 1);
+    ::setenv("LOGNAME", l.user.name.c_str(), 1);
+  }
+  ::setenv("RTAPI_FIFO_PATH", l.fifo.c_str(), 1);
+  ::execl(l.linuxcnc.c_str(), "linuxcnc", l.ini.c_str(), static_cast<char*>(nullptr));
+  refuse(l.linuxcnc.c_str());
 }
 
 // The card a board's HAL name is (hm2_7i92.0 -> 7I92), or empty.
@@ -206,25 +310,6 @@ std::string cardOfBoard(const std::string& prefix) {
   for (const auto& card : hm2::cards::all())
     if (card.halName == kind) return std::string(card.name);
   return {};
-}
-
-// An address in the card's /24 for LinuxCNC's side: the first from .2 up
-// that is not the card's and that this PC does not route yet (another
-// lbpkit linuxcnc, with a card in the same /24, has its own); .2 when all are.
-std::string peerOf(const std::string& cardIp) {
-  const auto dot = cardIp.rfind('.');
-  const std::string net = cardIp.substr(0, dot + 1);
-  for (int host = 2; host < 255; ++host) {
-    const std::string candidate = net + std::to_string(host);
-    if (candidate == cardIp) continue;
-    FILE* p = ::popen(fmt::format("ip -4 route show exact {}/32 2>/dev/null", candidate).c_str(), "r");
-    if (p == nullptr) break;
-    char c = 0;
-    const bool routed = std::fread(&c, 1, 1, p) == 1;
-    ::pclose(p);
-    if (!routed) return candidate;
-  }
-  return net + (cardIp.substr(dot + 1) == "2" ? "3" : "2");
 }
 
 // A copy of the configuration in `into`, as LinuxCNC would run it on the
@@ -297,23 +382,48 @@ fs::path copyConfiguration(const fs::path& ini, const fs::path& into, const std:
                "converted with update_ini -f, as linuxcnc's own dialog offers\n",
                ini.filename().string(), version.empty() ? "none" : version);
     std::fflush(stdout);
-    if (std::system(fmt::format("update_ini -f '{}' >/dev/null 2>&1", copy.string()).c_str()) != 0)
-      throw lbpkit::Error(fmt::format("update_ini -f {} failed: LinuxCNC could not convert it either", copy.string()));
+    const auto converted = lbpkit::linuxcnc::runProgram({"update_ini", "-f", copy.string()});
+    if (converted.status != 0)
+      throw lbpkit::Error(fmt::format("{}: update_ini -f could not convert it (LinuxCNC could not either): {}",
+                                      ini.string(), converted.output));
   }
   return copy;
 }
 
-int runLinuxCnc(const LinuxCncOptions& o) {
-  if (::geteuid() != 0)
-    throw lbpkit::Error("lbpkit linuxcnc needs root (a network namespace and a veth pair): run it with sudo");
+// What a configuration is and what the run needs of it, found by
+// prepareAsUser.
+struct Prepared {
+  std::string error;  // why it cannot run; empty when it can
+  std::string boardIp, card;
+  std::vector<std::string> pciPrefixes;
+  bool machineText = false;  // `machine` is a machine file's text (else a built-in's name)
+  std::string machine;
+  std::string run;  // the INI LinuxCNC runs: the configuration's or its copy's
+};
+
+void to_json(nlohmann::json& j, const Prepared& p) {
+  j = {{"error", p.error}, {"boardIp", p.boardIp}, {"card", p.card}, {"pci", p.pciPrefixes},
+       {"machineText", p.machineText}, {"machine", p.machine}, {"run", p.run}};
+}
+void from_json(const nlohmann::json& j, Prepared& p) {
+  p.error = j.at("error");
+  p.boardIp = j.at("boardIp");
+  p.card = j.at("card");
+  p.pciPrefixes = j.at("pci").get<std::vector<std::string>>();
+  p.machineText = j.at("machineText");
+  p.machine = j.at("machine");
+  p.run = j.at("run");
+}
+
+// What the configuration loads, checked as lbpkit check-config checks it
+// (LinuxCNC would refuse a configuration with errors), the machine it
+// expects, and the copy LinuxCNC runs when it needs one, in `userFolder`.
+// Run as the user LinuxCNC will run as: nothing of the user's is read as
+// root.
+Prepared prepare(const LinuxCncOptions& o, const fs::path& userFolder) {
+  Prepared p;
   const fs::path ini = fs::absolute(o.ini);
   if (!fs::is_regular_file(ini)) throw lbpkit::Error(fmt::format("{}: no such configuration file", o.ini));
-  for (const char* tool : {"linuxcnc", "ip", "unshare", "setpriv"})
-    if (std::system(fmt::format("command -v {} >/dev/null 2>&1", tool).c_str()) != 0)
-      throw lbpkit::Error(fmt::format("{} is not installed (linuxcnc-uspace, iproute2, util-linux)", tool));
-
-  // What the configuration loads, checked as lbpkit check-config checks it:
-  // LinuxCNC would refuse a configuration with errors.
   const auto result = lbpkit::linuxcnc::checkConfig(ini, app::catalogueBoardModel(o.card, {}));
   unsigned errors = 0;
   for (const auto& f : result.findings)
@@ -325,63 +435,147 @@ int runLinuxCnc(const LinuxCncOptions& o) {
     throw lbpkit::Error(fmt::format("{}: {} error{} that LinuxCNC would refuse (lbpkit check-config {} says more)",
                                     o.ini, errors, errors == 1 ? "" : "s", o.ini));
   const lbpkit::linuxcnc::Board* board = nullptr;
-  std::vector<std::string> pciPrefixes;
   for (const auto& b : result.boards) {
     if (b.driver == "hm2_eth" && board == nullptr) board = &b;
-    if (b.driver == "hm2_pci") pciPrefixes.push_back(b.prefix);
+    if (b.driver == "hm2_pci") p.pciPrefixes.push_back(b.prefix);
   }
-  if (board == nullptr && pciPrefixes.empty())
+  if (board == nullptr && p.pciPrefixes.empty())
     throw lbpkit::Error(fmt::format("{}: loads no Mesa card (loadrt hm2_eth or hm2_pci)", o.ini));
   if (board != nullptr && board->boardIp.empty())
     throw lbpkit::Error(fmt::format("{}:{}: loadrt hm2_eth has no board_ip=", board->file, board->line));
   // A PCI card cannot be on a veth pair: its configuration runs as the same
   // 7I77 on a 7I92 (Mesa's 7I77x2 firmware has the same modules on both).
   const bool pci = board == nullptr;
-  const std::string boardIp = pci ? std::string("10.10.10.10") : board->boardIp;
-  const std::string card = !o.card.empty() ? o.card : pci ? std::string("7I92") : cardOfBoard(board->prefix);
+  p.boardIp = pci ? std::string("10.10.10.10") : board->boardIp;
+  if (const auto problem = lbpkit::linuxcnc::boardAddressProblem(p.boardIp))
+    throw lbpkit::Error(pci ? *problem : fmt::format("{}:{}: board_ip: {}", board->file, board->line, *problem));
+  p.card = !o.card.empty() ? o.card : pci ? std::string("7I92") : cardOfBoard(board->prefix);
 
-  const auto id = std::to_string(::getpid() % 100000);
-  // rtapi_app's socket, in LinuxCNC's own /tmp (privateTmp).
-  const std::string fifo = "/tmp/rtapi_fifo";
-  // What this run makes: the machine file (--machine auto), the copy of a
-  // configuration it changes; removed at the end.
-  const fs::path runDir = fmt::format("/tmp/lbpkit-linuxcnc-{}", id);
-  struct RemoveAll {
-    fs::path path;
-    ~RemoveAll() {
-      std::error_code ec;
-      fs::remove_all(path, ec);
-    }
-  } removeRunDir{runDir};
-  fs::create_directories(runDir);
-  std::string machine = o.machine;
-  if (machine == "auto") {
-    machine = (runDir / "machine.toml").string();
-    app::deriveMachineFile(ini, machine, true);
+  if (o.machine == "auto") {
+    p.machineText = true;
+    p.machine = app::deriveMachineFile(ini, userFolder / "machine.toml", true);
     fmt::print("lbpkit linuxcnc: the machine {} expects (lbpkit machine --from-config {} writes it)\n", o.ini, o.ini);
+  } else if (o.machine != "mill" && o.machine != "lathe" && o.machine != "gantry") {
+    // A machine file of the user's: read here, as the user; the sim (root)
+    // reads the run's copy.
+    constexpr std::uintmax_t kLargest = 1 << 20;
+    std::error_code ec;
+    if (!fs::is_regular_file(o.machine, ec) || fs::file_size(o.machine, ec) > kLargest)
+      throw lbpkit::Error(fmt::format("--machine {}: not a machine file (a regular file of at most 1 MiB) or a built-in "
+                                      "machine (mill, lathe, gantry, auto)",
+                                      o.machine));
+    std::ifstream in(o.machine);
+    p.machineText = true;
+    p.machine.assign(std::istreambuf_iterator<char>(in), {});
+  } else {
+    p.machine = o.machine;
   }
-  fs::path run = ini;
+  p.run = ini.string();
   if (pci || !o.display.empty()) {
-    run = copyConfiguration(ini, runDir / "config", pciPrefixes, o.display);
+    p.run = copyConfiguration(ini, userFolder / "config", p.pciPrefixes, o.display).string();
     if (pci)
       fmt::print("lbpkit linuxcnc: {} is a PCI card (hm2_pci): running a copy of the configuration with the same "
                  "7I77 on a 7I92 at 10.10.10.10 (hm2_eth, pins hm2_7i92.0.*) in {}\n",
-                 pciPrefixes.front(), run.parent_path().string());
+                 p.pciPrefixes.front(), fs::path(p.run).parent_path().string());
     if (!o.display.empty()) fmt::print("lbpkit linuxcnc: the display is {} ([DISPLAY]DISPLAY in the copy)\n", o.display);
   }
+  return p;
+}
+
+// prepare(), in a child that runs as `user`; what it found comes back
+// through a pipe. Throws lbpkit::Error with the child's reason.
+Prepared prepareAsUser(const LinuxCncOptions& o, const fs::path& userFolder, const app::linuxcnc_run::RunAs& user) {
+  int fds[2];
+  if (::pipe2(fds, O_CLOEXEC) != 0) throw lbpkit::Error("cannot make a pipe");
+  const pid_t pid = app::linuxcnc_run::forkInRun();
+  if (pid < 0) throw lbpkit::Error("cannot read the configuration: fork failed");
+  if (pid == 0) {
+    ::close(fds[0]);
+    Prepared p;
+    try {
+      if (!app::linuxcnc_run::dropTo(user))
+        throw lbpkit::Error(fmt::format("cannot run as {} (uid {})", user.name, user.uid));
+      p = prepare(o, userFolder);
+    } catch (const std::exception& e) {
+      p.error = e.what();
+    }
+    const auto text = nlohmann::json(p).dump();
+    std::size_t done = 0;
+    while (done < text.size()) {
+      const auto n = ::write(fds[1], text.data() + done, text.size() - done);
+      if (n <= 0) break;
+      done += static_cast<std::size_t>(n);
+    }
+    std::fflush(stdout);
+    std::fflush(stderr);
+    ::_exit(0);
+  }
+  ::close(fds[1]);
+  std::string text;
+  char buf[4096];
+  for (ssize_t n; (n = ::read(fds[0], buf, sizeof buf)) != 0;) {
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) break;
+    text.append(buf, static_cast<std::size_t>(n));
+  }
+  ::close(fds[0]);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  Prepared p;
+  try {
+    p = nlohmann::json::parse(text).get<Prepared>();
+  } catch (const std::exception&) {
+    throw lbpkit::Error(fmt::format("{}: reading the configuration as {} failed (exit status {})", o.ini, user.name,
+                                    WIFEXITED(status) ? WEXITSTATUS(status) : -1));
+  }
+  if (!p.error.empty()) throw lbpkit::Error(p.error);
+  return p;
+}
+
+int runLinuxCnc(const LinuxCncOptions& o) {
+  namespace run = app::linuxcnc_run;
+  if (::geteuid() != 0)
+    throw lbpkit::Error("lbpkit linuxcnc needs root (a network namespace and a veth pair): run it with sudo");
+  const auto started = std::chrono::system_clock::now();
+  const run::RunAs user = run::invokingUser();
+  const auto linuxcnc = lbpkit::linuxcnc::systemProgram("linuxcnc");
+  if (!linuxcnc) throw lbpkit::Error("linuxcnc is not installed (Debian's linuxcnc-uspace)");
+  if (!lbpkit::linuxcnc::systemProgram("ip")) throw lbpkit::Error("ip is not installed (Debian's iproute2)");
+
+  // What runs that are gone left, then this run's own: its names carry
+  // this process's pid (linuxcnc_run.hpp).
+  run::removeDeadRuns();
+  const pid_t self = ::getpid();
+  const std::string nsName = run::namespaceName(self);
+  const std::string link = run::linkName(self);
+  // From here whatever the run makes and starts ends with it.
+  run::startReaper(self, nsName, link);
+  run::RunFolder folder(self);
+  const auto userFolder = folder.makeFolder("user", 0755, user);
+  const Prepared p = prepareAsUser(o, userFolder, user);
+  std::string machine = p.machine;
+  if (p.machineText) machine = folder.writeFile("machine.toml", p.machine).string();
+
+  // The card's address, checked against this PC's before anything is built.
+  const auto board = lbpkit::linuxcnc::parseIpv4(p.boardIp);
+  if (!board) throw lbpkit::Error(fmt::format("board_ip {}: not an IPv4 address", p.boardIp));
+  if (const auto problem = run::hostAddressProblem(*board)) throw lbpkit::Error(fmt::format("board_ip: {}", *problem));
+  const auto peer = run::peerFor(*board);
+  if (!peer)
+    throw lbpkit::Error(fmt::format("board_ip {}: every other address of its /24 is this PC's already; LinuxCNC's side "
+                                    "needs one",
+                                    p.boardIp));
+  const std::string peerIp = lbpkit::linuxcnc::formatIpv4(*peer);
 
   app::installSignalHandlers();
-
-  const std::string peer = peerOf(boardIp);
-  lbpkit::linuxcnc::NetworkNamespace ns(
-      "lbpkit-linuxcnc-" + id, {{"lbl" + id, boardIp + "/32", peer + "/24", peer + "/32"}});
+  lbpkit::linuxcnc::NetworkNamespace ns(nsName, {{link, p.boardIp + "/32", peerIp + "/24", peerIp + "/32"}});
 
   // The sim on the configuration's board_ip, hm2_eth's port, its API and web
   // view on this PC's loopback.
   int pipeFds[2];
   if (::pipe2(pipeFds, O_CLOEXEC) != 0) throw lbpkit::Error("cannot make a pipe for the sim's output");
-  std::vector<std::string> simArgv = {"/proc/self/exe", "sim", "--bind", boardIp, "--api", "127.0.0.1:0"};
-  if (!card.empty()) simArgv.insert(simArgv.end(), {"--card", card});
+  std::vector<std::string> simArgv = {"/proc/self/exe", "sim", "--bind", p.boardIp, "--api", "127.0.0.1:0"};
+  if (!p.card.empty()) simArgv.insert(simArgv.end(), {"--card", p.card});
   if (!machine.empty()) simArgv.insert(simArgv.end(), {"--machine", machine});
   // LinuxCNC and the card thread on one CPU: each datagram hm2_eth sends
   // wakes the card thread (SCHED_FIFO) on that CPU at once, and the reply is
@@ -412,8 +606,8 @@ int runLinuxCnc(const LinuxCncOptions& o) {
   pid_t lcnc = -1;
   int exitCode = 0;
   auto readSim = [&](int timeoutMs) {
-    pollfd p{simOut, POLLIN, 0};
-    if (::poll(&p, 1, timeoutMs) <= 0) return false;
+    pollfd pfd{simOut, POLLIN, 0};
+    if (::poll(&pfd, 1, timeoutMs) <= 0) return false;
     char buf[4096];
     const auto n = ::read(simOut, buf, sizeof buf);
     if (n <= 0) return false;
@@ -449,26 +643,22 @@ int runLinuxCnc(const LinuxCncOptions& o) {
     // behind that the next start trips over), and its /tmp is the run's
     // own, so that the linuxcnc script's lock file (/tmp/linuxcnc.lock)
     // neither stops nor is stopped by another LinuxCNC on this PC.
-    std::vector<std::string> argv = {"ip", "netns", "exec", ns.name(), "unshare", "--pid", "--fork",
-                                     "--kill-child=SIGKILL", "--mount-proc", "--ipc", "--mount"};
-    const auto tmp = privateTmp(runDir / "tmp", {ini.string(), run.string(), o.display});
-    argv.insert(argv.end(), tmp.begin(), tmp.end());
-    const char* sudoUid = std::getenv("SUDO_UID");
-    const char* sudoGid = std::getenv("SUDO_GID");
-    if (sudoUid != nullptr && sudoGid != nullptr && std::string(sudoUid) != "0")
-      argv.insert(argv.end(), {"setpriv", std::string("--reuid=") + sudoUid, std::string("--regid=") + sudoGid,
-                               "--init-groups", "env", "HOME=" + linuxCncHome(), "RTAPI_FIFO_PATH=" + fifo});
-    else
-      argv.insert(argv.end(), {"env", "RTAPI_UID=65534", "RTAPI_FIFO_PATH=" + fifo});
-    argv.insert(argv.end(), {"linuxcnc", run.string()});
-    fmt::print("lbpkit linuxcnc: LinuxCNC ({}) in network namespace {}, the card {} at {}{}; Ctrl-C stops both\n",
-               run.string(), ns.name(), card, boardIp,
-               cpu ? fmt::format(", both on CPU {}", *cpu) : std::string());
+    LinuxCncLaunch launch;
+    launch.user = user;
+    launch.netns = nsName;
+    launch.privateTmp = folder.makeFolder("tmp", 0700, run::RunAs{}).string();
+    launch.keep = keptInTmp({fs::absolute(o.ini).string(), p.run, o.display});
+    launch.linuxcnc = *linuxcnc;
+    launch.ini = p.run;
+    launch.fifo = "/tmp/rtapi_fifo";  // rtapi_app's socket, in LinuxCNC's own /tmp
+    launch.cpu = cpu;
+    fmt::print("lbpkit linuxcnc: LinuxCNC ({}) in network namespace {}, the card {} at {}{}; Ctrl-C stops both\n", p.run,
+               ns.name(), p.card, p.boardIp, cpu ? fmt::format(", both on CPU {}", *cpu) : std::string());
     std::fflush(stdout);
+    lcnc = startLinuxCnc(launch);
     // Its servo thread SCHED_FIFO below the card thread, as on a real-time
     // kernel (linuxcnc/servo_priority.hpp).
     lbpkit::linuxcnc::ServoThreadPriority servoPriority(ns.inode());
-    lcnc = spawn(argv, -1, cpu);
 
     while (true) {
       if (app::gStop) {
@@ -483,7 +673,7 @@ int runLinuxCnc(const LinuxCncOptions& o) {
         fmt::print("lbpkit linuxcnc: LinuxCNC {} ({}); stopping the sim\n", WIFEXITED(status) ? "ended" : "was killed",
                    WIFEXITED(status) ? fmt::format("exit status {}", WEXITSTATUS(status))
                                      : fmt::format("signal {}", WTERMSIG(status)));
-        if (WIFEXITED(status) && WEXITSTATUS(status) != 0) printLinuxCncLog();
+        if (WIFEXITED(status) && WEXITSTATUS(status) != 0 && WEXITSTATUS(status) != 126) printLinuxCncLog(user, started);
         break;
       }
       if (::waitpid(sim, &status, WNOHANG) == sim) {
