@@ -30,14 +30,21 @@ void checkStop();
 // Sleeps `d`, waking early (and throwing) on Ctrl-C.
 void sleepFor(std::chrono::duration<double> d);
 
-// A shell command's exit status and output (through a file: rtapi_app keeps
-// a pipe open long after halcmd exits).
-struct Shell {
-  int exit = -1;
+// A program's exit status and output. The bench starts every program by an
+// argument vector found in the system's folders, never through a shell or a
+// PATH (docs/linuxcnc.md#what-runs-as-root): `sudo lbpkit bench` runs as root.
+struct Run {
+  int exit = -1;  // -1 when it could not start or was killed
   std::string out;
 };
-Shell sh(const std::string& command);
-bool have(const char* tool);
+// Runs argv (argv[0] a name lbpkit::linuxcnc::systemProgram finds, or an
+// absolute path) with stdin from /dev/null, and waits for it. Its output is
+// collected through a file in scratch(), not a pipe: rtapi_app, which the
+// first halcmd starts, keeps halcmd's output open long after halcmd exits.
+Run run(const std::vector<std::string>& argv);
+// `name`'s absolute path in the system's folders; throws lbpkit::Error
+// saying it is not installed.
+std::string installed(const std::string& name);
 
 // The bench's scratch folder (sims' EEPROM files, HAL files), removed at exit.
 const std::filesystem::path& scratch();

@@ -28,6 +28,7 @@
 #include "lbpkit/lbp16_transport.hpp"
 #include "lbpkit/sserial.hpp"
 #include "linuxcnc/network_namespace.hpp"
+#include "linuxcnc/program.hpp"
 
 namespace bench {
 namespace {
@@ -37,7 +38,9 @@ using nlohmann::json;
 // Why LinuxCNC cannot be run here, or nothing.
 std::optional<std::string> unavailable() {
   if (::geteuid() != 0) return "needs root (network namespaces, a veth pair): run `sudo lbpkit bench`";
-  if (!have("halcmd") || !have("ip")) return "LinuxCNC (linuxcnc-uspace: halcmd) or iproute2 (ip) is not installed";
+  using lbpkit::linuxcnc::systemProgram;
+  if (!systemProgram("halcmd") || !systemProgram("halrun") || !systemProgram("ip"))
+    return "LinuxCNC (linuxcnc-uspace: halcmd, halrun) or iproute2 (ip) is not installed";
   return std::nullopt;
 }
 
@@ -51,6 +54,16 @@ class LinuxCncLink {
     cardIp_ = net + "1";
     // Not in the scratch folder: rtapi_app runs as RTAPI_UID and makes its socket here.
     fifo_ = (std::filesystem::temp_directory_path() / ("lbpkit-bench-rtapi-" + id)).string();
+    // What runs inside, by absolute path: `ip netns exec`, env and timeout
+    // would otherwise each look the next program up in a PATH. LinuxCNC's
+    // own scripts (halrun) get the system's folders as theirs.
+    inside_ = {installed("env")};
+    for (auto& setting : lbpkit::linuxcnc::rtapiSettings(fifo_)) inside_.push_back(std::move(setting));
+    std::string path;
+    for (const auto folder : lbpkit::linuxcnc::kSystemFolders) path += (path.empty() ? "" : ":") + std::string(folder);
+    inside_.insert(inside_.end(), {"PATH=" + path, installed("timeout"), "60"});
+    halcmd_ = installed("halcmd");
+    halrun_ = installed("halrun");
     ns_.emplace("lbpkit-bench-" + id,
                 std::vector<lbpkit::linuxcnc::VethLink>{{"lbb" + id, cardIp_ + "/24", net + "2/24", {}}});
   }
@@ -58,24 +71,23 @@ class LinuxCncLink {
   LinuxCncLink(const LinuxCncLink&) = delete;
   LinuxCncLink& operator=(const LinuxCncLink&) = delete;
 
-  // A HAL command in the namespace. rtapi_app, started by the first one,
-  // inherits its priority: the normal one.
-  Shell hal(const std::string& command) {
-    return sh(ns_->exec() + lbpkit::linuxcnc::rtapiEnvironment(fifo_) + "timeout 60 " + command);
-  }
+  // `halcmd ARGS` in the namespace, each argument one word as halcmd gets
+  // it. rtapi_app, started by the first one, inherits its priority: the
+  // normal one.
+  Run halcmd(const std::vector<std::string>& args) { return inside(halcmd_, args); }
   std::string getp(const std::string& pin) {
-    auto v = hal("halcmd getp " + pin).out;
+    auto v = halcmd({"getp", pin}).out;
     while (!v.empty() && (v.back() == '\n' || v.back() == ' ')) v.pop_back();
     return v;
   }
   // Unloads everything; rtapi_app exits.
-  void unload() { hal("halrun -U"); }
+  void unload() { (void)inside(halrun_, {"-U"}); }
   [[nodiscard]] const std::string& cardIp() const { return cardIp_; }
   [[nodiscard]] const std::string& ns() const { return ns_->name(); }
   // The scheduling policy of rtapi_app's threads (the best of them).
   std::string rtapiScheduling() {
     std::string best = "not running";
-    for (const auto& pidText : split(sh("ip netns pids " + ns_->name()).out)) {
+    for (const auto& pidText : pids()) {
       const int pid = std::atoi(pidText.c_str());
       std::ifstream comm(fmt::format("/proc/{}/comm", pid));
       std::string name;
@@ -93,9 +105,19 @@ class LinuxCncLink {
   }
 
  private:
-  static std::vector<std::string> split(const std::string& text) {
+  // `program ARGS` in the namespace, with LinuxCNC's environment, stopped
+  // after 60 s.
+  Run inside(const std::string& program, const std::vector<std::string>& args) {
+    auto argv = ns_->execArgv();
+    argv.insert(argv.end(), inside_.begin(), inside_.end());
+    argv.push_back(program);
+    argv.insert(argv.end(), args.begin(), args.end());
+    return run(argv);
+  }
+  // The PIDs of the processes in the namespace (`ip netns pids`).
+  std::vector<std::string> pids() const {
     std::vector<std::string> out;
-    std::istringstream in(text);
+    std::istringstream in(lbpkit::linuxcnc::runProgram({"ip", "netns", "pids", ns_->name()}).output);
     for (std::string w; in >> w;) out.push_back(w);
     return out;
   }
@@ -104,7 +126,7 @@ class LinuxCncLink {
     unload();
     // Whatever still runs in the namespace was started by this bench
     // (rtapi_app, halcmd): by its PID.
-    for (const auto& pid : split(sh("ip netns pids " + ns_->name()).out)) ::kill(std::atoi(pid.c_str()), SIGKILL);
+    for (const auto& pid : pids()) ::kill(std::atoi(pid.c_str()), SIGKILL);
     ns_.reset();
     std::error_code ec;
     std::filesystem::remove(fifo_, ec);
@@ -112,6 +134,8 @@ class LinuxCncLink {
 
   std::optional<lbpkit::linuxcnc::NetworkNamespace> ns_;
   std::string cardIp_, fifo_;
+  std::vector<std::string> inside_;  // env, LinuxCNC's settings, timeout 60
+  std::string halcmd_, halrun_;
 };
 
 double number(const json& j, const char* key) { return j.contains(key) && j[key].is_number() ? j[key].get<double>() : NAN; }
@@ -132,7 +156,7 @@ json networkPoint(LinuxCncLink& link, unsigned rate, double seconds, const char*
                       << "loadrt timedelta count=1\n"
                       << "addf timedelta.0 servo\naddf hm2_7i92.0.read servo\naddf hm2_7i92.0.write servo\nstart\n";
   json p{{"rate_hz", rate}, {"load", load}, {"seconds", seconds}, {"variant", variant.first}};
-  const auto r = link.hal("halcmd -f " + file);
+  const auto r = link.halcmd({"-f", file});
   std::filesystem::remove(file);
   if (r.exit != 0) {
     link.unload();
@@ -152,8 +176,8 @@ json networkPoint(LinuxCncLink& link, unsigned rate, double seconds, const char*
   const CpuMeter simCpu({sim.pid()});
   sleepFor(std::chrono::milliseconds(300));
   const std::string board = "hm2_7i92.0.";
-  link.hal("halcmd setp timedelta.0.reset 1");
-  link.hal("halcmd setp timedelta.0.reset 0");
+  (void)link.halcmd({"setp", "timedelta.0.reset", "1"});
+  (void)link.halcmd({"setp", "timedelta.0.reset", "0"});
   sleepFor(std::chrono::duration<double>(seconds) - (std::chrono::steady_clock::now() - loaded));
   const auto errors = std::atoll(link.getp(board + "packet-error-total").c_str());
   const auto ioError = link.getp(board + "io_error");
@@ -259,12 +283,12 @@ json discoveryPoint(LinuxCncLink& link, unsigned mode) {
   {
     SimProcess sim(link.cardIp());
     // rtapi_app and hostmot2 first: what is timed is hm2_eth's own load.
-    const auto r0 = link.hal("halcmd loadrt hostmot2");
+    const auto r0 = link.halcmd({"loadrt", "hostmot2"});
     if (r0.exit != 0) throw lbpkit::Error("halcmd loadrt hostmot2 failed: " + r0.out);
     const auto d0 = simDoits(sim);
     const auto t0 = std::chrono::steady_clock::now();
-    const auto r = link.hal(fmt::format("halcmd loadrt hm2_eth board_ip={} config=\"num_encoders=6 sserial_port_0={}0xxxx\"",
-                                        link.cardIp(), mode));
+    const auto r = link.halcmd({"loadrt", "hm2_eth", "board_ip=" + link.cardIp(),
+                                fmt::format("config=num_encoders=6 sserial_port_0={}0xxxx", mode)});
     const auto t1 = std::chrono::steady_clock::now();
     const auto d1 = simDoits(sim);
     link.unload();

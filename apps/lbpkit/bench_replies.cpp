@@ -32,6 +32,7 @@
 #include "common.hpp"
 #include "lbpkit/error.hpp"
 #include "lbpkit/wire/lbp16.hpp"
+#include "linuxcnc/program.hpp"
 
 namespace bench {
 namespace {
@@ -63,11 +64,14 @@ void pinTo(int cpu) {
   (void)::sched_setaffinity(0, sizeof set, &set);
 }
 
-// python3 running kEchoServer at SCHED_FIFO 40 when allowed (on CPU `cpu`
-// alone unless it is -1), stopped by the destructor.
+// python3 (from the system's folders) running kEchoServer at SCHED_FIFO 40
+// when allowed (on CPU `cpu` alone unless it is -1), stopped by the
+// destructor.
 class EchoServer {
  public:
   explicit EchoServer(int cpu) {
+    const std::string python = installed("python3");
+    const std::string port = std::to_string(kEchoPort);
     int out[2];
     if (::pipe2(out, O_CLOEXEC) != 0) throw lbpkit::Error("pipe failed");
     pid_ = ::fork();
@@ -79,8 +83,7 @@ class EchoServer {
       (void)::sched_setscheduler(0, SCHED_FIFO, &sp);
       if (cpu >= 0) pinTo(cpu);
       ::dup2(out[1], 1);
-      const std::string port = std::to_string(kEchoPort);
-      ::execlp("python3", "python3", "-c", kEchoServer, kEchoAddress, port.c_str(), static_cast<char*>(nullptr));
+      ::execl(python.c_str(), "python3", "-c", kEchoServer, kEchoAddress, port.c_str(), static_cast<char*>(nullptr));
       ::_exit(127);
     }
     ::close(out[1]);
@@ -210,7 +213,8 @@ json point(const char* cpus, const char* load, const std::string& server, const 
 json runReplies(const Options& o) {
   json j{{"points", json::array()},
          {"goal", "the sim's round trip p99.9 under 50 us at 1 kHz, idle and loaded, beside the echo server's"}};
-  if (!have("python3")) return {{"skipped", "python3 is not installed (the echo server it is compared with)"}};
+  if (!lbpkit::linuxcnc::systemProgram("python3"))
+    return {{"skipped", "python3 is not installed (the echo server it is compared with)"}};
   const std::uint16_t cmd = lbp16::hm2Read(8);
   const std::uint8_t read[4] = {static_cast<std::uint8_t>(cmd), static_cast<std::uint8_t>(cmd >> 8), 0x00, 0x01};
   // The last CPU this process may run on (a cpuset or taskset may leave

@@ -1,6 +1,6 @@
-// What `lbpkit bench`'s parts start and measure: sims, CPU hogs, shell
-// commands, /proc figures. Every process started here is stopped by the
-// object that started it, by its PID.
+// What `lbpkit bench`'s parts start and measure: sims, CPU hogs, programs
+// by an argument vector, /proc figures. Every process started here is
+// stopped by the object that started it, by its PID.
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
@@ -19,6 +19,7 @@
 #include "bench.hpp"
 #include "common.hpp"
 #include "lbpkit/error.hpp"
+#include "linuxcnc/program.hpp"
 
 namespace bench {
 
@@ -92,30 +93,54 @@ const std::filesystem::path& scratch() {
   return s.dir;
 }
 
-Shell sh(const std::string& command) {
+Run run(const std::vector<std::string>& argv) {
+  Run r;
+  if (argv.empty()) return r;
+  std::string path = argv.front();
+  if (path.find('/') == std::string::npos) {
+    const auto found = lbpkit::linuxcnc::systemProgram(path);
+    if (!found) {
+      r.out = path + " is not installed";
+      return r;
+    }
+    path = *found;
+  }
   static int serial = 0;
-  const auto file = scratch() / fmt::format("sh-{}", serial++);
+  const auto file = scratch() / fmt::format("run-{}", serial++);
+  const int out = ::open(file.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0600);
+  if (out < 0) throw lbpkit::Error("cannot create a file in the bench's scratch folder");
+  // Ready before the fork: the child only redirects and execs.
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
   const pid_t pid = ::fork();
-  if (pid < 0) throw lbpkit::Error("fork failed");
+  if (pid < 0) {
+    ::close(out);
+    throw lbpkit::Error("fork failed");
+  }
   if (pid == 0) {
-    const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
     const int null = ::open("/dev/null", O_RDONLY);
     ::dup2(null, 0);
-    ::dup2(fd, 1);
-    ::dup2(fd, 2);
-    ::execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
+    ::dup2(out, 1);
+    ::dup2(out, 2);
+    ::execv(path.c_str(), args.data());
     ::_exit(127);
   }
+  ::close(out);
   const int status = reap(pid);
-  Shell r;
   r.exit = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   std::ifstream in(file);
   r.out.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  std::filesystem::remove(file);
+  std::error_code ec;
+  std::filesystem::remove(file, ec);
   return r;
 }
 
-bool have(const char* tool) { return sh(std::string("command -v ") + tool).exit == 0; }
+std::string installed(const std::string& name) {
+  auto path = lbpkit::linuxcnc::systemProgram(name);
+  if (!path) throw lbpkit::Error(name + " is not installed (looked for in the system's folders)");
+  return *path;
+}
 
 SimProcess::SimProcess(std::vector<std::string> addresses, std::vector<std::string> extra)
     : addresses_(std::move(addresses)) {

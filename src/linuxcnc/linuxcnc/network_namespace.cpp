@@ -75,4 +75,8 @@ std::string rtapiEnvironment(const std::string& fifo) {
   return "env RTAPI_UID=65534 RTAPI_FIFO_PATH=" + fifo + " ";
 }
 
+std::vector<std::string> rtapiSettings(const std::string& fifo) {
+  return {"RTAPI_UID=65534", "RTAPI_FIFO_PATH=" + fifo};
+}
+
 }  // namespace lbpkit::linuxcnc

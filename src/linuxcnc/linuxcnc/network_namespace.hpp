@@ -39,8 +39,14 @@ class NetworkNamespace {
   // Nothing of it is left: no namespace, no link.
   [[nodiscard]] bool gone() const;
   [[nodiscard]] const std::string& name() const { return name_; }
-  // "ip netns exec NAME ": what runs a command inside.
+  // "ip netns exec NAME ": what runs a command inside, as a prefix for a
+  // test's own shell command line. A program lbpkit runs uses execArgv().
   [[nodiscard]] std::string exec() const { return "ip netns exec " + name_ + " "; }
+  // {"ip", "netns", "exec", NAME}: what runs a program inside, by an argument
+  // vector (linuxcnc/program.hpp). `ip` looks a bare program name up in its
+  // PATH: what follows it is an absolute path (systemProgram), as lbpkit
+  // finds every program it runs (docs/linuxcnc.md#what-runs-as-root).
+  [[nodiscard]] std::vector<std::string> execArgv() const { return {"ip", "netns", "exec", name_}; }
   // The namespace's inode: what /proc/PID/ns/net of a process inside shows.
   [[nodiscard]] unsigned long inode() const;
 
@@ -52,7 +58,11 @@ class NetworkNamespace {
 // The environment LinuxCNC's HAL commands run with inside: rtapi_app as the
 // unprivileged `nobody` (RTAPI_UID, as Debian's LinuxCNC runs it for root)
 // with its socket at `fifo` (RTAPI_FIFO_PATH), so that two LinuxCNCs on one
-// PC do not meet. "env RTAPI_UID=65534 RTAPI_FIFO_PATH=... ".
+// PC do not meet. "env RTAPI_UID=65534 RTAPI_FIFO_PATH=... ": a prefix for a
+// test's own shell command line; a program lbpkit runs uses rtapiSettings().
 [[nodiscard]] std::string rtapiEnvironment(const std::string& fifo);
+// The same environment as env(1)'s arguments, for an argument vector:
+// {"RTAPI_UID=65534", "RTAPI_FIFO_PATH=" + fifo}.
+[[nodiscard]] std::vector<std::string> rtapiSettings(const std::string& fifo);
 
 }  // namespace lbpkit::linuxcnc
