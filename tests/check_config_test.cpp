@@ -9,12 +9,14 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "linuxcnc/config_check.hpp"
 #include "linuxcnc/hm2_pins.hpp"
@@ -230,13 +232,21 @@ struct Expectation {
   std::string nearest;
 };
 
-// The line of FILE marked "# expect: REASON | NEAREST".
-std::optional<Expectation> expectation(const fs::path& file) {
+// Every line FILE marks: "# expect: REASON | NEAREST" at the end of a line
+// (a HAL file), or the line after a "# expect next line: REASON" comment (an
+// INI, whose values run to the end of the line).
+std::vector<Expectation> expectations(const fs::path& file) {
   std::ifstream in(file);
+  std::vector<Expectation> out;
   std::string line;
   unsigned n = 0;
   while (std::getline(in, line)) {
     ++n;
+    const std::string next = "# expect next line: ";
+    if (line.rfind(next, 0) == 0) {
+      out.push_back({n + 1, line.substr(next.size()), {}});
+      continue;
+    }
     const auto at = line.find("# expect: ");
     if (at == std::string::npos || at == 0) continue;
     Expectation e{n, line.substr(at + 10), {}};
@@ -244,40 +254,52 @@ std::optional<Expectation> expectation(const fs::path& file) {
       e.nearest = e.reason.substr(bar + 3);
       e.reason.resize(bar);
     }
-    return e;
+    out.push_back(e);
   }
-  return std::nullopt;
+  return out;
 }
 
+// Whether the findings of `j` hold one at `file`:`want.line` with that
+// severity, saying want.reason (and naming want.nearest).
+bool holds(const json& j, const std::string& file, const Expectation& want, const std::string& severity) {
+  for (const auto& f : j["findings"]) {
+    if (f["file"] != file || f["line"] != want.line) continue;
+    if (f["reason"].get<std::string>().find(want.reason) == std::string::npos) continue;
+    if (f["severity"] != severity) continue;
+    if (!want.nearest.empty() && f.value("nearest", "") != want.nearest) continue;
+    return true;
+  }
+  return false;
+}
+
+// Each configuration of broken/ (an INI with the HAL file of its name, or a
+// HAL file alone) is refused at every line its files mark.
 TEST(CheckConfig, EveryBrokenConfigurationIsCaughtWhereItsCommentSays) {
   int n = 0;
   for (const auto& e : fs::directory_iterator(corpus() / "broken")) {
     const auto& p = e.path();
-    if (p.extension() != ".hal") continue;
-    const auto ini = fs::path(p).replace_extension(".ini");
-    const auto checked = fs::exists(ini) ? ini : p;
-    const auto want = expectation(p);
-    ASSERT_TRUE(want) << p << " has no \"# expect:\" line";
+    if (p.extension() != ".hal" && p.extension() != ".ini") continue;
+    const auto hal = fs::path(p).replace_extension(".hal");
+    if (p.extension() == ".hal" && fs::exists(fs::path(p).replace_extension(".ini"))) continue;  // through its INI
+    std::vector<std::pair<fs::path, Expectation>> wanted;
+    std::vector<fs::path> files{p};
+    if (p != hal && fs::exists(hal)) files.push_back(hal);
+    for (const auto& file : files)
+      for (const auto& x : expectations(file)) wanted.emplace_back(file, x);
+    ASSERT_FALSE(wanted.empty()) << p << " has no \"# expect:\" or \"# expect next line:\" line";
     ++n;
-    const auto r = check(checked, true, argsOf(p));
+    const auto r = check(p, true, argsOf(fs::exists(hal) ? hal : p));
     EXPECT_EQ(r.exit, 1) << p << "\n" << r.out << r.err;
     const auto j = json::parse(r.out, nullptr, false);
     ASSERT_FALSE(j.is_discarded()) << r.out << r.err;
     EXPECT_EQ(j["ok"], false);
-    bool found = false;
-    for (const auto& f : j["findings"]) {
-      if (f["file"] != p.filename().string() || f["line"] != want->line) continue;
-      if (f["reason"].get<std::string>().find(want->reason) == std::string::npos) continue;
-      found = true;
-      EXPECT_EQ(f["severity"], "error");
-      if (!want->nearest.empty()) {
-        EXPECT_EQ(f.value("nearest", ""), want->nearest) << p << "\n" << f.dump();
-      }
-    }
-    EXPECT_TRUE(found) << p << ": no finding at line " << want->line << " saying \"" << want->reason << "\"\n"
-                       << j["findings"].dump(2);
+    for (const auto& [file, want] : wanted)
+      EXPECT_TRUE(holds(j, file.filename().string(), want, "error"))
+          << p << ": no error at " << file.filename().string() << ":" << want.line << " saying \"" << want.reason
+          << "\"" << (want.nearest.empty() ? "" : " nearest " + want.nearest) << "\n"
+          << j["findings"].dump(2);
   }
-  EXPECT_GE(n, 18);
+  EXPECT_GE(n, 25);
 }
 
 // board_ip=[HM2]IPADDRESS: an address that is no card's is reported at the
@@ -325,6 +347,119 @@ TEST(CheckConfig, ASignalWithNoWriterIsAWarningAsLinuxCncLoadsIt) {
   EXPECT_EQ(j["findings"][0]["severity"], "warning");
   EXPECT_EQ(j["findings"][0]["line"], 9);
   EXPECT_NE(j["findings"][0]["reason"].get<std::string>().find("signal coolant has no writer"), std::string::npos);
+}
+
+// What LinuxCNC's start-up check warns of, it starts with: warnings, at the
+// lines marked, and no error.
+TEST(CheckConfig, WhatLinuxCncsStartUpCheckWarnsOfIsAWarning) {
+  const auto file = corpus() / "warned/startup_warnings.ini";
+  const auto r = check(file, true);
+  EXPECT_EQ(r.exit, 0) << r.out << r.err;
+  const auto j = json::parse(r.out, nullptr, false);
+  ASSERT_FALSE(j.is_discarded()) << r.out << r.err;
+  const auto wanted = expectations(file);
+  ASSERT_EQ(wanted.size(), 4U);
+  for (const auto& want : wanted)
+    EXPECT_TRUE(holds(j, file.filename().string(), want, "warning"))
+        << "no warning at line " << want.line << " saying \"" << want.reason << "\"\n"
+        << j["findings"].dump(2);
+  for (const auto& f : j["findings"]) EXPECT_EQ(f["severity"], "warning") << f.dump();
+}
+
+// The five-axis router LinuxCNC refuses: the text output names the INI's
+// line of each joint limit, and both values.
+TEST(CheckConfig, AJointLimitOutsideItsAxissNamesTheLineAndBothValues) {
+  const auto r = check(corpus() / "broken/five_axis_router.ini");
+  EXPECT_EQ(r.exit, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("five_axis_router.ini:89: error: [JOINT_4]MIN_LIMIT = -10 is above [AXIS_C]MIN_LIMIT = -99999 "
+                       "(LinuxCNC's start-up check refuses it: a joint's limits must hold its axis's, and "
+                       "[KINS]KINEMATICS coordinates=XYZAC makes joint 4 axis C)"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("five_axis_router.ini:91: error: [JOINT_4]MAX_LIMIT = 10 is below [AXIS_C]MAX_LIMIT = 99999"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("2 errors"), std::string::npos) << r.out;
+}
+
+// The start-up check's findings of `r` (check-config --json): those that
+// say "LinuxCNC's start-up check", by severity.
+std::pair<int, int> startupFindings(const test_support::Result& r) {
+  const auto j = json::parse(r.out, nullptr, false);
+  std::pair<int, int> n{0, 0};
+  if (j.is_discarded()) return {-1, -1};
+  for (const auto& f : j["findings"])
+    if (f["reason"].get<std::string>().find("LinuxCNC's start-up check") != std::string::npos)
+      ++(f["severity"] == "error" ? n.first : n.second);
+  return n;
+}
+
+// An INI whose [EMC]VERSION is not 1.1 is converted by update_ini before
+// LinuxCNC's start-up check reads it: check-config says nothing of it.
+// Values the check reads oddly never hang or crash check-config.
+TEST(CheckConfig, TheStartUpCheckReadsOnlyAVersion11IniAndNeverHangs) {
+  test_support::TempDir dir("lbpkit-check-startup");
+  std::ifstream in(corpus() / "broken/five_axis_router.ini");
+  std::stringstream text;
+  text << in.rdbuf();
+  const auto router = text.str();
+  auto with = [&](const std::string& name, const std::string& from, const std::string& to) {
+    auto copy = router;
+    const auto at = copy.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) copy.replace(at, from.size(), to);
+    const auto p = dir.path() / name;
+    std::ofstream(p) << copy;
+    return check(p, true);
+  };
+  const auto old = with("old.ini", "VERSION = 1.1", "VERSION = 1.0");
+  EXPECT_EQ(startupFindings(old), std::make_pair(0, 0)) << old.out;
+  const auto none = with("none.ini", "VERSION = 1.1", "");
+  EXPECT_EQ(startupFindings(none), std::make_pair(0, 0)) << none.out;
+
+  // A whole number of joints far past LinuxCNC's 16: counted, not hung on.
+  const auto many = with("many.ini", "JOINTS = 5", "JOINTS = 1e9");
+  EXPECT_EQ(startupFindings(many).first, 2) << many.out.substr(0, 3000);
+  for (const auto& [name, from, to, says] :
+       {std::tuple{"inf.ini", "JOINTS = 5", "JOINTS = inf", "never ends"},
+        std::tuple{"empty.ini", "JOINTS = 5", "JOINTS =", "never ends"},
+        std::tuple{"brace.ini", "KINEMATICS = trivkins", "KINEMATICS = trivkins {", "unmatched brace"},
+        std::tuple{"extra.ini", "EMCMOT = motmod", "EMCMOT = motmod num_extrajoints=two", "Tcl error"}}) {
+    const auto r = with(name, from, to);
+    EXPECT_EQ(r.exit, 1) << name << "\n" << r.out;
+    EXPECT_NE(r.out.find(says), std::string::npos) << name << "\n" << r.out;
+  }
+}
+
+// On every INI of the corpus, the public configurations and the examples
+// that LinuxCNC checks as it is (VERSION 1.1), check-config's start-up
+// errors are there exactly when LinuxCNC's own script refuses the file.
+TEST(CheckConfig, StartUpErrorsAreExactlyWhatLinuxCncsOwnCheckRefuses) {
+  const fs::path script = "/usr/share/linuxcnc/hallib/check_config.tcl";
+  if (!fs::exists(script) || !fs::exists("/usr/bin/tclsh8.6")) GTEST_SKIP() << "LinuxCNC's check_config.tcl is not installed";
+  int compared = 0, refused = 0;
+  for (const char* folder : {"tests/check_config", "tests/public_configs", "tests/machine_from_config", "examples"})
+    for (const auto& e : fs::recursive_directory_iterator(fs::path(LBPKIT_SOURCE_DIR) / folder)) {
+      const auto& p = e.path();
+      if (p.extension() != ".ini") continue;
+      std::ifstream in(p);
+      std::stringstream text;
+      text << in.rdbuf();
+      if (text.str().find("\nVERSION = 1.1\n") == std::string::npos) continue;
+      // LinuxCNC's script counts joints without end on this one.
+      if (p.filename() == "joints_not_a_number.ini") continue;
+      const auto command = "/usr/bin/tclsh8.6 " + script.string() + " '" + p.string() + "' >/dev/null 2>&1";
+      const int status = std::system(command.c_str());
+      ASSERT_TRUE(WIFEXITED(status)) << command;
+      const bool linuxcncRefuses = WEXITSTATUS(status) != 0;
+      const auto r = check(p, true);
+      const bool weRefuse = startupFindings(r).first > 0;
+      EXPECT_EQ(weRefuse, linuxcncRefuses) << p << "\n" << r.out;
+      ++compared;
+      refused += linuxcncRefuses ? 1 : 0;
+    }
+  EXPECT_GE(compared, 15);
+  EXPECT_GE(refused, 7);
 }
 
 // What LinuxCNC cannot load never passes, and nothing read crashes or hangs

@@ -4,6 +4,7 @@
 #include "linuxcnc/config_check.hpp"
 
 #include "linuxcnc/board_address.hpp"
+#include "linuxcnc/startup_check.hpp"
 
 #include <fmt/format.h>
 
@@ -335,6 +336,11 @@ CheckResult checkConfig(const std::filesystem::path& file, const BoardModel& mod
   const HalConfig hal = readConfiguration(file, result.findings);
   result.files = hal.files;
   Checker r{hal, &result.findings};
+
+  // What LinuxCNC's start-up check refuses in the INI (startup_check.hpp):
+  // `linuxcnc` runs it before it loads anything.
+  if (hal.hasIni)
+    for (auto& f : startupCheck(file, hal.ini.file)) result.findings.push_back(std::move(f));
 
   // hm2_eth's board_ip=: each board's address a card can have (board_address.hpp),
   // reported where it is written: the INI's line for board_ip=[HM2]IPADDRESS.
