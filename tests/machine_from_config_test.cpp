@@ -6,12 +6,15 @@
 // naming the file, line and what is missing.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <ostream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -353,6 +356,301 @@ TEST(MachineFromConfig, TwoInputsOnOneHomeGiveTwoNamedSwitches) {
   const auto d = load(m);
   EXPECT_EQ(switchNamed(d, "x-home").input, 0U);
   EXPECT_EQ(switchNamed(d, "x-home-2").input, 20U);
+}
+
+// The interlocks fixture (tests/machine_from_config/interlocks/: one servo
+// axis homing in place) copied into `dir`, with `hal` added to its HAL
+// file.
+fs::path interlocks(const test_support::TempDir& dir, const std::string& hal) {
+  const auto from = kSource / "tests/machine_from_config/interlocks";
+  fs::copy_file(from / "interlocks.ini", dir.path() / "interlocks.ini", fs::copy_options::overwrite_existing);
+  std::ifstream in(from / "interlocks.hal");
+  std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  std::ofstream(dir.path() / "interlocks.hal") << text << hal;
+  return dir.path() / "interlocks.ini";
+}
+
+// Whether `text` holds `part`; when not, the text to read.
+::testing::AssertionResult holds(const std::string& text, const std::string& part) {
+  if (text.find(part) != std::string::npos) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "no \"" << part << "\" in:\n" << text;
+}
+
+// The line of `file` that holds `text` (0: none).
+unsigned lineWith(const fs::path& file, const std::string& text) {
+  std::ifstream in(file);
+  std::string line;
+  for (unsigned n = 1; std::getline(in, line); ++n)
+    if (line.find(text) != std::string::npos) return n;
+  return 0;
+}
+
+// Whether 7I77 input `input` reads on while the machine rests: a NC switch
+// on it (closed until it trips) reads on; a NO switch, or none, off.
+bool restsOn(const machine::MachineDescription& d, unsigned input) {
+  for (const auto& s : d.switches)
+    if (s.input == input && s.daughtercard == machine::Daughtercard::SevenI77)
+      return s.contact == machine::Contact::NormallyClosed;
+  return false;
+}
+bool hasSwitchOn(const machine::MachineDescription& d, unsigned input) {
+  return std::any_of(d.switches.begin(), d.switches.end(), [&](const auto& s) { return s.input == input; });
+}
+
+// One kind of component between a sensor and an interlock: the HAL lines
+// added to the interlocks fixture, the 7I77 inputs that must rest on and
+// off, and what the machine file says of one.
+struct ComponentCase {
+  std::string name;
+  std::string hal;
+  std::vector<unsigned> on, off;
+  std::string said;
+};
+std::ostream& operator<<(std::ostream& o, const ComponentCase& c) { return o << c.name; }
+
+class MachineFromConfigComponent : public ::testing::TestWithParam<ComponentCase> {};
+
+TEST_P(MachineFromConfigComponent, HoldsItsInputsTheWayTheMachineRuns) {
+  const auto& c = GetParam();
+  test_support::TempDir dir;
+  const auto m = machineFromConfig(interlocks(dir, c.hal));
+  ASSERT_TRUE(m.ok()) << errors(m);
+  EXPECT_TRUE(m.findings.empty()) << errors(m);
+  const auto d = load(m);
+  for (const auto i : c.on) EXPECT_TRUE(restsOn(d, i)) << "input " << i;
+  for (const auto i : c.off) EXPECT_FALSE(restsOn(d, i)) << "input " << i;
+  EXPECT_TRUE(holds(m.toml, c.said));
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Interlocks, MachineFromConfigComponent,
+    ::testing::Values(
+        // A sensor through `not` into motion.feed-inhibit: on at rest, so
+        // that feed is allowed; one straight into motion.feed-hold: off.
+        ComponentCase{"Not",
+                      "loadrt not count=1\n"
+                      "net lube-level hm2_7i92.0.7i77.0.0.input-03 => not.0.in\n"
+                      "net lube-low not.0.out => motion.feed-inhibit\n"
+                      "net hold hm2_7i92.0.7i77.0.0.input-04 => motion.feed-hold\n",
+                      {3},
+                      {4},
+                      "# hm2_7i92.0.7i77.0.0.input-03 (interlocks.hal:16) must read on for motion.feed-inhibit to be "
+                      "FALSE (through not.0): held closed\n[[switch]]\nname = \"held-3\"\nkind = \"other\""},
+        // debounce's groups (cfg=: debounce.G.C) pass the input on once it
+        // has stayed; timedelay likewise.
+        ComponentCase{"Debounce",
+                      "loadrt debounce cfg=2,3\n"
+                      "loadrt timedelay count=1\n"
+                      "net door hm2_7i92.0.7i77.0.0.input-05 => debounce.1.2.in\n"
+                      "net door-closed debounce.1.2.out => motion.enable\n"
+                      "net guard hm2_7i92.0.7i77.0.0.input-06 => debounce.0.0.in\n"
+                      "net guard-open debounce.0.0.out => timedelay.0.in\n"
+                      "net guard-late timedelay.0.out => spindle.0.inhibit\n",
+                      {5},
+                      {6},
+                      "must read off for spindle.0.inhibit to be FALSE (through debounce.0.0, timedelay.0)"},
+        // and2 TRUE: both inputs on; or2 FALSE: both off (input-09-not
+        // FALSE: the input on); xor2 with its other input set TRUE by setp:
+        // on.
+        ComponentCase{"And2Or2Xor2",
+                      "loadrt and2 count=1\n"
+                      "loadrt or2 count=1\n"
+                      "loadrt xor2 count=1\n"
+                      "net a hm2_7i92.0.7i77.0.0.input-06 => and2.0.in0\n"
+                      "net b hm2_7i92.0.7i77.0.0.input-07 => and2.0.in1\n"
+                      "net ab and2.0.out => motion.enable\n"
+                      "net c hm2_7i92.0.7i77.0.0.input-08 => or2.0.in0\n"
+                      "net e hm2_7i92.0.7i77.0.0.input-09-not => or2.0.in1\n"
+                      "net ce or2.0.out => halui.program.pause\n"
+                      "net f hm2_7i92.0.7i77.0.0.input-10 => xor2.0.in0\n"
+                      "setp xor2.0.in1 TRUE\n"
+                      "net fx xor2.0.out => spindle.0.inhibit\n",
+                      {6, 7, 9, 10},
+                      {8},
+                      "must read on for motion.enable to be TRUE (through and2.0): held closed"},
+        // logic: its personality says how many inputs (in-00 on) and which
+        // outputs (and, or, xor, nand, nor), one an instance named by names=.
+        ComponentCase{"Logic",
+                      "loadrt logic names=guards,spare personality=0x1103,0x802\n"
+                      "net g0 hm2_7i92.0.7i77.0.0.input-11 => guards.in-00\n"
+                      "net g1 hm2_7i92.0.7i77.0.0.input-12 => guards.in-01\n"
+                      "net g2 hm2_7i92.0.7i77.0.0.input-13 => guards.in-02\n"
+                      "net all-closed guards.and => motion.enable\n"
+                      "net s0 hm2_7i92.0.7i77.0.0.input-14 => spare.in-00\n"
+                      "setp spare.in-01 1\n"
+                      "net spare-nand spare.nand => motion.feed-inhibit\n",
+                      {11, 12, 13, 14},
+                      {},
+                      "must read on for motion.enable to be TRUE (through guards): held closed"},
+        // A message fires when its trigger goes to its edge (TRUE unless
+        // `edge` is set FALSE): the trigger is held the other way.
+        ComponentCase{"Message",
+                      "loadrt message names=oil-low,door-open messages=\"Slideway oil low,Door open\"\n"
+                      "setp oil-low.edge 0\n"
+                      "net oil hm2_7i92.0.7i77.0.0.input-15 => oil-low.trigger\n"
+                      "net door hm2_7i92.0.7i77.0.0.input-16-not => door-open.trigger\n",
+                      {15, 16},
+                      {},
+                      "must read on for oil-low.trigger to be TRUE (message oil-low \"Slideway oil low\" fires when it "
+                      "goes FALSE): held closed"},
+        // estop_latch between the E-stop inputs and emc-enable-in: OK while
+        // ok-in is TRUE and fault-in FALSE, so ok-in's input is a NC button
+        // and fault-in's a NO one; fault-out into motion.feed-hold agrees.
+        ComponentCase{"EstopLatch",
+                      "loadrt estop_latch\n"
+                      "net estop-ok hm2_7i92.0.7i77.0.0.input-17 => estop-latch.0.ok-in\n"
+                      "net drive-fault hm2_7i92.0.7i77.0.0.input-18 => estop-latch.0.fault-in\n"
+                      "net reset iocontrol.0.user-request-enable => estop-latch.0.reset\n"
+                      "net enable estop-latch.0.ok-out => iocontrol.0.emc-enable-in\n"
+                      "net faulted estop-latch.0.fault-out => motion.feed-hold\n",
+                      {17},
+                      {18},
+                      "# hm2_7i92.0.7i77.0.0.input-18 (interlocks.hal:17) reaches iocontrol.0.emc-enable-in inverted "
+                      "(through estop-latch.0): NO, the input on while pressed\n[[switch]]\nname = \"estop2\"\n"
+                      "kind = \"estop\""},
+        // A component loaded with names= is followed by its names.
+        ComponentCase{"Names",
+                      "loadrt not names=lube-not,air-not\n"
+                      "net lube hm2_7i92.0.7i77.0.0.input-19 => lube-not.in\n"
+                      "net lube-low lube-not.out => motion.feed-inhibit\n"
+                      "net air hm2_7i92.0.7i77.0.0.input-20 => air-not.in\n"
+                      "net air-low air-not.out => motion.spindle-inhibit\n",
+                      {19, 20},
+                      {},
+                      "(through air-not): held closed"},
+        // A signal set by `sets` is a constant: what it leaves to the
+        // input is held.
+        ComponentCase{"Sets",
+                      "loadrt and2 count=1\n"
+                      "net door hm2_7i92.0.7i77.0.0.input-21 => and2.0.in0\n"
+                      "net always and2.0.in1\n"
+                      "sets always 1\n"
+                      "net door-ok and2.0.out => motion.enable\n",
+                      {21},
+                      {},
+                      "must read on for motion.enable to be TRUE (through and2.0): held closed"}),
+    [](const ::testing::TestParamInfo<ComponentCase>& i) { return i.param.name; });
+
+// An interlock that cannot be held: the HAL lines added to the interlocks
+// fixture, the inputs left off, and the warning, each {TEXT} in it the
+// number of the line of the HAL file that holds TEXT. The machine still
+// loads.
+struct WarningCase {
+  std::string name;
+  std::string hal;
+  std::vector<unsigned> off;
+  std::string said;
+};
+std::ostream& operator<<(std::ostream& o, const WarningCase& c) { return o << c.name; }
+
+class MachineFromConfigWarning : public ::testing::TestWithParam<WarningCase> {};
+
+TEST_P(MachineFromConfigWarning, IsSaidAtTheInterlocksLine) {
+  const auto& c = GetParam();
+  test_support::TempDir dir;
+  const auto m = machineFromConfig(interlocks(dir, c.hal));
+  ASSERT_TRUE(m.ok()) << errors(m);
+  const auto d = load(m);
+  for (const auto i : c.off) EXPECT_FALSE(hasSwitchOn(d, i)) << "input " << i;
+  std::string said = c.said;
+  for (auto open = said.find('{'); open != std::string::npos; open = said.find('{', open)) {
+    const auto close = said.find('}', open);
+    const auto line = std::to_string(lineWith(dir.path() / "interlocks.hal", said.substr(open + 1, close - open - 1)));
+    said.replace(open, close - open + 1, line);
+  }
+  EXPECT_TRUE(holds(errors(m), said));
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Interlocks, MachineFromConfigWarning,
+    ::testing::Values(
+        // A `sets` of 0 into an and2 that must be TRUE: no input gives it.
+        WarningCase{"NoInputGivesIt",
+                    "loadrt and2 count=1\n"
+                    "net door hm2_7i92.0.7i77.0.0.input-21 => and2.0.in0\n"
+                    "net never and2.0.in1\n"
+                    "sets never 0\n"
+                    "net door-ok and2.0.out => motion.enable\n",
+                    {},
+                    "interlocks.hal:{door-ok}: warning: motion.enable to be TRUE cannot be: no state of the field "
+                    "inputs gives it (sets never 0 (interlocks.hal:{sets never}))"},
+        // Two interlocks wanting one input opposite ways: the first is
+        // held, the second said with the input and the first.
+        WarningCase{"TwoInterlocksWantOppositeWays",
+                    "loadrt not count=1\n"
+                    "net door hm2_7i92.0.7i77.0.0.input-22 => motion.feed-inhibit not.0.in\n"
+                    "net door-not not.0.out => motion.feed-hold\n",
+                    {22},
+                    "interlocks.hal:{door-not}: warning: motion.feed-hold to be FALSE cannot be held: "
+                    "hm2_7i92.0.7i77.0.0.input-22 must read on for it (through not.0) but reads off for "
+                    "motion.feed-inhibit to be FALSE (interlocks.hal:{net door })"},
+        // A pulse (oneshot, edge) is over at rest and a toggle where it
+        // started: what they feed reads that whatever the input.
+        WarningCase{"PulsesAndTogglesRestAsTheyStart",
+                    "loadrt oneshot count=1\n"
+                    "loadrt edge count=1\n"
+                    "loadrt toggle count=1\n"
+                    "net bump hm2_7i92.0.7i77.0.0.input-23 => oneshot.0.in\n"
+                    "net bumped oneshot.0.out => motion.feed-hold\n"
+                    "net tap hm2_7i92.0.7i77.0.0.input-24 => edge.0.in\n"
+                    "net tapped edge.0.out-invert => motion.enable\n"
+                    "net button hm2_7i92.0.7i77.0.0.input-25 => toggle.0.in\n"
+                    "net toggled toggle.0.out => spindle.0.at-speed\n",
+                    {23, 24, 25},
+                    "interlocks.hal:{toggled}: warning: spindle.0.at-speed to be TRUE cannot be: no state of the "
+                    "field inputs gives it (toggle.0.out flips on each press of its input: FALSE as it starts)"}),
+    [](const ::testing::TestParamInfo<WarningCase>& i) { return i.param.name; });
+
+// The lube-level chain PNCconf's custom.hal gives a 5I25 mill: input-29
+// through debounce.0.0 and not.0 into motion.feed-inhibit, held on; the
+// homes and the external E-stop as before.
+TEST(MachineFromConfigInterlocks, PncconfLubeLevelThroughDebounceAndNot) {
+  const auto m = machineFromConfig(kSource / "tests/machine_from_config/pncconf-lube/pncconf_lube.ini");
+  ASSERT_TRUE(m.ok()) << errors(m);
+  const auto d = load(m);
+  EXPECT_TRUE(restsOn(d, 29));
+  EXPECT_TRUE(holds(m.toml, "hm2_5i25.0.7i77.0.0.input-29 (custom.hal:12) must read on for motion.feed-inhibit to "
+                            "be FALSE (through debounce.0.0, not.0): held closed"));
+  EXPECT_EQ(switchNamed(d, "estop").input, 30U);
+  EXPECT_TRUE(restsOn(d, 30));
+  EXPECT_EQ(switchNamed(d, "x-home").input, 0U);
+}
+
+// The chuck's clamp sensor through not, and2 (with spindle.0.on) and logic
+// into a message: held closed so the message never fires; the drive's fault
+// relay on the logic's other input rests open.
+TEST(MachineFromConfigInterlocks, LatheClampThroughAnd2AndLogicIntoAMessage) {
+  const auto m = machineFromConfig(kSource / "tests/machine_from_config/lathe-clamp/lathe_clamp.ini");
+  ASSERT_TRUE(m.ok()) << errors(m);
+  const auto d = load(m);
+  EXPECT_TRUE(restsOn(d, 14));
+  EXPECT_FALSE(restsOn(d, 15));
+  EXPECT_FALSE(hasSwitchOn(d, 15));
+  EXPECT_TRUE(holds(m.toml, "hm2_7i92.0.7i77.0.0.input-14 (custom.hal:16) must read on for clamp-msg.trigger to "
+                            "be FALSE (message clamp-msg \"Can not start spindle with no CLAMP!\" fires when it goes "
+                            "TRUE) (through clamp-open, and2.0, spindle-fault): held closed"));
+  EXPECT_TRUE(d.spindle.has_value());
+}
+
+// One output on two signals (a second net after unlinkp) is one output
+// whose comment names both; two signals whose names give one machine name
+// give two names.
+TEST(MachineFromConfigInterlocks, OneOutputOnTwoSignalsIsOneOutput) {
+  test_support::TempDir dir;
+  const auto ini = interlocks(dir,
+                              "unlinkp hm2_7i92.0.7i77.0.0.output-00\n"
+                              "net machine-on motion.motion-enabled => hm2_7i92.0.7i77.0.0.output-00\n"
+                              "net estop.out halui.machine.is-on => hm2_7i92.0.7i77.0.0.output-01\n");
+  const auto m = machineFromConfig(ini);
+  ASSERT_TRUE(m.ok()) << errors(m);
+  const auto d = load(m);
+  ASSERT_EQ(d.outputs.size(), 2U);
+  EXPECT_EQ(d.outputs[0].name, "estop-out");
+  EXPECT_EQ(d.outputs[0].output, 0U);
+  EXPECT_EQ(d.outputs[1].name, "estop-out-2");
+  EXPECT_EQ(d.outputs[1].output, 1U);
+  EXPECT_TRUE(holds(m.toml, "# hm2_7i92.0.7i77.0.0.output-00 (interlocks.hal:14), signal estop-out; also "
+                            "hm2_7i92.0.7i77.0.0.output-00 (interlocks.hal:16), signal machine-on: one output"));
 }
 
 std::string fileBytes(const fs::path& p) {

@@ -265,6 +265,7 @@ struct Reader {
       hal.setps.push_back({w, t[1], t[2], written.size() >= 3 ? written[2] : t[2]});
     } else if (cmd == "sets" && t.size() >= 3) {
       hal.sets[t[1]].push_back(w);
+      hal.signalSets.push_back({w, t[1], t[2], written.size() >= 3 ? written[2] : t[2]});
     } else if (cmd == "linkps" && t.size() >= 3) {
       hal.signalFirst.emplace(t[2], w);
       link(t[1], t[2], w, Use::Link);

@@ -92,6 +92,7 @@ struct HalConfig {
   std::vector<LoadedComponent> components;
   std::vector<Setp> setps;
   std::map<std::string, std::vector<Where>> sets;           // signal -> sets lines
+  std::vector<Setp> signalSets;  // sets SIGNAL VALUE, in order: name is the signal
   std::map<std::string, std::vector<std::string>> signals;  // signal -> pins, in order
   std::map<std::string, Where> signalFirst;
   std::vector<std::string> files;  // the HAL files read

@@ -241,6 +241,7 @@ struct SwitchOut {
   unsigned input = 0;
   std::optional<double> position;
   bool tripAbove = true;
+  std::string pin;  // the field pin it is on, as netted
 };
 
 struct OutputOut {
@@ -265,18 +266,42 @@ class Deriver {
     for (const auto& c : hal_.components) {
       std::string dashed = c.module;
       std::replace(dashed.begin(), dashed.end(), '_', '-');
+      std::vector<std::string> instances, personalities, messages;
       bool named = false;
       for (const auto& a : c.arguments) {
         if (a.rfind("names=", 0) == 0) {
-          for (const auto& n : split(a.substr(6), ',')) instanceModule_[n] = c.module;
+          for (const auto& n : split(a.substr(6), ',')) instances.push_back(n);
           named = true;
         } else if (a.rfind("count=", 0) == 0 || a.rfind("num_chan=", 0) == 0) {
           const auto n = digits(a.substr(a.find('=') + 1)).value_or(1);
-          for (unsigned i = 0; i < n; ++i) instanceModule_[fmt::format("{}.{}", dashed, i)] = c.module;
+          for (unsigned i = 0; i < n; ++i) instances.push_back(fmt::format("{}.{}", dashed, i));
           named = true;
+        } else if (c.module == "debounce" && a.rfind("cfg=", 0) == 0) {
+          // Groups of filters, debounce.G.C (at most 8 groups of 50:
+          // LinuxCNC's src/hal/components/debounce.c).
+          const auto groups = split(a.substr(4), ',');
+          for (std::size_t g = 0; g < std::min<std::size_t>(groups.size(), 8); ++g)
+            for (unsigned ch = 0; ch < std::min(digits(groups[g]).value_or(0), 50U); ++ch)
+              instances.push_back(fmt::format("debounce.{}.{}", g, ch));
+          named = true;
+        } else if (a.rfind("personality=", 0) == 0) {
+          personalities = split(a.substr(12), ',');
+        } else if (a.rfind("messages=", 0) == 0) {
+          messages = split(a.substr(9), ',');
         }
       }
-      if (!named) instanceModule_[dashed + ".0"] = c.module;
+      if (!named) instances.push_back(dashed + ".0");
+      for (std::size_t i = 0; i < instances.size(); ++i) {
+        instanceModule_[instances[i]] = c.module;
+        if (i < personalities.size()) {
+          // A number as the module parameter takes it: 0x.. hexadecimal.
+          const auto& text = personalities[i];
+          char* end = nullptr;
+          const auto v = std::strtoul(text.c_str(), &end, 0);
+          if (!text.empty() && end != nullptr && *end == '\0') personality_[instances[i]] = static_cast<unsigned>(v & 0xFFFFU);
+        }
+        if (i < messages.size()) messageText_[instances[i]] = messages[i];
+      }
     }
     for (const auto& [signal, pins] : hal_.signals)
       for (const auto& p : pins) pinSignal_.emplace(p, signal);
@@ -428,34 +453,288 @@ class Deriver {
     return it == instanceModule_.end() ? std::string() : it->second;
   }
 
-  // The field inputs whose state reaches `pin` through nets and the logic
-  // components a configuration puts between a switch and what it stops.
-  void trace(const std::string& pin, bool inverted, std::vector<Source>& out, int depth = 0) const {
-    if (depth > 16) return;
+  // What HAL makes of the field inputs at rest: each bit pin a configuration
+  // reads, as the components between a switch and what it stops compute it
+  // once the inputs have stayed as they are for a while (LinuxCNC's
+  // components, src/hal/components/: not.comp, and2.comp, or2.comp,
+  // xor2.comp, logic.comp, debounce.c, timedelay.comp, estop_latch.comp,
+  // oneshot.comp, edge.comp, toggle.comp). A node is one of those values.
+  struct Node {
+    enum class Kind { Const, Input, Not, And, Or, Xor, Unknown };
+    Kind kind = Kind::Unknown;
+    bool value = false;         // Const
+    std::string pin;            // Input: the field pin as netted
+    FieldPin field;             // Input (inverted: input-NN-not)
+    std::string label;          // the component it is the output of ("not.0"), for a path
+    std::vector<std::size_t> kids;
+    std::string why;            // Const, Unknown: what it is
+  };
+  static constexpr unsigned kMaxDepth = 64;       // components in a row
+  static constexpr std::size_t kMaxNodes = 20000;  // values in a configuration
+
+  std::size_t add(Node n) {
+    nodes_.push_back(std::move(n));
+    return nodes_.size() - 1;
+  }
+  std::size_t constant(bool v, std::string why) { return add({Node::Kind::Const, v, {}, {}, {}, {}, std::move(why)}); }
+  std::size_t unknown(std::string why) { return add({Node::Kind::Unknown, false, {}, {}, {}, {}, std::move(why)}); }
+  std::size_t gate(Node::Kind k, std::string label, std::vector<std::size_t> kids) {
+    return add({k, false, {}, {}, std::move(label), std::move(kids), {}});
+  }
+
+  // A bit as HAL's `setp` and `sets` take it: 1/0, TRUE/FALSE.
+  static std::optional<bool> bit(const std::string& s) {
+    const auto l = lower(s);
+    if (l == "1" || l == "true") return true;
+    if (l == "0" || l == "false") return false;
+    if (const auto v = number(s)) return *v != 0.0;
+    return std::nullopt;
+  }
+
+  // The value pin `pin` (one that reads a signal) has at rest.
+  std::size_t nodeFor(const std::string& pin, unsigned depth = 0) {
+    if (const auto it = nodeOf_.find(pin); it != nodeOf_.end()) return it->second;
+    if (depth > kMaxDepth || nodes_.size() > kMaxNodes)
+      return unknown(fmt::format("{}: more than {} components in a row", pin, kMaxDepth));
+    if (!building_.insert(pin).second) return unknown(fmt::format("{} reads its own output (a loop)", pin));
+    const auto id = computeNode(pin, depth);
+    building_.erase(pin);
+    nodeOf_.emplace(pin, id);
+    return id;
+  }
+
+  std::size_t computeNode(const std::string& pin, unsigned depth) {
     const auto s = signal(pin);
-    if (s.empty()) return;
-    for (const auto& p : pinsOn(s)) {
-      if (p == pin) continue;
-      if (const auto f = fieldPin(p, "input")) {
-        out.push_back({p, *f, inverted != f->inverted});
-        continue;
+    if (s.empty()) {
+      if (const auto* sp = hal_.setpOf(pin))
+        if (const auto b = bit(sp->value)) return constant(*b, fmt::format("setp {} {} ({})", pin, sp->value, at(sp->at)));
+      // estop_latch's ok-in rests TRUE unconnected (LinuxCNC:
+      // src/hal/components/estop_latch.comp); every other input FALSE.
+      const bool dflt = moduleOf(pin.substr(0, pin.rfind('.'))) == "estop_latch" && pin.ends_with(".ok-in");
+      return constant(dflt, fmt::format("{} is on no signal: {}", pin, dflt ? "TRUE" : "FALSE"));
+    }
+    const auto& pins = pinsOn(s);
+    for (const auto& p : pins)
+      if (p != pin)
+        if (const auto f = fieldPin(p, "input")) return add({Node::Kind::Input, false, p, *f, {}, {}, {}});
+    for (const auto& p : pins)
+      if (p != pin)
+        if (const auto id = outputNode(p, depth)) return *id;
+    for (auto it = hal_.signalSets.rbegin(); it != hal_.signalSets.rend(); ++it)
+      if (it->name == s)
+        if (const auto b = bit(it->value)) return constant(*b, fmt::format("sets {} {} ({})", s, it->value, at(it->at)));
+    std::string others;
+    for (const auto& p : pins)
+      if (p != pin) others += (others.empty() ? "" : ", ") + p;
+    const auto first = hal_.signalFirst.count(s) ? at(hal_.signalFirst.at(s)) : std::string("?");
+    if (others.empty()) return constant(false, fmt::format("signal {} ({}) has no writer: FALSE", s, first));
+    return unknown(fmt::format("signal {} ({}) comes from {}", s, first, others));
+  }
+
+  // The value of a component's output pin `p`; nullopt when `p` is no
+  // output of a component followed here (another reader of the signal).
+  std::optional<std::size_t> outputNode(const std::string& p, unsigned depth) {
+    const auto dot = p.rfind('.');
+    if (dot == std::string::npos) return std::nullopt;
+    const auto instance = p.substr(0, dot), leaf = p.substr(dot + 1);
+    const auto module = moduleOf(instance);
+    auto in = [&](const std::string& name) { return nodeFor(instance + "." + name, depth + 1); };
+    using K = Node::Kind;
+    if (module == "not" && leaf == "out") return gate(K::Not, instance, {in("in")});
+    if (module == "and2" && leaf == "out") return gate(K::And, instance, {in("in0"), in("in1")});
+    if (module == "or2" && leaf == "out") return gate(K::Or, instance, {in("in0"), in("in1")});
+    if (module == "xor2" && leaf == "out") return gate(K::Xor, instance, {in("in0"), in("in1")});
+    // debounce and timedelay: the output follows the input once it has
+    // stayed for the filter's samples or the delay.
+    if ((module == "debounce" || module == "timedelay") && leaf == "out") return gate(K::And, instance, {in("in")});
+    if (module == "estop_latch" && (leaf == "ok-out" || leaf == "fault-out")) {
+      // OK (after a reset) while ok-in is TRUE and fault-in FALSE.
+      const auto ok = gate(K::And, instance, {in("ok-in"), gate(K::Not, {}, {in("fault-in")})});
+      return leaf == "ok-out" ? ok : gate(K::Not, {}, {ok});
+    }
+    if (module == "logic" && (leaf == "and" || leaf == "or" || leaf == "xor" || leaf == "nand" || leaf == "nor")) {
+      const auto it = personality_.find(instance);
+      if (it == personality_.end())
+        return unknown(fmt::format("{}: logic {} has no personality= on its loadrt", p, instance));
+      // The low byte is the number of inputs (at most 16), in-00 on.
+      std::vector<std::size_t> ins;
+      for (unsigned i = 0; i < std::min(it->second & 0xFFU, 16U); ++i) ins.push_back(in(fmt::format("in-{:02d}", i)));
+      const auto k = leaf == "xor" ? K::Xor : leaf == "and" || leaf == "nand" ? K::And : K::Or;
+      const auto g = gate(k, instance, std::move(ins));
+      return leaf == "nand" || leaf == "nor" ? gate(K::Not, {}, {g}) : g;
+    }
+    // A pulse on an edge of the input, or a flip on each press: at rest
+    // the pulse is over and the flip where it started.
+    if ((module == "oneshot" && (leaf == "out" || leaf == "out-not")) ||
+        (module == "edge" && (leaf == "out" || leaf == "out-invert")))
+      return constant(leaf != "out", fmt::format("{} pulses on an edge of its input only: {} at rest", p,
+                                                 leaf != "out" ? "TRUE" : "FALSE"));
+    if (module == "toggle" && leaf == "out")
+      return constant(false, fmt::format("{} flips on each press of its input: FALSE as it starts", p));
+    return std::nullopt;
+  }
+
+  // The field inputs whose state reaches `pin`, and whether each arrives
+  // inverted (an odd number of `not`s, nand, nor, fault-in and
+  // input-NN-not on the way).
+  void trace(const std::string& pin, bool inverted, std::vector<Source>& out) {
+    std::set<std::pair<std::size_t, bool>> seen;
+    std::vector<std::pair<std::size_t, bool>> todo{{nodeFor(pin), inverted}};
+    while (!todo.empty()) {
+      const auto [id, inv] = todo.back();
+      todo.pop_back();
+      if (!seen.insert({id, inv}).second) continue;
+      const auto& n = nodes_[id];
+      if (n.kind == Node::Kind::Input) out.push_back({n.pin, n.field, inv != n.field.inverted});
+      for (const auto k : n.kids) todo.emplace_back(k, n.kind == Node::Kind::Not ? !inv : inv);
+    }
+    // In the order the nets give them.
+    std::reverse(out.begin(), out.end());
+  }
+
+  // An input's state at rest, chosen so that an interlock reads the way the
+  // machine runs, or given by the switch on it.
+  struct Held {
+    bool on = false;
+    std::string pin;      // the field pin, as netted
+    std::string through;  // the components on the way ("debounce.0.0, not.0")
+    std::string reason;   // "motion.feed-inhibit to be FALSE", "the x-min switch"
+    Where at;             // where that is netted
+  };
+  using Holds = std::map<std::string, Held>;  // "7I77:12" -> its state
+
+  // Something that must read one way for the machine to run.
+  struct Interlock {
+    std::string pin;
+    bool want = false;
+    std::string what;  // "motion.feed-inhibit to be FALSE"
+  };
+
+  // Steps a search may take: a configuration's logic needs a few hundred;
+  // one built to branch without end stops here.
+  static constexpr unsigned kSteps = 20000;
+  struct Search {
+    Holds holds;
+    const Interlock* for_ = nullptr;
+    unsigned budget = kSteps;
+    std::vector<std::string> path;
+  };
+
+  static std::string key(const FieldPin& f) { return fmt::format("{}:{}", f.daughtercard, f.number); }
+
+  // Makes node `id` read `want` by choosing inputs' states in `s.holds`:
+  // false when it cannot. `lax`: a value lbpkit cannot follow (a signal
+  // from motion, a ladder) is taken to read as wanted.
+  bool require(std::size_t id, bool want, bool lax, Search& s) {
+    if (s.budget == 0) return false;
+    --s.budget;
+    const auto& n = nodes_[id];
+    using K = Node::Kind;
+    const bool labelled = !n.label.empty();
+    if (labelled) s.path.push_back(n.label);
+    struct Pop {
+      Search& s;
+      bool on;
+      ~Pop() {
+        if (on) s.path.pop_back();
       }
-      const auto dot = p.rfind('.');
-      if (dot == std::string::npos) continue;
-      const auto instance = p.substr(0, dot), leaf = p.substr(dot + 1);
-      const auto module = moduleOf(instance);
-      if (module == "not" && leaf == "out") {
-        trace(instance + ".in", !inverted, out, depth + 1);
-      } else if ((module == "or2" || module == "and2") && leaf == "out") {
-        trace(instance + ".in0", inverted, out, depth + 1);
-        trace(instance + ".in1", inverted, out, depth + 1);
-      } else if (module == "estop_latch" && leaf == "ok-out") {
-        trace(instance + ".ok-in", inverted, out, depth + 1);
-        trace(instance + ".fault-in", !inverted, out, depth + 1);
-      } else if (module == "debounce" && leaf == "out") {
-        trace(instance + ".in", inverted, out, depth + 1);
+    } pop{s, labelled};
+    switch (n.kind) {
+      case K::Const: return n.value == want;
+      case K::Unknown: return lax;
+      case K::Input: {
+        const bool on = want != n.field.inverted;
+        const auto k = key(n.field);
+        if (const auto it = s.holds.find(k); it != s.holds.end()) return it->second.on == on;
+        // From the input on, as the signal goes.
+        std::string through;
+        for (auto p = s.path.rbegin(); p != s.path.rend(); ++p) through += (through.empty() ? "" : ", ") + *p;
+        s.holds[k] = {on, n.pin, through, s.for_->what, where(s.for_->pin)};
+        return true;
+      }
+      case K::Not: return require(n.kids[0], !want, lax, s);
+      case K::And:
+      case K::Or: {
+        // Every input one way (AND TRUE, OR FALSE), or any one the other.
+        if ((n.kind == K::And) == want) {
+          for (const auto k : n.kids)
+            if (!require(k, want, lax, s)) return false;
+          return true;
+        }
+        for (const bool tryLax : {false, true}) {
+          if (tryLax && !lax) break;
+          for (const auto k : n.kids) {
+            Search trial = s;
+            if (require(k, want, tryLax, trial)) {
+              s = std::move(trial);
+              return true;
+            }
+            s.budget = trial.budget;
+          }
+        }
+        return false;
+      }
+      case K::Xor: return requireXor(n.kids, 0, want, lax, s);
+    }
+    return false;
+  }
+  bool requireXor(const std::vector<std::size_t>& kids, std::size_t from, bool want, bool lax, Search& s) {
+    if (from == kids.size()) return !want;
+    for (const bool v : {false, true}) {
+      Search trial = s;
+      if (require(kids[from], v, lax, trial) && requireXor(kids, from + 1, want != v, lax, trial)) {
+        s = std::move(trial);
+        return true;
+      }
+      s.budget = trial.budget;
+    }
+    return false;
+  }
+
+  // Holds `i` by the inputs' states, given those already held: the
+  // states it adds, or nullopt (and a warning saying why) when none does.
+  std::optional<Holds> hold(const Interlock& i) {
+    const auto root = nodeFor(i.pin);
+    for (const bool lax : {false, true}) {
+      Search s{holds_, &i, kSteps, {}};
+      if (require(root, i.want, lax, s)) {
+        Holds added;
+        for (auto& [k, h] : s.holds)
+          if (!holds_.count(k)) added.emplace(k, std::move(h));
+        return added;
       }
     }
+    // Alone, could it be held? Then what it needs is held the other way.
+    Search alone{{}, &i, kSteps, {}};
+    if (require(root, i.want, true, alone)) {
+      std::string clash;
+      for (const auto& [k, h] : alone.holds)
+        if (const auto it = holds_.find(k); it != holds_.end() && it->second.on != h.on)
+          clash += fmt::format("{}{} must read {} for it{} but reads {} for {} ({})", clash.empty() ? "" : "; ", h.pin,
+                               h.on ? "on" : "off", h.through.empty() ? "" : " (through " + h.through + ")",
+                               it->second.on ? "on" : "off", it->second.reason, at(it->second.at));
+      warning(where(i.pin), i.pin,
+              fmt::format("{} cannot be held: {}; the machine may stop on it", i.what,
+                          clash.empty() ? "its inputs are held the other way" : clash));
+    } else if (alone.budget == 0) {
+      warning(where(i.pin), i.pin,
+              fmt::format("{}: its logic has more ways than lbpkit tries; not held", i.what));
+    } else {
+      std::string why;
+      std::set<std::size_t> seen;
+      std::vector<std::size_t> todo{root};
+      while (!todo.empty() && seen.size() < 64) {
+        const auto id = todo.back();
+        todo.pop_back();
+        if (!seen.insert(id).second) continue;
+        if (!nodes_[id].why.empty() && why.size() < 400) why += (why.empty() ? "" : "; ") + nodes_[id].why;
+        for (const auto k : nodes_[id].kids) todo.push_back(k);
+      }
+      warning(where(i.pin), i.pin,
+              fmt::format("{} cannot be: no state of the field inputs gives it ({}); the machine may stop on it", i.what,
+                          why.empty() ? "nothing reaches it" : why));
+    }
+    return std::nullopt;
   }
 
   // A value from a setp of `halName`, else from the INI's [section]key.
@@ -855,6 +1134,7 @@ class Deriver {
         sw.input = s.field.number;
         sw.contact = s.inverted ? "nc" : "no";
         sw.axis = name;
+        sw.pin = s.pin;
         if (kind == "home") {
           sw.position = *edge * mmPerUnit;
           sw.tripAbove = sv > 0;
@@ -905,19 +1185,43 @@ class Deriver {
     axes_.push_back(std::move(a));
   }
 
+  // The switches placed so far as inputs' states at rest: a NC contact
+  // reads on, a NO one off, until it trips.
+  void seedHolds() {
+    for (const auto& key : switchOrder_) {
+      const auto& sw = switchAt_.at(key);
+      if (sw.kind.empty() || sw.kind == "held-off") continue;
+      holds_.emplace(key, Held{sw.contact == "nc", sw.pin, {}, fmt::format("the {} switch", sw.name),
+                               sw.pin.empty() ? Where{ini_.filename().string(), 0} : where(sw.pin)});
+    }
+  }
+
+  static std::string via(const std::string& through) { return through.empty() ? "" : " (through " + through + ")"; }
+
+  // The E-stop chain: every input reaching iocontrol.0.emc-enable-in is an
+  // E-stop switch, its contact what keeps emc-enable-in TRUE until pressed.
   void estop() {
+    seedHolds();
     std::vector<Source> sources;
     trace("iocontrol.0.emc-enable-in", false, sources);
+    std::optional<Holds> chosen;
+    if (!sources.empty())
+      chosen = hold({"iocontrol.0.emc-enable-in", true, "iocontrol.0.emc-enable-in to be TRUE (the E-stop chain)"});
     unsigned k = 0;
     for (const auto& s : sources) {
       const auto key = fmt::format("{}:{}", s.field.daughtercard, s.field.number);
       auto& sw = switchAt_[key];
       if (!sw.kind.empty()) continue;
-      sw = {k++ == 0 ? "estop" : fmt::format("estop{}", k), "estop", s.field.daughtercard,
-            s.inverted ? "no" : "nc", "", {}, s.field.number, std::nullopt, true};
-      sw.comment = fmt::format("{} ({}) reaches iocontrol.0.emc-enable-in{}: {}", s.pin, at(where(s.pin)),
+      // On at rest where the chain needs it on (the inputs that decide
+      // it), else as the `not`s on the way say.
+      const auto it = chosen ? chosen->find(key) : Holds::iterator{};
+      const bool on = chosen && it != chosen->end() ? it->second.on : !s.inverted;
+      sw = {k++ == 0 ? "estop" : fmt::format("estop{}", k), "estop", s.field.daughtercard, on ? "nc" : "no", "", {},
+            s.field.number, std::nullopt, true, s.pin};
+      sw.comment = fmt::format("{} ({}) reaches iocontrol.0.emc-enable-in{}{}: {}", s.pin, at(where(s.pin)),
                                s.inverted ? " inverted" : "",
-                               s.inverted ? "NO, the input on while pressed" : "NC, the input on while all is well");
+                               chosen && it != chosen->end() ? via(it->second.through) : std::string(),
+                               on ? "NC, the input on while all is well" : "NO, the input on while pressed");
       switchOrder_.push_back(key);
     }
   }
@@ -929,7 +1233,8 @@ class Deriver {
       const auto key = fmt::format("{}:{}", s.field.daughtercard, s.field.number);
       auto& sw = switchAt_[key];
       if (!sw.kind.empty()) continue;
-      sw = {"probe", "probe", s.field.daughtercard, s.inverted ? "nc" : "no", "", {}, s.field.number, std::nullopt, true};
+      sw = {"probe", "probe", s.field.daughtercard, s.inverted ? "nc" : "no", "", {}, s.field.number, std::nullopt, true,
+            s.pin};
       sw.comment = fmt::format("{} ({}) reaches motion.probe-input: trips when told (POST /api/machine)", s.pin,
                                at(where(s.pin)));
       switchOrder_.push_back(key);
@@ -937,30 +1242,69 @@ class Deriver {
     }
   }
 
-  // Inputs that must be in one state for motion to run: held so.
+  // Every interlock and permissive that must read one way for the machine
+  // to run (LinuxCNC's motion, spindle, joint, halui and iocontrol pins;
+  // a `message` that would fire), held that way by the resting state of
+  // the inputs that decide it: an input that must read on gets a switch
+  // held closed, one that must read off nothing.
   void permissives() {
+    seedHolds();
+    std::vector<Interlock> list;
     static const std::pair<const char*, bool> kMustBe[] = {
-        {"motion.feed-inhibit", false}, {"motion.feed-hold", false},    {"motion.enable", true},
-        {"spindle.0.inhibit", false},   {"halui.program.pause", false}, {"halui.program.stop", false},
-        {"halui.abort", false},         {"halui.estop.activate", false}, {"halui.machine.off", false}};
-    for (const auto& [pin, want] : kMustBe) {
-      std::vector<Source> sources;
-      trace(pin, false, sources);
-      for (const auto& s : sources) {
-        const auto key = fmt::format("{}:{}", s.field.daughtercard, s.field.number);
+        {"motion.feed-inhibit", false},     {"motion.feed-hold", false},        {"motion.enable", true},
+        {"motion.spindle-inhibit", false},  {"motion.spindle-at-speed", true},  {"motion.homing-inhibit", false},
+        {"motion.jog-inhibit", false},      {"motion.jog-stop", false},         {"motion.jog-stop-immediate", false},
+        {"halui.program.pause", false},     {"halui.program.stop", false},      {"halui.abort", false},
+        {"halui.estop.activate", false},    {"halui.machine.off", false}};
+    auto mustBe = [](const std::string& pin, bool want) {
+      return Interlock{pin, want, fmt::format("{} to be {}", pin, want ? "TRUE" : "FALSE")};
+    };
+    for (const auto& [pin, want] : kMustBe) list.push_back(mustBe(pin, want));
+    // Per spindle and per joint: spindle.N.inhibit and at-speed,
+    // joint.N.amp-fault-in (axis.N. in 2.7), halui.spindle.N.stop.
+    for (const auto& [pin, sig] : pinSignal_) {
+      const auto p = split(pin, '.');
+      if (p.size() == 3 && p[0] == "spindle" && digits(p[1]) && (p[2] == "inhibit" || p[2] == "at-speed"))
+        list.push_back(mustBe(pin, p[2] == "at-speed"));
+      else if (p.size() == 3 && (p[0] == "joint" || p[0] == "axis") && digits(p[1]) && p[2] == "amp-fault-in")
+        list.push_back(mustBe(pin, false));
+      else if (p.size() == 4 && p[0] == "halui" && p[1] == "spindle" && digits(p[2]) && p[3] == "stop")
+        list.push_back(mustBe(pin, false));
+    }
+    // A message fires when its trigger reaches its edge's state (TRUE
+    // unless `edge` is set FALSE): held the other way (LinuxCNC:
+    // src/hal/components/message.comp).
+    for (const auto& [instance, module] : instanceModule_) {
+      if (module != "message") continue;
+      bool edge = true;
+      if (const auto* sp = hal_.setpOf(instance + ".edge"))
+        if (const auto b = bit(sp->value)) edge = *b;
+      const auto text = messageText_.count(instance) ? messageText_.at(instance) : std::string();
+      list.push_back({instance + ".trigger", !edge,
+                      fmt::format("{}.trigger to be {} (message {}{} fires when it goes {})", instance,
+                                  edge ? "FALSE" : "TRUE", instance, text.empty() ? "" : " \"" + text + "\"",
+                                  edge ? "TRUE" : "FALSE")});
+    }
+    for (const auto& i : list) {
+      if (signal(i.pin).empty()) continue;
+      const auto added = hold(i);
+      if (!added) continue;
+      for (const auto& [key, h] : *added) {
+        holds_[key] = h;
         auto& sw = switchAt_[key];
         if (!sw.kind.empty()) continue;
-        const bool inputOn = want != s.inverted;
-        if (!inputOn) {
+        const auto colon = key.find(':');
+        const auto number = static_cast<unsigned>(std::stoul(key.substr(colon + 1)));
+        if (!h.on) {
           sw.kind = "held-off";  // nothing to wire: an input with no switch reads off
-          heldOff_.push_back(fmt::format("{} ({}) must read off for {} to be {}: nothing closes it", s.pin,
-                                         at(where(s.pin)), pin, want ? "TRUE" : "FALSE"));
+          heldOff_.push_back(fmt::format("{} ({}) must read off for {}{}: nothing closes it", h.pin, at(where(h.pin)),
+                                         h.reason, via(h.through)));
           continue;
         }
-        sw = {fmt::format("held-{}", s.field.number), "other", s.field.daughtercard, "nc", "", {}, s.field.number,
-              std::nullopt, true};
-        sw.comment = fmt::format("{} ({}) must read on for {} to be {}: held closed", s.pin, at(where(s.pin)), pin,
-                                 want ? "TRUE" : "FALSE");
+        sw = {fmt::format("held-{}", number), "other", key.substr(0, colon), "nc", "", {}, number, std::nullopt, true,
+              h.pin};
+        sw.comment = fmt::format("{} ({}) must read on for {}{}: held closed", h.pin, at(where(h.pin)), h.reason,
+                                 via(h.through));
         switchOrder_.push_back(key);
       }
     }
@@ -1028,22 +1372,44 @@ class Deriver {
     spindle_.emplace_back("encoder_reversed", std::string(encScale.v < 0 ? "true" : "false") + "|the scale's sign");
   }
 
+  // Every field output a net drives, once: an output on two signals (a
+  // second `net` after an `unlinkp`, two files naming it) is one output
+  // whose comment names each.
   void outputs() {
-    std::set<std::string> seen;
+    struct Found {
+      FieldPin o;
+      std::vector<std::pair<std::string, std::string>> nets;  // pin, signal
+    };
+    std::vector<Found> found;
+    std::map<std::string, std::size_t> index;
     for (const auto& [sig, pins] : hal_.signals)
       for (const auto& p : pins)
         if (const auto o = fieldPin(p, "output")) {
-          const auto key = fmt::format("{}:{}", o->daughtercard, o->number);
-          if (!seen.insert(key).second) continue;
-          // A machine name from the signal's (at most 40 characters), made
-          // unique where two signals give the same.
-          std::string name = machineName(sig);
-          for (unsigned k = 2; std::any_of(outputs_.begin(), outputs_.end(), [&](const OutputOut& x) { return x.name == name; }); ++k) {
-            const auto suffix = fmt::format("-{}", k);
-            name = machineName(sig).substr(0, 40 - suffix.size()) + suffix;
-          }
-          outputs_.push_back({name, o->daughtercard, fmt::format("{} ({}), signal {}", p, at(where(p)), sig), o->number});
+          const auto [it, fresh] = index.emplace(fmt::format("{}:{}", o->daughtercard, o->number), found.size());
+          if (fresh) found.push_back({*o, {}});
+          found[it->second].nets.emplace_back(p, sig);
         }
+    for (const auto& f : found) {
+      const auto& sig = f.nets.front().second;
+      // A machine name from the signal's (at most 40 characters), made
+      // unique where two signals give the same.
+      std::string name = machineName(sig);
+      for (unsigned k = 2; std::any_of(outputs_.begin(), outputs_.end(), [&](const OutputOut& x) { return x.name == name; }); ++k) {
+        const auto suffix = fmt::format("-{}", k);
+        name = machineName(sig).substr(0, 40 - suffix.size()) + suffix;
+      }
+      std::string comment;
+      for (const auto& [p, s] : f.nets)
+        comment += fmt::format("{}{} ({}), signal {}", comment.empty() ? "" : "; also ", p, at(whereOn(p, s)), s);
+      if (f.nets.size() > 1) comment += ": one output";
+      outputs_.push_back({name, f.o.daughtercard, comment, f.o.number});
+    }
+  }
+  // Where `pin` is put on `signal`.
+  [[nodiscard]] Where whereOn(const std::string& pin, const std::string& signal) const {
+    for (const auto& r : hal_.refs)
+      if (r.name == pin && r.signal == signal) return r.at;
+    return where(pin);
   }
 
   [[nodiscard]] static std::string line(const std::string& indent, const std::string& key, const std::string& valueAndWhy) {
@@ -1126,6 +1492,12 @@ class Deriver {
   std::vector<Finding>& findings_;
   std::filesystem::path ini_;
   std::map<std::string, std::string> instanceModule_;
+  std::map<std::string, unsigned> personality_;      // logic instance -> its personality
+  std::map<std::string, std::string> messageText_;   // message instance -> what it shows
+  std::vector<Node> nodes_;
+  std::map<std::string, std::size_t> nodeOf_;        // pin -> its value at rest
+  std::set<std::string> building_;
+  Holds holds_;                                      // the inputs' states at rest, so far
   std::map<std::string, std::string> pinSignal_;
   bool inch_ = false, sevenI76_ = false, failed_ = false;
   std::string jointPins_ = "joint";

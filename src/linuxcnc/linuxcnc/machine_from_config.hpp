@@ -8,8 +8,13 @@
 // joint's homing (HOME_SEARCH_VEL, HOME_LATCH_VEL, HOME_USE_INDEX,
 // HOME_OFFSET) and limits find them, on the inputs the HAL files net them
 // to (normally closed where the net takes input-NN-not); the E-stop chain,
-// the probe, the spindle, the field outputs and the brakes likewise; and any
-// input motion needs on (feed-inhibit through `not`) is held so. Every value
+// the probe, the spindle, the field outputs and the brakes likewise. Signals
+// are followed through the HAL components a configuration puts between a
+// switch and what it stops (not, and2, or2, xor2, logic, debounce,
+// timedelay, estop_latch, oneshot, edge, toggle; setp and sets constants),
+// and every interlock that must read one way for the machine to run
+// (motion.feed-inhibit, motion.enable, a message's trigger, ...) is held
+// that way by the resting state of the inputs that decide it. Every value
 // carries a comment naming the INI key or HAL line it came from; what a
 // configuration cannot say (the screw's pitch, masses) is a stated
 // assumption. A value no machine has (JOINTS past LinuxCNC's 16, a scale,
