@@ -148,14 +148,24 @@ class LinuxCncCommand : public ::testing::Test {
   // it (the machine auto, the CPU last), its output in log_; the sim's
   // state in the test's folder and on the host clock.
   [[noreturn]] void execAsAUser() {
+    ::setenv("HOME", dir_.path().c_str(), 1);  // LinuxCNC's files in its user's home: the test's folder
     const int fd = ::open(log_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     ::dup2(fd, 1);
     ::dup2(fd, 2);
     const std::string ini = (config_ / "mill.ini").string();
     const std::string state = (dir_.path() / "sim.eeprom").string();
-    ::execl(LBPKIT_BINARY, LBPKIT_BINARY, "linuxcnc", ini.c_str(), "--", "--state", state.c_str(), "--clock",
-            "host=1ms", static_cast<char*>(nullptr));
+    ::execl(LBPKIT_BINARY, LBPKIT_BINARY, "linuxcnc", ini.c_str(), "--", "--state", state.c_str(),
+            static_cast<char*>(nullptr));
     ::_exit(127);
+  }
+  // A HAL pin's value in the running LinuxCNC (halcmd in its namespaces).
+  std::string pin(const std::string& name) {
+    const auto pids = sh("ip netns pids lbpkit-linuxcnc-" + id_).out;
+    const auto first = pids.substr(0, pids.find('\n'));
+    if (first.empty()) return {};
+    auto value = sh("nsenter -t " + first + " -i -m -n halcmd -s getp " + name).out;
+    while (!value.empty() && (value.back() == '\n' || value.back() == ' ')) value.pop_back();
+    return value;
   }
   // What is left of the run (pid_) 10 s after a SIGKILL, empty when
   // nothing is: leftOf(), the sim, and LinuxCNC's processes (in `linuxCnc`,
@@ -206,15 +216,14 @@ class LinuxCncCommand : public ::testing::Test {
       ::dup2(fd, 2);
       const std::string ini = (iniFile.empty() ? config_ / "mill.ini" : iniFile).string();
       const std::string state = (dir_.path() / "sim.eeprom").string();
-      // On the sim's host clock (docs/clocks.md): a servo thread held back
-      // here still finds each DoIt done, and hostmot2 keeps the smart-serial
-      // port running.
+      // The sim on the clock lbpkit linuxcnc chooses for this PC
+      // (docs/linuxcnc.md#on-a-pc-without-a-real-time-kernel).
       // On the CPU before the last (tests/CMakeLists.txt locks it): one
       // LinuxCNC a CPU beside the other end-to-end runs.
       const auto cpu = std::to_string(test_support::cardCpu(1));
       std::vector<std::string> words = {LBPKIT_BINARY, "linuxcnc", ini, "--machine", "mill", "--cpu", cpu};
       words.insert(words.end(), more.begin(), more.end());
-      words.insert(words.end(), {"--", "--state", state, "--clock", "host=1ms"});
+      words.insert(words.end(), {"--", "--state", state});
       std::vector<char*> argv;
       for (auto& w : words) argv.push_back(w.data());
       argv.push_back(nullptr);
@@ -560,6 +569,69 @@ TEST_F(LinuxCncCommand, WhatADeadRunLeftIsRemovedByTheNext) {
   fs::remove_all(notRoots);
 }
 
+// On a PC whose kernel is not real-time (this one, said so in case CI's
+// is), the configuration runs as an on-time machine would, and the run
+// says what it changed: the sim on LinuxCNC's servo cycles, hm2_eth's wait
+// for a reply in a copy's last HAL file.
+TEST_F(LinuxCncCommand, OnAPcWithoutARealTimeKernelItRunsAsOnAnOnTimeMachine) {
+  ::setenv("LBPKIT_REALTIME", "no", 1);
+  const bool up = start();
+  ::unsetenv("LBPKIT_REALTIME");
+  ASSERT_TRUE(up) << slurp(log_);
+  const auto text = slurp(log_);
+  EXPECT_NE(text.find("LinuxCNC will not run real-time on this PC (LBPKIT_REALTIME=no)"), std::string::npos) << text;
+  EXPECT_NE(text.find("--clock host=1000000, [EMCMOT]SERVO_PERIOD: mill.ini:60"), std::string::npos) << text;
+  EXPECT_NE(text.find("one servo period (1 ms) per host cycle"), std::string::npos) << text;
+  EXPECT_NE(text.find("hm2_7i92.0.packet-read-timeout 20000000"), std::string::npos) << text;
+  EXPECT_NE(text.find("/user/config/mill.ini) in network namespace"), std::string::npos) << text;
+  EXPECT_EQ(pin("hm2_7i92.0.packet-read-timeout"), "20000000");
+  ::kill(pid_, SIGINT);
+  EXPECT_EQ(end(), 130) << slurp(log_);
+  expectNothingLeft();
+}
+
+// On a real-time PC (the detection told so) the configuration runs as
+// written, and the sim on the wall clock, as the real card will.
+TEST_F(LinuxCncCommand, OnARealTimePcItRunsAsWritten) {
+  ::setenv("LBPKIT_REALTIME", "yes", 1);
+  const bool up = start();
+  ::unsetenv("LBPKIT_REALTIME");
+  ASSERT_TRUE(up) << slurp(log_);
+  const auto text = slurp(log_);
+  EXPECT_NE(text.find("LinuxCNC runs real-time on this PC (LBPKIT_REALTIME=yes): the configuration runs as written"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("time: follows the wall clock"), std::string::npos) << text;
+  EXPECT_NE(text.find("LinuxCNC (" + (config_ / "mill.ini").string() + ") in network namespace"), std::string::npos)
+      << text;
+  EXPECT_EQ(text.find("packet-read-timeout"), std::string::npos) << text;
+  EXPECT_EQ(pin("hm2_7i92.0.packet-read-timeout"), "80");  // hm2_eth's own: 80 % of a period
+  ::kill(pid_, SIGINT);
+  EXPECT_EQ(end(), 130) << slurp(log_);
+  expectNothingLeft();
+}
+
+// When LinuxCNC stops with an error, what it printed is printed: here its
+// display's words on standard output and standard error, before it ended.
+TEST_F(LinuxCncCommand, WhenLinuxCncFailsWhatItPrintedIsShown) {
+  const auto display = dir_.path() / "failing_display";
+  std::ofstream(display) << "#!/bin/sh\necho 'the display: no tool table here'\n"
+                            "echo 'the display: giving up' >&2\nexit 3\n";
+  fs::permissions(display, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                               fs::perms::others_read | fs::perms::others_exec);
+  setLine("DISPLAY = ", display.string());
+  log_ = dir_.path() / "linuxcnc.log";
+  pid_ = ::fork();
+  if (pid_ == 0) execAsAUser();
+  id_ = std::to_string(pid_);
+  EXPECT_EQ(end(), 3);
+  const auto text = slurp(log_);
+  EXPECT_NE(text.find("LinuxCNC ended (exit status 3)"), std::string::npos) << text;
+  EXPECT_NE(text.find("  | the display: no tool table here"), std::string::npos) << text;
+  EXPECT_NE(text.find("  | the display: giving up"), std::string::npos) << text;
+  EXPECT_EQ(leftOf(std::stoi(id_), kCardAddress), "");
+}
+
 // The real AXIS on an X server of its own (Xvfb), the example mill's
 // configuration as it is: AXIS's own keys take the machine out of E-stop
 // (F1), turn it on (F2) and home all joints (Ctrl-Home), as an operator
@@ -603,15 +675,6 @@ class AxisGui : public LinuxCncCommand {
   }
   // A command on the X display.
   interop::Shell x(const std::string& command) { return sh("DISPLAY=" + display_ + " " + command); }
-  // A HAL pin's value in the running LinuxCNC (halcmd in its namespaces).
-  std::string pin(const std::string& name) {
-    const auto pids = sh("ip netns pids lbpkit-linuxcnc-" + id_).out;
-    const auto first = pids.substr(0, pids.find('\n'));
-    if (first.empty()) return {};
-    auto value = sh("nsenter -t " + first + " -i -m -n halcmd -s getp " + name).out;
-    while (!value.empty() && (value.back() == '\n' || value.back() == ' ')) value.pop_back();
-    return value;
-  }
 
   std::string display_;
   pid_t xvfb_ = -1;

@@ -965,9 +965,11 @@ TEST(SimApi, CliRefusesClocksItDoesNotKnow) {
 
 // On the host clock, lbpkit's own host library drives time: each of its
 // cycles (a DoIt) moves the card one period, however the cycles are spaced
-// on the wall clock; the API shows the clock and refuses a speed.
+// on the wall clock; the API shows the clock and refuses a speed. The
+// period in nanoseconds, as [EMCMOT]SERVO_PERIOD gives it and `lbpkit
+// linuxcnc` passes it on.
 TEST(SimApi, OnTheHostClockEachHostCycleIsOnePeriod) {
-  Sim sim(loopback(18), {"--clock", "host=1ms"});
+  Sim sim(loopback(18), {"--clock", "host=1000000"});
   ASSERT_TRUE(sim.up());
   EXPECT_NE(sim.daemon().readUntil("per host cycle").find("one servo period (1 ms) per host cycle"), std::string::npos);
   HostOnSim host(sim);

@@ -52,6 +52,8 @@
 #include "linuxcnc/board_address.hpp"
 #include "linuxcnc/config_check.hpp"
 #include "linuxcnc/program.hpp"
+#include "linuxcnc/hal_config.hpp"
+#include "linuxcnc_host.hpp"
 #include "linuxcnc_run.hpp"
 #include "linuxcnc/network_namespace.hpp"
 #include "linuxcnc/servo_priority.hpp"
@@ -72,6 +74,8 @@ struct LinuxCncOptions {
   std::string display;  // in place of the INI's [DISPLAY]DISPLAY
   std::string cpu = "last";  // --cpu N|last|any: LinuxCNC's and the card thread's CPU
   std::vector<std::string> simArguments;  // after --
+  bool asWritten = false;  // --as-written: untouched, on the wall clock, on any PC
+  bool lateServo = false;  // found at the start: LinuxCNC will not run real-time here, and no --as-written
 };
 
 // A child process: argv run with stdout and stderr into `out` (a pipe's
@@ -97,7 +101,7 @@ pid_t spawn(const std::vector<std::string>& argv, int out, std::optional<unsigne
     std::vector<char*> args;
     for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
     args.push_back(nullptr);
-    ::execvp(args[0], args.data());
+    ::execv(args[0], args.data());
     ::_exit(127);
   }
   ::setpgid(pid, pid);
@@ -160,23 +164,25 @@ int stopLinuxCnc(pid_t starter) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
-// What LinuxCNC said before it failed: started without a terminal, the
-// linuxcnc script writes its messages to linuxcnc_debug.txt in the home of
-// the user it runs as. Read by root only if it is that user's own regular
-// file, written by this run (linuxcnc_run::readUsersFile).
-void printLinuxCncLog(const app::linuxcnc_run::RunAs& user, std::chrono::system_clock::time_point started) {
+// The copy of LinuxCNC's standard error that the linuxcnc script leaves in
+// its user's home when it fails at start-up (linuxcnc_debug.txt, beside
+// linuxcnc_print.txt): printed when this run wrote it. Read by root only if
+// it is that user's own regular file (linuxcnc_run::readUsersFile). False
+// when there is none.
+bool printLinuxCncDebugFile(const app::linuxcnc_run::RunAs& user, std::chrono::system_clock::time_point started) {
   const fs::path log = fs::path(user.home) / "linuxcnc_debug.txt";
   const auto text = app::linuxcnc_run::readUsersFile(log, user.uid, started, 64 * 1024);
-  if (!text) return;
+  if (!text) return false;
   std::vector<std::string> lines;
   std::size_t from = 0;
   for (std::size_t nl; (nl = text->find('\n', from)) != std::string::npos; from = nl + 1) {
     const auto line = text->substr(from, nl - from);
     if (line.find("Running with fallback_uid") == std::string::npos) lines.push_back(line);
   }
-  if (lines.empty()) return;
-  fmt::print("lbpkit linuxcnc: the end of LinuxCNC's {}:\n", log.string());
-  for (std::size_t i = lines.size() > 12 ? lines.size() - 12 : 0; i < lines.size(); ++i) fmt::print("  {}\n", lines[i]);
+  fmt::print("lbpkit linuxcnc: the end of LinuxCNC's {} (the whole of it there, and linuxcnc_print.txt beside it):\n",
+             log.string());
+  for (std::size_t i = lines.size() > 20 ? lines.size() - 20 : 0; i < lines.size(); ++i) fmt::print("  | {}\n", lines[i]);
+  return true;
 }
 
 // The folders under /tmp that LinuxCNC's own /tmp keeps, bound in from the
@@ -399,11 +405,14 @@ struct Prepared {
   bool machineText = false;  // `machine` is a machine file's text (else a built-in's name)
   std::string machine;
   std::string run;  // the INI LinuxCNC runs: the configuration's or its copy's
+  long servoPeriodNs = 0;  // [EMCMOT]SERVO_PERIOD, when lbpkit sim --clock host takes it
+  std::string servoPeriodAt;  // "mill.ini:60"
 };
 
 void to_json(nlohmann::json& j, const Prepared& p) {
   j = {{"error", p.error}, {"boardIp", p.boardIp}, {"card", p.card}, {"pci", p.pciPrefixes},
-       {"machineText", p.machineText}, {"machine", p.machine}, {"run", p.run}};
+       {"machineText", p.machineText}, {"machine", p.machine}, {"run", p.run}, {"servoPeriodNs", p.servoPeriodNs},
+       {"servoPeriodAt", p.servoPeriodAt}};
 }
 void from_json(const nlohmann::json& j, Prepared& p) {
   p.error = j.at("error");
@@ -413,6 +422,8 @@ void from_json(const nlohmann::json& j, Prepared& p) {
   p.machineText = j.at("machineText");
   p.machine = j.at("machine");
   p.run = j.at("run");
+  p.servoPeriodNs = j.at("servoPeriodNs");
+  p.servoPeriodAt = j.at("servoPeriodAt");
 }
 
 // What the configuration loads, checked as lbpkit check-config checks it
@@ -470,9 +481,47 @@ Prepared prepare(const LinuxCncOptions& o, const fs::path& userFolder) {
   } else {
     p.machine = o.machine;
   }
+  // What a servo thread that runs late needs (linuxcnc_host.hpp): the
+  // servo period for the sim's host clock, and where the configuration
+  // sets hm2_eth's wait for a reply itself.
+  std::vector<lbpkit::linuxcnc::Finding> unused;
+  const auto hal = lbpkit::linuxcnc::readConfiguration(ini, unused);
+  std::vector<std::string> boards;
+  if (pci) boards.push_back("hm2_7i92.0");
+  for (const auto& b : result.boards)
+    if (b.driver == "hm2_eth") boards.push_back(b.prefix);
+  std::sort(boards.begin(), boards.end());
+  boards.erase(std::unique(boards.begin(), boards.end()), boards.end());
+  if (const auto* period = hal.ini.find("EMCMOT", "SERVO_PERIOD")) {
+    p.servoPeriodNs = app::linuxcnc_host::servoPeriodForClock(period->value);
+    p.servoPeriodAt = fmt::format("{}:{}", ini.filename().string(), period->line);
+  } else {
+    p.servoPeriodNs = 1'000'000;  // LinuxCNC's own when the INI gives none
+    p.servoPeriodAt = "LinuxCNC's default, no [EMCMOT]SERVO_PERIOD";
+  }
   p.run = ini.string();
-  if (pci || !o.display.empty()) {
+  if (pci || !o.display.empty() || o.lateServo) {
     p.run = copyConfiguration(ini, userFolder / "config", p.pciPrefixes, o.display).string();
+    if (o.lateServo) {
+      const fs::path copy = p.run;
+      std::ofstream(copy.parent_path() / app::linuxcnc_host::kLateServoHalFile)
+          << app::linuxcnc_host::lateServoHal(boards);
+      std::ifstream in(copy);
+      const std::string text(std::istreambuf_iterator<char>(in), {});
+      in.close();
+      std::ofstream(copy, std::ios::trunc)
+          << app::linuxcnc_host::withLastHalFile(text, app::linuxcnc_host::kLateServoHalFile);
+      for (const auto& name : boards) {
+        const auto* own = hal.setpOf(name + ".packet-read-timeout");
+        fmt::print("  - {}.packet-read-timeout {} ({} ms; hm2_eth's own wait is 80 % of a servo period, on the wall "
+                   "clock): {}, the copy's last HALFILE{}\n",
+                   name, app::linuxcnc_host::kPacketReadTimeoutNs, app::linuxcnc_host::kPacketReadTimeoutNs / 1'000'000,
+                   app::linuxcnc_host::kLateServoHalFile,
+                   own != nullptr ? fmt::format(", in place of {}:{}'s setp {}", own->at.file, own->at.line, own->value)
+                                  : std::string());
+      }
+      fmt::print("  - the copy of the configuration: {}\n", copy.parent_path().string());
+    }
     if (pci)
       fmt::print("lbpkit linuxcnc: {} is a PCI card (hm2_pci): running a copy of the configuration with the same "
                  "7I77 on a 7I92 at 10.10.10.10 (hm2_eth, pins hm2_7i92.0.*) in {}\n",
@@ -552,7 +601,25 @@ int runLinuxCnc(const LinuxCncOptions& o) {
   run::startReaper(self, nsName, link);
   run::RunFolder folder(self);
   const auto userFolder = folder.makeFolder("user", 0755, user);
-  const Prepared p = prepareAsUser(o, userFolder, user);
+  // Real-time or not, as LinuxCNC will find it (linuxcnc_host.hpp).
+  const auto realTime = app::linuxcnc_host::detectRealTime();
+  LinuxCncOptions options = o;
+  options.lateServo = !realTime.yes && !o.asWritten;
+  if (realTime.yes)
+    fmt::print("lbpkit linuxcnc: LinuxCNC runs real-time on this PC ({}): the configuration runs as written, the sim "
+               "on the wall clock\n",
+               realTime.why);
+  else if (o.asWritten)
+    fmt::print("lbpkit linuxcnc: LinuxCNC will not run real-time on this PC ({}); --as-written: the configuration "
+               "runs untouched, the sim on the wall clock, where a servo thread that runs late finds a card that did "
+               "not wait for it (docs/clocks.md)\n",
+               realTime.why);
+  else
+    fmt::print("lbpkit linuxcnc: LinuxCNC will not run real-time on this PC ({}), so its servo thread runs late now "
+               "and then; it runs as an on-time machine would (--as-written runs it untouched):\n",
+               realTime.why);
+  std::fflush(stdout);
+  const Prepared p = prepareAsUser(options, userFolder, user);
   std::string machine = p.machine;
   if (p.machineText) machine = folder.writeFile("machine.toml", p.machine).string();
 
@@ -598,6 +665,19 @@ int runLinuxCnc(const LinuxCncOptions& o) {
     cpu = app::checkedCpu(n, "--cpu");
   }
   if (cpu) simArgv.insert(simArgv.end(), {"--cpu", std::to_string(*cpu)});
+  // On the host clock where the servo thread runs late, unless the sim's
+  // options after -- choose a clock.
+  const bool clockGiven = std::any_of(o.simArguments.begin(), o.simArguments.end(),
+                                      [](const std::string& a) { return a == "--clock" || a.rfind("--clock=", 0) == 0; });
+  if (options.lateServo && !clockGiven) {
+    const std::string clock = p.servoPeriodNs > 0 ? fmt::format("host={}", p.servoPeriodNs) : std::string("host");
+    simArgv.insert(simArgv.end(), {"--clock", clock});
+    fmt::print("  - the sim keeps time by LinuxCNC's servo cycles (--clock {}, [EMCMOT]SERVO_PERIOD: {}): a period "
+               "that runs late is one period to the machine, as it is to LinuxCNC (docs/clocks.md)\n",
+               clock, p.servoPeriodAt);
+  } else if (options.lateServo) {
+    fmt::print("  - the sim on the clock its options after -- give\n");
+  }
   simArgv.insert(simArgv.end(), o.simArguments.begin(), o.simArguments.end());
   pid_t sim = spawn(simArgv, pipeFds[1]);
   ::close(pipeFds[1]);
@@ -656,6 +736,7 @@ int runLinuxCnc(const LinuxCncOptions& o) {
                ns.name(), p.card, p.boardIp, cpu ? fmt::format(", both on CPU {}", *cpu) : std::string());
     std::fflush(stdout);
     lcnc = startLinuxCnc(launch);
+    app::linuxcnc_host::LinuxCncLog log(launch.privateTmp, user.uid);
     // Its servo thread SCHED_FIFO below the card thread, as on a real-time
     // kernel (linuxcnc/servo_priority.hpp).
     lbpkit::linuxcnc::ServoThreadPriority servoPriority(ns.inode());
@@ -673,7 +754,13 @@ int runLinuxCnc(const LinuxCncOptions& o) {
         fmt::print("lbpkit linuxcnc: LinuxCNC {} ({}); stopping the sim\n", WIFEXITED(status) ? "ended" : "was killed",
                    WIFEXITED(status) ? fmt::format("exit status {}", WEXITSTATUS(status))
                                      : fmt::format("signal {}", WTERMSIG(status)));
-        if (WIFEXITED(status) && WEXITSTATUS(status) != 0 && WEXITSTATUS(status) != 126) printLinuxCncLog(user, started);
+        if (WIFEXITED(status) && WEXITSTATUS(status) != 0 && WEXITSTATUS(status) != 126) {
+          // What LinuxCNC said: its standard output, and its standard
+          // error from its own copy in the user's home when it made one.
+          log.poll();
+          log.printEnd(30, "print");
+          if (!printLinuxCncDebugFile(user, started)) log.printEnd(30, "debug");
+        }
         break;
       }
       if (::waitpid(sim, &status, WNOHANG) == sim) {
@@ -685,6 +772,7 @@ int runLinuxCnc(const LinuxCncOptions& o) {
         break;
       }
       readSim(100);
+      log.poll();
     }
   } catch (...) {
     cleanUp();
@@ -716,6 +804,10 @@ void addLinuxCncCommand(CLI::App& app) {
                   "The CPU LinuxCNC and the sim's card thread share, so the card answers before hm2_eth looks "
                   "whatever else runs: a CPU's number, last (the last one lbpkit may use) or any (not pinned)")
       ->capture_default_str();
+  cmd->add_flag("--as-written", o->asWritten,
+               "Run the configuration untouched and the sim on the wall clock, also on a PC whose kernel is not "
+               "real-time (by default there the sim follows LinuxCNC's servo cycles and a copy of the configuration "
+               "waits for replies as an on-time servo thread would)");
   cmd->add_option("sim-options", o->simArguments, "After --: more options for lbpkit sim (--clock, --record, ...)");
   cmd->callback([o] { app::gRun = [o] { return runLinuxCnc(*o); }; });
 }

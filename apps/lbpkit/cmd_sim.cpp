@@ -113,7 +113,8 @@ std::optional<servers::HostClock> clockOption(const std::string& text) {
   if (text.rfind("host=", 0) != 0) throw lbpkit::Error(bad);
   const std::string period = text.substr(5);
   const auto digits = period.find_first_not_of("0123456789");
-  if (digits == 0 || period.empty() || digits > 9) throw lbpkit::Error(bad);
+  const auto length = digits == std::string::npos ? period.size() : digits;  // of the number
+  if (length == 0 || length > 9) throw lbpkit::Error(bad);
   const std::string unit = digits == std::string::npos ? "ns" : period.substr(digits);
   const std::int64_t n = std::stoll(period.substr(0, digits));
   std::int64_t ns = 0;

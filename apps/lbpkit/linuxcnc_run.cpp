@@ -68,6 +68,8 @@ RunAs invokingUser() {
   const char* uidText = std::getenv("SUDO_UID");
   const char* gidText = std::getenv("SUDO_GID");
   const char* userText = std::getenv("SUDO_USER");
+  // Root's own LinuxCNC keeps root's HOME (where it writes its logs).
+  if (const char* home = std::getenv("HOME"); home != nullptr && home[0] == '/') who.home = home;
   if (uidText == nullptr && gidText == nullptr && userText == nullptr) return who;
   const auto uid = wholeNumber<uid_t>(uidText);
   if (!uid)
