@@ -389,7 +389,8 @@ void run(Check& c) {
         const auto eq = item.find('=');
         if (item.substr(0, eq) == "num_extrajoints") {
           const auto next = eq == std::string::npos ? std::string::npos : item.find('=', eq + 1);
-          extra = eq == std::string::npos ? std::string() : item.substr(eq + 1, next == std::string::npos ? next : next - eq - 1);
+          extra = eq == std::string::npos ? std::string()
+                                          : item.substr(eq + 1, next == std::string::npos ? next : next - eq - 1);
         }
         from = end + 1;
       }
@@ -428,19 +429,22 @@ void run(Check& c) {
   }
 
   // Joints 0, 1, ... while below [KINS]JOINTS (compared as Tcl compares).
+  // JOINTS is read as a number once (a value can be long).
+  const auto jointsNumber = tclNumber(jointsText);
+  const bool jointsAsText = !jointsNumber;
   unsigned counted = 0;
   for (;; ++counted) {
-    bool asText = false;
-    if (!tclAbove(std::to_string(counted), jointsText, false, asText)) break;
+    const bool below =
+        jointsAsText ? std::to_string(counted) < jointsText : static_cast<long double>(counted) < *jointsNumber;
+    if (!below) break;
     if (counted < kJointCountLimit) continue;
     // A whole number of joints that large ends, if slowly: only a count that
     // never ends (text, Inf) stops LinuxCNC.
-    const auto n = tclNumber(jointsText);
-    if (!asText && n && std::isfinite(*n)) break;
+    if (!jointsAsText && std::isfinite(*jointsNumber)) break;
     c.add(jointsLine.line, "error", "[KINS]JOINTS",
           fmt::format("[KINS]JOINTS = {}: LinuxCNC's start-up check counts joints up to it{} and never ends, so "
                       "LinuxCNC never starts",
-                      joinValues(*joints), asText ? " compared as text (it is not a number)" : ""));
+                      joinValues(*joints), jointsAsText ? " compared as text (it is not a number)" : ""));
     return;
   }
   for (unsigned j = 0; j < counted && j < kJointWarnings; ++j) {
@@ -470,8 +474,8 @@ void run(Check& c) {
         const auto joint = fmt::format("JOINT_{}", j);
         const auto* jointValues = ini.values(joint, key);
         if (!jointValues) continue;
-        bool asText = false;
-        if (!tclAbove(listOf(*jointValues), axisText, greater, asText)) continue;
+        bool comparedAsText = false;
+        if (!tclAbove(listOf(*jointValues), axisText, greater, comparedAsText)) continue;
         const std::string axisSaid =
             axisValues ? fmt::format("[{}]{} = {}", section, key, joinValues(*axisValues))
                        : fmt::format("[{}]{}, which the INI does not give and LinuxCNC's start-up check takes as {}",
@@ -479,7 +483,8 @@ void run(Check& c) {
         c.add(jointValues->front().line, "error", fmt::format("[{}]{}", joint, key),
               fmt::format("[{}]{} = {} is {} {}{} ({}: a joint's limits must hold its axis's, and {})", joint, key,
                           joinValues(*jointValues), greater ? "above" : "below", axisSaid,
-                          asText ? "; compared as text, as they are not both numbers" : "", kRefuses, mapping(j, axis)));
+                          comparedAsText ? "; compared as text, as they are not both numbers" : "", kRefuses,
+                          mapping(j, axis)));
       }
     }
   }
