@@ -1,9 +1,11 @@
 // Configurations nobody here wrote (tests/public_configs/, each with its
 // SOURCE.md), from their own files to homed and moved with the user's
-// commands alone: `lbpkit machine --from-config` writes the machine, and
-// `lbpkit linuxcnc --display tests/e2e/config_display.py` runs LinuxCNC
-// against the sim with it, on the sim's host clock (docs/clocks.md), and a
-// headless display that homes every joint, makes G53 MDI moves across each
+// commands alone, with their defaults: `lbpkit check-config` finds no error,
+// `lbpkit machine --from-config` writes the machine, and `lbpkit linuxcnc
+// --display tests/e2e/config_display.py` runs LinuxCNC against the sim with
+// the machine it derives, on the clock it chooses for this PC
+// (docs/linuxcnc.md#on-a-pc-without-a-real-time-kernel), and a headless
+// display that homes every joint, makes G53 MDI moves across each
 // axis' travel and runs a short program. Every joint must end within one
 // count of LinuxCNC's command, and LinuxCNC report no error in any step. What a
 // configuration needs that Debian's LinuxCNC lacks (a custom component, a
@@ -96,7 +98,10 @@ TEST_P(PublicConfigRun, HomesMovesAndRunsAProgram) {
   std::ofstream(results).close();
   fs::permissions(results, fs::perms::all);
 
+  // The README's three commands, as a user types them.
   const auto ini = (config / c.ini).string();
+  const auto checked = test_support::run({"check-config", ini});
+  ASSERT_EQ(checked.exit, 0) << checked.out << checked.err;
   const auto machine = (dir.path() / "machine.toml").string();
   const auto derived = test_support::run({"machine", "--from-config", ini, "-o", machine});
   ASSERT_EQ(derived.exit, 0) << derived.err;
@@ -108,8 +113,12 @@ TEST_P(PublicConfigRun, HomesMovesAndRunsAProgram) {
   // 40 ms silence, and the 7I77's watchdog bit.
   const char* before = std::getenv("LBPKIT_CARD_CPU_BEFORE_LAST");
   const auto cpu = std::to_string(test_support::cardCpu(before != nullptr ? static_cast<unsigned>(std::atoi(before)) : 0));
-  const auto r = test_support::run({"linuxcnc", ini, "--machine", machine, "--display", display, "--cpu", cpu, "--",
-                                    "--clock", "host=1ms", "--state", (dir.path() / "sim.eeprom").string()},
+  // The machine is lbpkit linuxcnc's own (--machine auto, derived as
+  // above); the sim's clock is the one it chooses for this PC
+  // (docs/linuxcnc.md#on-a-pc-without-a-real-time-kernel); the sim's EEPROM
+  // in the test's folder.
+  const auto r = test_support::run({"linuxcnc", ini, "--display", display, "--cpu", cpu, "--", "--state",
+                                    (dir.path() / "sim.eeprom").string()},
                                    std::chrono::seconds(280));
   const std::string log = r.out + r.err;
   EXPECT_EQ(r.exit, 0) << log;

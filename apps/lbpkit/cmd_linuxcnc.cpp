@@ -318,6 +318,28 @@ std::string cardOfBoard(const std::string& prefix) {
   return {};
 }
 
+// The [EMC]VERSION of a configuration from before LinuxCNC 2.8's joints
+// (below 1.1, or none: "" then), which linuxcnc converts with update_ini
+// before it runs it; nothing for a newer one.
+std::optional<std::string> olderThanJoints(const fs::path& ini) {
+  std::ifstream in(ini);
+  std::string line, version;
+  bool inEmc = false;
+  while (std::getline(in, line)) {
+    const auto t = lbpkit::linuxcnc::trim(line);
+    if (!t.empty() && t[0] == '[') inEmc = t.rfind("[EMC]", 0) == 0;
+    if (inEmc && t.rfind("VERSION", 0) == 0 && t.find('=') != std::string::npos)
+      version = lbpkit::linuxcnc::trim(t.substr(t.find('=') + 1));
+  }
+  double v = 0.0;
+  try {
+    v = std::stod(version);
+  } catch (const std::exception&) {
+  }
+  if (v < 1.1) return version;
+  return std::nullopt;
+}
+
 // A copy of the configuration in `into`, as LinuxCNC would run it on the
 // virtual card: a PCI card's configuration (hm2_pci, a 5I25 or 6I25) on the
 // 7I92 at 10.10.10.10 (hm2_eth, its pins hm2_7i92.0.*, no firmware= to
@@ -365,28 +387,13 @@ fs::path copyConfiguration(const fs::path& ini, const fs::path& into, const std:
   for (const auto& e : fs::recursive_directory_iterator(into))
     if (e.is_regular_file() && (e.path().extension() == ".hal" || e.path().extension() == ".ini")) rewrite(e.path());
   const auto copy = into / ini.filename();
-  // A configuration older than LinuxCNC 2.8's joints ([EMC]VERSION below
-  // 1.1): linuxcnc would ask, in a dialog, to convert it with update_ini;
-  // the copy is converted without asking (update_ini -f), as that dialog's
-  // "yes" would.
-  std::ifstream in(copy);
-  std::string line, version;
-  bool inEmc = false;
-  while (std::getline(in, line)) {
-    const auto t = lbpkit::linuxcnc::trim(line);
-    if (!t.empty() && t[0] == '[') inEmc = t.rfind("[EMC]", 0) == 0;
-    if (inEmc && t.rfind("VERSION", 0) == 0 && t.find('=') != std::string::npos)
-      version = lbpkit::linuxcnc::trim(t.substr(t.find('=') + 1));
-  }
-  double v = 0.0;
-  try {
-    v = std::stod(version);
-  } catch (const std::exception&) {
-  }
-  if (v < 1.1) {
+  // A configuration older than LinuxCNC 2.8's joints: linuxcnc would ask,
+  // in a dialog, to convert it with update_ini; the copy is converted
+  // without asking (update_ini -f), as that dialog's "yes" would.
+  if (const auto version = olderThanJoints(copy)) {
     fmt::print("lbpkit linuxcnc: {} is a configuration from before LinuxCNC 2.8 ([EMC]VERSION {}): the copy is "
                "converted with update_ini -f, as linuxcnc's own dialog offers\n",
-               ini.filename().string(), version.empty() ? "none" : version);
+               ini.filename().string(), version->empty() ? "none" : *version);
     std::fflush(stdout);
     const auto converted = lbpkit::linuxcnc::runProgram({"update_ini", "-f", copy.string()});
     if (converted.status != 0)
@@ -500,8 +507,25 @@ Prepared prepare(const LinuxCncOptions& o, const fs::path& userFolder) {
     p.servoPeriodAt = "LinuxCNC's default, no [EMCMOT]SERVO_PERIOD";
   }
   p.run = ini.string();
-  if (pci || !o.display.empty() || o.lateServo) {
+  const bool convert = olderThanJoints(ini).has_value();
+  if (pci || !o.display.empty() || o.lateServo || convert) {
     p.run = copyConfiguration(ini, userFolder / "config", p.pciPrefixes, o.display).string();
+    if (convert) {
+      // What LinuxCNC's start-up check will say of the converted copy, said
+      // before anything starts (lbpkit check-config on it).
+      const auto converted = lbpkit::linuxcnc::checkConfig(p.run, app::catalogueBoardModel(o.card, {}));
+      unsigned refused = 0;
+      for (const auto& f : converted.findings)
+        if (f.severity == "error") {
+          ++refused;
+          fmt::print(stderr, "{}:{}: error: {}\n", f.file, f.line, f.reason);
+        }
+      if (refused > 0)
+        throw lbpkit::Error(fmt::format(
+            "{}: as update_ini converts it ({}), it has {} error{} that LinuxCNC would refuse: the lines above are the "
+            "converted copy's; change the original's [JOINT_n] and [AXIS_L] sections to match",
+            o.ini, p.run, refused, refused == 1 ? "" : "s"));
+    }
     if (o.lateServo) {
       const fs::path copy = p.run;
       std::ofstream(copy.parent_path() / app::linuxcnc_host::kLateServoHalFile)
