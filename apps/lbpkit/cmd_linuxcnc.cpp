@@ -403,6 +403,18 @@ fs::path copyConfiguration(const fs::path& ini, const fs::path& into, const std:
   return copy;
 }
 
+// What check-config found that LinuxCNC would refuse, printed as
+// check-config prints it: how many.
+unsigned printErrors(const lbpkit::linuxcnc::CheckResult& result) {
+  unsigned errors = 0;
+  for (const auto& f : result.findings)
+    if (f.severity == "error") {
+      ++errors;
+      fmt::print(stderr, "{}:{}: error: {}\n", f.file, f.line, f.reason);
+    }
+  return errors;
+}
+
 // What a configuration is and what the run needs of it, found by
 // prepareAsUser.
 struct Prepared {
@@ -443,12 +455,7 @@ Prepared prepare(const LinuxCncOptions& o, const fs::path& userFolder) {
   const fs::path ini = fs::absolute(o.ini);
   if (!fs::is_regular_file(ini)) throw lbpkit::Error(fmt::format("{}: no such configuration file", o.ini));
   const auto result = lbpkit::linuxcnc::checkConfig(ini, app::catalogueBoardModel(o.card, {}));
-  unsigned errors = 0;
-  for (const auto& f : result.findings)
-    if (f.severity == "error") {
-      ++errors;
-      fmt::print(stderr, "{}:{}: error: {}\n", f.file, f.line, f.reason);
-    }
+  const unsigned errors = printErrors(result);
   if (errors > 0)
     throw lbpkit::Error(fmt::format("{}: {} error{} that LinuxCNC would refuse (lbpkit check-config {} says more)",
                                     o.ini, errors, errors == 1 ? "" : "s", o.ini));
@@ -513,13 +520,7 @@ Prepared prepare(const LinuxCncOptions& o, const fs::path& userFolder) {
     if (convert) {
       // What LinuxCNC's start-up check will say of the converted copy, said
       // before anything starts (lbpkit check-config on it).
-      const auto converted = lbpkit::linuxcnc::checkConfig(p.run, app::catalogueBoardModel(o.card, {}));
-      unsigned refused = 0;
-      for (const auto& f : converted.findings)
-        if (f.severity == "error") {
-          ++refused;
-          fmt::print(stderr, "{}:{}: error: {}\n", f.file, f.line, f.reason);
-        }
+      const unsigned refused = printErrors(lbpkit::linuxcnc::checkConfig(p.run, app::catalogueBoardModel(o.card, {})));
       if (refused > 0)
         throw lbpkit::Error(fmt::format(
             "{}: as update_ini converts it ({}), it has {} error{} that LinuxCNC would refuse: the lines above are the "
