@@ -351,12 +351,19 @@ CheckResult checkConfig(const std::filesystem::path& file, const BoardModel& mod
     for (unsigned board = 0;; ++board) {
       const auto comma = d.boardIps.find(',', from);
       const std::string address = d.boardIps.substr(from, comma == std::string::npos ? std::string::npos : comma - from);
-      if (const auto problem = boardAddressProblem(address)) {
+      if (auto problem = boardAddressProblem(address)) {
         const std::string which = comma == std::string::npos && from == 0 ? "" : fmt::format(" (board {})", board);
+        // A loopback address is no card's, but `lbpkit sim` on this PC
+        // answers there, for a LinuxCNC whose hm2_eth takes it: a warning.
+        const auto ip = parseIpv4(address);
+        const bool loopback = ip && (ip->value >> 24) == 127;
+        if (loopback)
+          *problem += "; only an lbpkit sim on this PC answers there, and lbpkit linuxcnc needs the card's own address";
         r.error(d.boardIpAt, "board_ip",
                 fromIni ? fmt::format("board_ip={}{} at {}:{}: {}", d.boardIpWritten, which, d.at.file, d.at.line,
                                       *problem)
-                        : fmt::format("board_ip{}: {}", which, *problem));
+                        : fmt::format("board_ip{}: {}", which, *problem),
+                {}, loopback ? "warning" : "error");
       }
       if (comma == std::string::npos) break;
       from = comma + 1;
