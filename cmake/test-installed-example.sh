@@ -61,7 +61,10 @@ cleanup() {
 }
 trap cleanup EXIT
 address=127.79.$(($$ % 200)).1
-"$lbpkit" sim --bind "$address:0" --no-api --demo --no-realtime --state "$tmp/eeprom" >"$tmp/sim.log" 2>&1 &
+# The log exists before the sim starts: the shell opens the redirection in
+# the forked child, and the loop below may read before that child has run.
+: >"$tmp/sim.log"
+"$lbpkit" sim --bind "$address:0" --no-api --demo --no-realtime --state "$tmp/eeprom" >>"$tmp/sim.log" 2>&1 &
 sim_pid=$!
 port=""
 for _ in $(seq 100); do  # the banner names the port it got
