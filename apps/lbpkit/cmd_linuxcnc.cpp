@@ -541,15 +541,23 @@ Prepared prepare(const LinuxCncOptions& o, const fs::path& userFolder) {
       in.close();
       std::ofstream(copy, std::ios::trunc)
           << app::linuxcnc_host::withLastHalFile(text, app::linuxcnc_host::kLateServoHalFile);
+      // Each change, with the configuration's own setp it stands in for.
+      auto said = [&](const std::string& parameter) {
+        const auto* own = hal.setpOf(parameter);
+        return own != nullptr ? fmt::format(", in place of {}:{}'s {}", own->at.file, own->at.line, own->value)
+                              : std::string();
+      };
       for (const auto& name : boards) {
-        const auto* own = hal.setpOf(name + ".packet-read-timeout");
         fmt::print("  - {}.packet-read-timeout {} ({} ms; hm2_eth's own wait is 80 % of a servo period, on the wall "
-                   "clock): {}, the copy's last HALFILE{}\n",
+                   "clock){}\n",
                    name, app::linuxcnc_host::kPacketReadTimeoutNs, app::linuxcnc_host::kPacketReadTimeoutNs / 1'000'000,
-                   app::linuxcnc_host::kLateServoHalFile,
-                   own != nullptr ? fmt::format(", in place of {}:{}'s setp {}", own->at.file, own->at.line, own->value)
-                                  : std::string());
+                   said(name + ".packet-read-timeout"));
+        fmt::print("  - {}.watchdog.timeout_ns {} ({} ms: a servo thread held back is still alive; a LinuxCNC that "
+                   "stopped still meets the 7I77's own 50 ms watchdog){}\n",
+                   name, app::linuxcnc_host::kHostMot2WatchdogNs, app::linuxcnc_host::kHostMot2WatchdogNs / 1'000'000,
+                   said(name + ".watchdog.timeout_ns"));
       }
+      fmt::print("  - both in {}, the copy's last HALFILE\n", app::linuxcnc_host::kLateServoHalFile);
       fmt::print("  - the copy of the configuration: {}\n", copy.parent_path().string());
     }
     if (pci)

@@ -71,9 +71,12 @@ std::string lateServoHal(const std::vector<std::string>& boards) {
       "# Written by lbpkit linuxcnc for a PC whose kernel is not real-time: LinuxCNC's servo\n"
       "# thread runs late now and then, and hm2_eth's own wait for a reply (80 % of a servo\n"
       "# period, on the wall clock) then ends before it looks for the reply the card sent in\n"
-      "# time. It waits as long as an on-time servo thread would find the reply there\n"
-      "# (docs/linuxcnc.md#on-a-pc-without-a-real-time-kernel).\n";
-  for (const auto& board : boards) text += fmt::format("setp {}.packet-read-timeout {}\n", board, kPacketReadTimeoutNs);
+      "# time. It waits as long as an on-time servo thread would find the reply there,\n"
+      "# and the card's watchdog takes a servo thread held back for a while for the live\n"
+      "# one it is (docs/linuxcnc.md#on-a-pc-without-a-real-time-kernel).\n";
+  for (const auto& board : boards)
+    text += fmt::format("setp {}.packet-read-timeout {}\nsetp {}.watchdog.timeout_ns {}\n", board,
+                        kPacketReadTimeoutNs, board, kHostMot2WatchdogNs);
   return text;
 }
 

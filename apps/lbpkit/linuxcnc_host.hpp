@@ -31,11 +31,16 @@ RealTime detectRealTime();
 long servoPeriodForClock(const std::string& text);
 
 // The HAL file a configuration's copy gets, after its own HAL files, where
-// its servo thread runs late now and then: hm2_eth waits for a reply as an
-// on-time servo thread would find it (packet-read-timeout) on each board.
+// its servo thread runs late now and then, on each hm2_eth board: hm2_eth
+// waits for a reply as an on-time servo thread would find it
+// (packet-read-timeout), and the HostMot2 watchdog takes a servo thread
+// held back for a while for the live one it is (watchdog.timeout_ns). A
+// LinuxCNC that stopped is still found at once by the 7I77's own 50 ms
+// watchdog, which turns the field outputs and drives off.
 // `boards`: the hm2_eth boards' HAL names in the copy.
 inline constexpr const char* kLateServoHalFile = "lbpkit-late-servo.hal";
-inline constexpr long kPacketReadTimeoutNs = 20'000'000;  // under the host clock's 40 ms silence (docs/clocks.md)
+inline constexpr long kPacketReadTimeoutNs = 20'000'000;    // under the host clock's 40 ms silence (docs/clocks.md)
+inline constexpr long kHostMot2WatchdogNs = 500'000'000;    // past the longest stall of a servo thread seen here
 std::string lateServoHal(const std::vector<std::string>& boards);
 // `ini`'s text with `halFile` as its last [HAL]HALFILE (a [HAL] section
 // added when it has none).
