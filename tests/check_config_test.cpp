@@ -438,6 +438,31 @@ TEST(CheckConfig, TheStartUpCheckReadsOnlyAVersion11IniAndNeverHangs) {
   }
 }
 
+// The INI `ini` as the `linuxcnc` command hands it on: `ini` itself, or,
+// when a line starts with #INCLUDE, the file LinuxCNC's own handle_includes
+// (LinuxCNC: scripts/linuxcnc.in, installed as /usr/bin/linuxcnc) writes,
+// run on a copy in `into` whose entries link to those of ini's folder (it
+// writes next to the INI, and the source tree is left as it is). "" when
+// it cannot be made.
+fs::path expandedByLinuxCnc(const fs::path& ini, const fs::path& into) {
+  std::ifstream in(ini);
+  bool includes = false;
+  for (std::string line; std::getline(in, line);) includes = includes || line.rfind("#INCLUDE", 0) == 0;
+  if (!includes) return ini;
+  if (!fs::exists("/usr/bin/linuxcnc")) return {};
+  const auto dir = into / ini.parent_path().filename();
+  fs::create_directories(dir);
+  for (const auto& e : fs::directory_iterator(ini.parent_path()))
+    if (!fs::exists(fs::symlink_status(dir / e.path().filename()))) fs::create_symlink(e.path(), dir / e.path().filename());
+  const auto copy = dir / (ini.filename().string() + ".copy.ini");
+  fs::copy_file(ini, copy, fs::copy_options::overwrite_existing);
+  const auto command = "cd '" + dir.string() + "' && GREP=grep bash -c 'eval \"$(sed -n \"/^function handle_includes/,/^}/p\" "
+                       "/usr/bin/linuxcnc)\"; handle_includes \"$0\"' '" + copy.string() + "' >/dev/null 2>&1";
+  if (std::system(command.c_str()) != 0) return {};
+  const auto out = fs::path(copy.string() + ".expanded");
+  return fs::exists(out) ? out : fs::path();
+}
+
 // On every INI of the corpus, the public configurations and the examples
 // that LinuxCNC checks as it is (VERSION 1.1), check-config's start-up
 // errors are there exactly when LinuxCNC's own script refuses the file.
@@ -445,6 +470,7 @@ TEST(CheckConfig, StartUpErrorsAreExactlyWhatLinuxCncsOwnCheckRefuses) {
   const fs::path script = "/usr/share/linuxcnc/hallib/check_config.tcl";
   if (!fs::exists(script) || !fs::exists("/usr/bin/tclsh8.6")) GTEST_SKIP() << "LinuxCNC's check_config.tcl is not installed";
   int compared = 0, refused = 0;
+  test_support::TempDir expanded("lbpkit-check-expanded");
   for (const char* folder : {"tests/check_config", "tests/public_configs", "tests/machine_from_config", "examples"})
     for (const auto& e : fs::recursive_directory_iterator(fs::path(LBPKIT_SOURCE_DIR) / folder)) {
       const auto& p = e.path();
@@ -455,7 +481,10 @@ TEST(CheckConfig, StartUpErrorsAreExactlyWhatLinuxCncsOwnCheckRefuses) {
       if (text.str().find("\nVERSION = 1.1\n") == std::string::npos) continue;
       // LinuxCNC's script counts joints without end on this one.
       if (p.filename() == "joints_not_a_number.ini") continue;
-      const auto command = "/usr/bin/tclsh8.6 " + script.string() + " '" + p.string() + "' >/dev/null 2>&1";
+      // `linuxcnc` checks the INI with its #INCLUDEs expanded.
+      const auto checked = expandedByLinuxCnc(p, expanded.path());
+      ASSERT_FALSE(checked.empty()) << p;
+      const auto command = "/usr/bin/tclsh8.6 " + script.string() + " '" + checked.string() + "' >/dev/null 2>&1";
       const int status = std::system(command.c_str());
       ASSERT_TRUE(WIFEXITED(status)) << command;
       const bool linuxcncRefuses = WEXITSTATUS(status) != 0;
@@ -541,6 +570,130 @@ TEST(CheckConfig, SourcedHalFilesAreReadWhereTheySourceCommandStands) {
   r = check(dir.path() / "loop.ini");
   EXPECT_EQ(r.exit, 1) << r.out << r.err;
   EXPECT_NE(r.out.find("loop.hal:1: error: source loop.hal: files sourced 16 deep"), std::string::npos) << r.out;
+}
+
+// #INCLUDE FILE in an INI: the linuxcnc command replaces the line by FILE's
+// content, one level deep, before anything reads the INI. Every finding
+// about an included value names the included file and its line.
+TEST(CheckConfig, IncludedIniFilesAreReadAndFindingsNameTheirLines) {
+  const auto r = check(corpus() / "include/mill.ini", true);
+  EXPECT_EQ(r.exit, 1) << r.out << r.err;
+  const auto j = json::parse(r.out, nullptr, false);
+  ASSERT_FALSE(j.is_discarded()) << r.out << r.err;
+  for (const auto& file : {"hm2.inc", "joint_0.inc"})
+    for (const auto& want : expectations(corpus() / "include/parts" / file))
+      EXPECT_TRUE(holds(j, std::string("parts/") + file, want, "error"))
+          << file << ":" << want.line << " " << want.reason << "\n" << j["findings"].dump(2);
+  // [HAL] comes from parts/hal.inc; the #INCLUDE in it is a comment.
+  EXPECT_EQ(j["hal_files"].size(), 1U) << r.out;
+  EXPECT_TRUE(holds(j, "parts/hal.inc", {3, "in a file the INI includes: linuxcnc expands one level", {}}, "warning"))
+      << j["findings"].dump(2);
+  EXPECT_EQ(r.out.find("not-there.hal"), std::string::npos) << r.out;
+  unsigned errors = 0;
+  for (const auto& f : j["findings"]) errors += f["severity"] == "error" ? 1U : 0U;
+  EXPECT_EQ(errors, 2U) << j["findings"].dump(2);
+  // machine --from-config reads the same values where they are written.
+  test_support::TempDir dir("lbpkit-check-include-machine");
+  const auto m = test_support::run(
+      {"machine", "--from-config", (corpus() / "include/mill.ini").string(), "-o", (dir.path() / "m.toml").string()});
+  EXPECT_EQ(m.out.find("mill.ini:0: warning: [HAL] names no HALFILE"), std::string::npos) << m.out << m.err;
+}
+
+// An #INCLUDE of a file that cannot be read is an error at the INI's line:
+// linuxcnc goes on without it, and what it held is missing. Names are
+// expanded as the shell's `eval echo` would for ~ and $VARIABLE; anything
+// else is refused, never run.
+TEST(CheckConfig, AnIncludeThatCannotBeReadIsAnErrorAtTheIniLine) {
+  test_support::TempDir dir("lbpkit-check-include");
+  auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(dir.path() / name, std::ios::binary) << text;
+    return dir.path() / name;
+  };
+  write("load.hal", "loadrt hostmot2\nloadrt hm2_eth board_ip=10.10.10.10 config=\"num_encoders=6\"\n"
+                    "setp hm2_7i92.0.encoder.00.scale 100\n");
+  write("hal.inc", "HALFILE = load.hal\n");
+
+  auto r = check(write("missing.ini", "[EMC]\nMACHINE = m\n\n[HAL]\n#INCLUDE no-such.inc\n"));
+  EXPECT_EQ(r.exit, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("missing.ini:5: error: #INCLUDE no-such.inc: no such file: linuxcnc reports it and starts "
+                       "without that file, so whatever it holds (here, under [HAL]) is missing from the INI"),
+            std::string::npos)
+      << r.out;
+
+  r = check(write("directory.ini", "[HAL]\n#INCLUDE " + dir.path().string() + "\n"));
+  EXPECT_EQ(r.exit, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("directory.ini:2: error: #INCLUDE " + dir.path().string() + ": a directory, not a file"),
+            std::string::npos)
+      << r.out;
+
+  // ~ and $VARIABLE, as the shell expands them.
+  ::setenv("LBPKIT_TEST_INCLUDE_DIR", dir.path().c_str(), 1);
+  r = check(write("variable.ini", "[HAL]\n#INCLUDE ${LBPKIT_TEST_INCLUDE_DIR}/hal.inc\n"));
+  EXPECT_EQ(r.exit, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("checked in 1 HAL file: no problems"), std::string::npos) << r.out;
+  r = check(write("relative.ini", "[HAL]\n#INCLUDE $LBPKIT_TEST_INCLUDE_DIR/../" + dir.path().filename().string() +
+                                      "/hal.inc\n"));
+  EXPECT_EQ(r.exit, 0) << r.out << r.err;
+
+  // What the shell would run or expand otherwise is not: an error, no file made.
+  for (const std::string& name : std::vector<std::string>{"$(touch made)", "`touch made`", "hal.inc;touch made", "h*.inc", "'hal.inc'",
+                                  "~nobody/hal.inc", "$1", "hal.inc\r"}) {
+    r = check(write("refused.ini", "[HAL]\n#INCLUDE " + name + "\n"));
+    EXPECT_EQ(r.exit, 1) << name << "\n" << r.out << r.err;
+    EXPECT_NE(r.out.find("refused.ini:2: error: #INCLUDE "), std::string::npos) << name << "\n" << r.out;
+  }
+  EXPECT_FALSE(fs::exists(dir.path() / "made"));
+
+  // No name: a warning (linuxcnc says so and goes on). An indented #INCLUDE
+  // in an INI with no line that starts with one is a comment.
+  r = check(write("noname.ini", "[HAL]\nHALFILE = load.hal\n#INCLUDE\n"));
+  EXPECT_EQ(r.exit, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("noname.ini:3: warning: #INCLUDE names no file"), std::string::npos) << r.out;
+  r = check(write("indented.ini", "[HAL]\nHALFILE = load.hal\n  #INCLUDE hal.inc\n"));
+  EXPECT_NE(r.out.find("indented.ini:3: warning: #INCLUDE hal.inc: linuxcnc expands #INCLUDE only"),
+            std::string::npos)
+      << r.out;
+
+  // With an #INCLUDE, a last line with no newline is lost (the shell's read).
+  r = check(write("unended.ini", "[HAL]\n#INCLUDE hal.inc\nPOSTGUI_HALFILE = load.hal"));
+  EXPECT_NE(r.out.find("unended.ini:3: warning: the INI's last line has no newline"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("checked in 1 HAL file"), std::string::npos) << r.out;
+}
+
+// A Tcl HAL file is read as far as lbpkit can: its HAL commands with the
+// INI's values ($::SECTION(KEY), [lindex $::SECTION(KEY) 0]); other Tcl is
+// a warning naming the file. An INI whose HAL files give lbpkit nothing to
+// check is no pass.
+TEST(CheckConfig, TclHalFilesAreReadAsFarAsLbpkitCan) {
+  test_support::TempDir dir("lbpkit-check-tcl");
+  auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(dir.path() / name) << text;
+    return dir.path() / name;
+  };
+  write("load.tcl", "# the card\nloadrt hostmot2\n"
+                    "loadrt [lindex $::HM2(DRIVER) 0] board_ip=$::HM2(IPADDRESS) config=[lindex $::HM2(CONFIG) 0]\n"
+                    "set scale 100 ;# Tcl lbpkit does not read\n"
+                    "hal setp hm2_7i92.0.encoder.00.scale $::JOINT_0(SCALE)\n"
+                    "net lube => hm2_7i92.0.7i77.0.0.ouput-01\n");
+  auto r = check(write("tcl.ini", "[HM2]\nDRIVER = hm2_eth\nIPADDRESS = 10.10.10.10\n"
+                                  "CONFIG = \"num_encoders=6 sserial_port_0=00xxxx\"\n"
+                                  "[JOINT_0]\nSCALE = 100\n[HAL]\nHALFILE = load.tcl\n"));
+  EXPECT_EQ(r.exit, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("hm2_7i92.0 by hm2_eth config=\"num_encoders=6 sserial_port_0=00xxxx\" (load.tcl:3)"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("load.tcl:6: error: the 7I77 on port 0 channel 0 has no ouput-01"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("load.tcl:4: warning: load.tcl: 1 Tcl command lbpkit does not read"), std::string::npos) << r.out;
+
+  write("procedural.tcl", "foreach n {0 1} {\n  setp hm2_7i92.0.encoder.0$n.scale 100\n}\n");
+  r = check(write("procedural.ini", "[HAL]\nHALFILE = procedural.tcl\n"));
+  EXPECT_EQ(r.exit, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("procedural.tcl:1: warning: procedural.tcl: 1 Tcl command lbpkit does not read"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("procedural.ini:2: error: lbpkit read no HAL command in the 1 HAL file the INI names"),
+            std::string::npos)
+      << r.out;
 }
 
 TEST(CheckConfig, TextOutputSaysFileLineReasonAndNearestName) {

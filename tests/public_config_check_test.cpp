@@ -60,17 +60,23 @@ const std::vector<Expected>& table() {
   static const std::vector<Expected> t = {
       // A 5I25 + 7I77 mill split into modules: [HAL] and each [AXIS_N] come
       // from other files by LinuxCNC's #INCLUDE (the linuxcnc script expands
-      // it before anything reads the INI), and its HAL sources Tcl files
-      // ([HAL]TWOPASS). lbpkit does not expand #INCLUDE, so it finds no
-      // HALFILE, checks nothing and derives no joint: a derivation gap in
-      // lbpkit, not the configuration's fault. (Past #INCLUDE, the Tcl files
-      // would be the next thing lbpkit reads no further than halcmd's words.)
+      // it before anything reads the INI, and so does lbpkit), and its HAL
+      // files source Tcl files ([HAL]TWOPASS) whose HAL commands lbpkit reads
+      // with the INI's values ([lindex $::AXIS_0(P) 0]). Z's Tcl file drives
+      // hm2_5i25.0.7i77.0.2.analogout1: channel 2, where the 7I77x2 firmware
+      // has no remote (its 7I77s answer on channels 0-1 and 3-4), and
+      // machine --from-config, which goes by the analog output's number,
+      // finds analogout 1 already Y's. The configuration's own wiring
+      // as lbpkit's 5I25 firmware sees it.
       {"5i25-7i77-mill-evgeniident",
        "DCS-M4.ini",
-       {},
-       {"DCS-M4.ini:0: error: no joint drives a 7I77 analog output or a StepGen: lbpkit cannot tell what this "
-        "configuration moves"},
-       {"DCS-M4.ini:0: warning: [HAL] names no HALFILE"}},
+       {noRemoteOnChannel2("Devices/mesanet.com/7i77.0/axis-2.tcl:29"),
+        noRemoteOnChannel2("Devices/mesanet.com/7i77.0/axis-2.tcl:30"),
+        noRemoteOnChannel2("Devices/mesanet.com/7i77.0/axis-2.tcl:31"),
+        noRemoteOnChannel2("Devices/mesanet.com/7i77.0/axis-2.tcl:33")},
+       {"LinuxCNC/axis-2.hal:5: error: joint 2: analogout 1 already serves another joint "
+        "(hm2_5i25.0.7i77.0.2.analogout1)"},
+       {"60 hostmot2 names checked in 16 HAL files"}},
       // PNCconf for LinuxCNC 2.7: `addf hm2_5i25.0.pet_watchdog`, a function
       // 2.9's hostmot2 no longer exports (LinuxCNC refuses the line too: the
       // configuration's age, which tests/public_config_test.cpp leaves out).

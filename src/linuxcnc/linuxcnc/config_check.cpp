@@ -342,6 +342,19 @@ CheckResult checkConfig(const std::filesystem::path& file, const BoardModel& mod
   if (hal.hasIni)
     for (auto& f : startupCheck(file, hal.ini.file)) result.findings.push_back(std::move(f));
 
+  // An INI whose HAL files gave lbpkit no HAL command to check (Tcl it does
+  // not read, ...) has had nothing checked: that is no pass, though LinuxCNC
+  // may well load it. (A HAL file that is missing is an error of its own.)
+  if (hal.hasIni && hal.halFilesNamed > 0 && hal.commands == 0 && result.ok()) {
+    const IniEntry* first = nullptr;
+    for (const char* key : {"HALFILE", "POSTGUI_HALFILE", "SHUTDOWN"})
+      if (first == nullptr) first = hal.ini.find("HAL", key);
+    r.error(first ? Where{first->file, first->line} : Where{hal.ini.file, 0}, {},
+            fmt::format("lbpkit read no HAL command in the {} HAL file{} the INI names (the warnings say why): nothing "
+                        "was checked, so this is no pass",
+                        hal.halFilesNamed, hal.halFilesNamed == 1 ? "" : "s"));
+  }
+
   // hm2_eth's board_ip=: each board's address a card can have (board_address.hpp),
   // reported where it is written: the INI's line for board_ip=[HM2]IPADDRESS.
   for (const auto& d : hal.drivers) {

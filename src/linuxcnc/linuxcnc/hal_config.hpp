@@ -8,6 +8,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -29,14 +30,18 @@ struct Where {
   unsigned line = 0;
 };
 
+// A KEY = VALUE of the INI: its value and where it is written (the INI, or
+// a file the INI pulls in with #INCLUDE, and that file's line).
 struct IniEntry {
   std::string value;
   unsigned line = 0;
+  std::string file;
 };
 
 struct Ini {
   std::string file;  // its name, as findings give it
   std::map<std::string, std::multimap<std::string, IniEntry>> sections;
+  std::map<std::string, Where> sectionAt;  // where each [SECTION] is first opened
   // The first KEY in [SECTION], or nullptr.
   [[nodiscard]] const IniEntry* find(const std::string& section, const std::string& key) const;
 };
@@ -96,6 +101,10 @@ struct HalConfig {
   std::map<std::string, std::vector<std::string>> signals;  // signal -> pins, in order
   std::map<std::string, Where> signalFirst;
   std::vector<std::string> files;  // the HAL files read
+  // HAL files the INI names ([HAL]HALFILE, POSTGUI_HALFILE, SHUTDOWN), read
+  // or not.
+  unsigned halFilesNamed = 0;
+  unsigned commands = 0;  // HAL commands read in them (halcmd's, or a Tcl file's)
 
   // The signal `pin` is on ("" when none), and the last setp of `name`
   // (nullptr when none).
@@ -108,6 +117,17 @@ struct HalConfig {
 // What LinuxCNC would refuse on the way (a missing file, an unknown
 // [SECTION]KEY) goes to `findings`.
 HalConfig readConfiguration(const std::filesystem::path& file, std::vector<Finding>& findings);
+
+// The lines of the INI `ini` as everything in LinuxCNC reads them: after the
+// `linuxcnc` command's #INCLUDE expansion (LinuxCNC: scripts/linuxcnc.in,
+// handle_includes), each handed to `line` with the file it is written in
+// (`shownAs` for the INI itself, an included file by its name as the INI
+// gives it) and its line there. What LinuxCNC reports on the way (an
+// #INCLUDE of a file it cannot read, ...) goes to `findings` when given.
+// At most 16 MiB are read from each file, and from all included files
+// together. docs/check-config.md#include-and-tcl-hal-files
+void readIniLines(const std::filesystem::path& ini, const std::string& shownAs, std::vector<Finding>* findings,
+                  const std::function<void(const std::string& text, const std::string& file, unsigned line)>& line);
 
 std::string trim(const std::string& s);
 

@@ -749,7 +749,7 @@ class Deriver {
         if (const auto close = s->written.find(']'); s->written.starts_with("[") && close != std::string::npos)
           if (const auto* e = hal_.ini.find(s->written.substr(1, close - 1), s->written.substr(close + 1))) {
             out.said = fmt::format("{} = {}", s->written, e->value);
-            out.at = {ini_.filename().string(), e->line};
+            out.at = {e->file, e->line};
           }
         return out;
       }
@@ -759,15 +759,23 @@ class Deriver {
   [[nodiscard]] std::optional<Value> iniValue(const std::string& section, const std::string& key) const {
     if (const auto* e = hal_.ini.find(section, key))
       if (const auto v = number(e->value))
-        return Value{*v, fmt::format("[{}]{} = {} ({}:{})", section, key, e->value, ini_.filename().string(), e->line),
-                     fmt::format("[{}]{} = {}", section, key, e->value), Where{ini_.filename().string(), e->line}};
+        return Value{*v, fmt::format("[{}]{} = {} ({}:{})", section, key, e->value, e->file, e->line),
+                     fmt::format("[{}]{} = {}", section, key, e->value), Where{e->file, e->line}};
     return std::nullopt;
   }
+  // Where [SECTION] is: the line above its first key in the INI; for a
+  // section whose keys all come from a file the INI includes, its [SECTION]
+  // line.
   [[nodiscard]] Where sectionWhere(const std::string& section) const {
     unsigned first = 0;
+    bool keys = false;
     if (const auto s = hal_.ini.sections.find(section); s != hal_.ini.sections.end())
-      for (const auto& [k, e] : s->second)
-        if (first == 0 || e.line < first) first = e.line;
+      for (const auto& [k, e] : s->second) {
+        keys = true;
+        if (e.file == hal_.ini.file && (first == 0 || e.line < first)) first = e.line;
+      }
+    if (first == 0 && keys)
+      if (const auto at = hal_.ini.sectionAt.find(section); at != hal_.ini.sectionAt.end()) return at->second;
     return {ini_.filename().string(), first > 0 ? first - 1 : 0};
   }
 

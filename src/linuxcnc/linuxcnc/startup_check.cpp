@@ -53,20 +53,21 @@ std::string strip(const std::string& s, bool withNul = false) {
   return s.substr(b, e - b);
 }
 
+// A value and where it is written (the INI, or a file it includes).
 struct Value {
   std::string text;
-  unsigned line = 0;
+  Where at;
 };
 
 struct Section {
-  unsigned line = 0;  // where it is first opened
+  Where at;  // where it is first opened
   std::map<std::string, std::vector<Value>> keys;
 };
 
 // The INI as LinuxCNC's Tcl INI reader sees it.
 struct TclIni {
   std::map<std::string, Section> sections;
-  unsigned keyBeforeSection = 0;  // the first KEY = VALUE line before any [SECTION]
+  Where keyBeforeSection;  // the first KEY = VALUE line before any [SECTION] (line 0: none)
   std::string keyBeforeSectionText;
 
   [[nodiscard]] const std::vector<Value>* values(const std::string& section, const std::string& key) const {
@@ -82,21 +83,20 @@ struct TclIni {
   }
 };
 
-TclIni readTclIni(const std::filesystem::path& path) {
+// The INI as `linuxcnc` hands it to the check: #INCLUDE expanded
+// (readIniLines), each value where it is written.
+TclIni readTclIni(const std::filesystem::path& path, const std::string& shownAs) {
   TclIni ini;
-  std::ifstream in(path, std::ios::binary);
-  std::string raw;
   std::string section;
   bool inSection = false;
-  unsigned n = 0;
-  while (std::getline(in, raw)) {
-    ++n;
+  readIniLines(path, shownAs, nullptr, [&](const std::string& raw, const std::string& file, unsigned n) {
+    const Where here{file, n};
     const auto t = strip(raw, true);
     if (t.size() >= 2 && t.front() == '[' && t.back() == ']') {
       section = t.substr(1, t.size() - 2);
       inSection = true;
-      ini.sections.try_emplace(section, Section{n, {}});
-      continue;
+      ini.sections.try_emplace(section, Section{here, {}});
+      return;
     }
     // KEY = VALUE: the first "=" after at least one character, with no "#"
     // before it.
@@ -106,20 +106,20 @@ TclIni readTclIni(const std::filesystem::path& path) {
         eq = i;
         break;
       }
-    if (eq == std::string::npos) continue;
+    if (eq == std::string::npos) return;
     const auto key = strip(t.substr(0, eq));
     const auto value = strip(t.substr(eq + 1));
     if (!inSection) {
-      if (ini.keyBeforeSection == 0) {
-        ini.keyBeforeSection = n;
+      if (ini.keyBeforeSection.line == 0) {
+        ini.keyBeforeSection = here;
         ini.keyBeforeSectionText = key;
       }
-      continue;
+      return;
     }
     auto& s = ini.sections[section];
-    if (s.line == 0) s.line = n;
-    s.keys[key].push_back({value, n});
-  }
+    if (s.at.line == 0) s.at = here;
+    s.keys[key].push_back({value, here});
+  });
   return ini;
 }
 
@@ -289,21 +289,21 @@ constexpr unsigned kJointCountLimit = 100000;
 
 struct Check {
   const TclIni& ini;
-  std::string file;
+  std::string file;  // the INI's name, for what has no line of its own
   std::vector<Finding> findings;
 
-  void add(unsigned line, const char* severity, std::string name, std::string reason) {
-    findings.push_back({file, line, severity, std::move(name), std::move(reason), {}});
+  void add(const Where& at, const char* severity, std::string name, std::string reason) {
+    findings.push_back({at.file, at.line, severity, std::move(name), std::move(reason), {}});
   }
-  [[nodiscard]] unsigned sectionLine(const std::string& section) const {
+  [[nodiscard]] Where sectionAt(const std::string& section) const {
     const auto s = ini.sections.find(section);
-    return s == ini.sections.end() ? 0 : s->second.line;
+    return s == ini.sections.end() ? Where{file, 0} : s->second.at;
   }
 };
 
 void run(Check& c) {
   const TclIni& ini = c.ini;
-  if (ini.keyBeforeSection != 0) {
+  if (ini.keyBeforeSection.line != 0) {
     c.add(ini.keyBeforeSection, "error", ini.keyBeforeSectionText,
           fmt::format("{} = ... comes before the first [SECTION]: LinuxCNC's start-up check cannot read the INI "
                       "(its Tcl INI reader stops at a key outside a section), so LinuxCNC does not start",
@@ -317,7 +317,7 @@ void run(Check& c) {
   if (!kinematics || !joints) {
     for (const auto& [key, values] : {std::pair{"KINEMATICS", kinematics}, std::pair{"JOINTS", joints}})
       if (!values)
-        c.add(c.sectionLine("KINS"), "error", fmt::format("[KINS]{}", key),
+        c.add(c.sectionAt("KINS"), "error", fmt::format("[KINS]{}", key),
               fmt::format("no [KINS]{}: {} (it requires [KINS]KINEMATICS and [KINS]JOINTS)", key, kRefuses));
     return;
   }
@@ -327,7 +327,7 @@ void run(Check& c) {
   const Value& kinsLine = kinematics->back();
   const auto words = listWords(kinsLine.text);
   if (!words) {
-    c.add(kinsLine.line, "error", "[KINS]KINEMATICS",
+    c.add(kinsLine.at, "error", "[KINS]KINEMATICS",
           fmt::format("[KINS]KINEMATICS = {} has an unmatched brace or quote: LinuxCNC's start-up check cannot split "
                       "it into words (a Tcl error), so LinuxCNC does not start",
                       kinsLine.text));
@@ -340,7 +340,7 @@ void run(Check& c) {
       const auto next = w.find('=', eq + 1);
       kins[w.substr(0, eq)] = w.substr(eq + 1, next == std::string::npos ? std::string::npos : next - eq - 1);
     } else if (w != kins["module"]) {
-      c.add(kinsLine.line, "warning", "[KINS]KINEMATICS",
+      c.add(kinsLine.at, "warning", "[KINS]KINEMATICS",
             fmt::format("[KINS]KINEMATICS = {}: \"{}\" is neither the module nor KEY=VALUE, and LinuxCNC's start-up "
                         "check leaves it out",
                         kinsLine.text, w));
@@ -399,14 +399,14 @@ void run(Check& c) {
         (void)tclNumber(*extra, &extraWhole);
         (void)tclNumber(jointsText, &jointsWhole);
         if (!extraWhole || !jointsWhole) {
-          c.add(emcmot->front().line, "error", "[EMCMOT]EMCMOT",
+          c.add(emcmot->front().at, "error", "[EMCMOT]EMCMOT",
                 fmt::format("[EMCMOT]EMCMOT gives num_extrajoints={} and [KINS]JOINTS = {}: LinuxCNC's start-up check "
                             "prints both as whole numbers and stops with a Tcl error when one is not, so LinuxCNC does "
                             "not start",
                             *extra, joinValues(*joints)));
           return;
         }
-        c.add(emcmot->front().line, "warning", "[EMCMOT]EMCMOT",
+        c.add(emcmot->front().at, "warning", "[EMCMOT]EMCMOT",
               fmt::format("[EMCMOT]EMCMOT asks for {} extra joints: [KINS]JOINTS = {} must count the kinematic joints "
                           "and the extra joints ({})",
                           *extra, joinValues(*joints), kWarns));
@@ -420,8 +420,11 @@ void run(Check& c) {
     for (const auto& [key, values] : section.keys) {
       if (values.size() < 2) continue;
       std::string lines;
-      for (const auto& v : values) lines += fmt::format("{}{}", lines.empty() ? "" : ", ", v.line);
-      c.add(values[1].line, "warning", fmt::format("[{}]{}", name, key),
+      for (const auto& v : values)
+        lines += v.at.file == values.front().at.file
+                     ? fmt::format("{}{}", lines.empty() ? "" : ", ", v.at.line)
+                     : fmt::format("{}{}:{}", lines.empty() ? "" : ", ", v.at.file, v.at.line);
+      c.add(values[1].at, "warning", fmt::format("[{}]{}", name, key),
             fmt::format("[{}]{} is given {} times (lines {}): LinuxCNC itself takes the first ({}; where it compares "
                         "the key, it compares all of them as one text)",
                         name, key, values.size(), lines, kWarns));
@@ -441,7 +444,7 @@ void run(Check& c) {
     // A whole number of joints that large ends, if slowly: only a count that
     // never ends (text, Inf) stops LinuxCNC.
     if (!jointsAsText && std::isfinite(*jointsNumber)) break;
-    c.add(jointsLine.line, "error", "[KINS]JOINTS",
+    c.add(jointsLine.at, "error", "[KINS]JOINTS",
           fmt::format("[KINS]JOINTS = {}: LinuxCNC's start-up check counts joints up to it{} and never ends, so "
                       "LinuxCNC never starts",
                       joinValues(*joints), jointsAsText ? " compared as text (it is not a number)" : ""));
@@ -449,7 +452,7 @@ void run(Check& c) {
   }
   for (unsigned j = 0; j < counted && j < kJointWarnings; ++j) {
     const auto section = fmt::format("JOINT_{}", j);
-    const auto line = ini.sections.count(section) ? c.sectionLine(section) : jointsLine.line;
+    const auto line = ini.sections.count(section) ? c.sectionAt(section) : jointsLine.at;
     for (const char* key : {"MAX_VELOCITY", "MAX_ACCELERATION"})
       if (!ini.values(section, key))
         c.add(line, "warning", fmt::format("[{}]{}", section, key),
@@ -464,7 +467,7 @@ void run(Check& c) {
     if (const auto* s = ini.withKeys(section))
       for (const char* key : {"MAX_VELOCITY", "MAX_ACCELERATION"})
         if (!s->keys.count(key))
-          c.add(s->line, "warning", fmt::format("[{}]{}", section, key),
+          c.add(s->at, "warning", fmt::format("[{}]{}", section, key),
                 fmt::format("[{}] has no {}: LinuxCNC takes 1.0 ({})", section, key, kWarns));
     for (const auto& [key, fallback, greater] :
          {std::tuple{"MIN_LIMIT", "-1e99", true}, std::tuple{"MAX_LIMIT", "+1e99", false}}) {
@@ -480,7 +483,7 @@ void run(Check& c) {
             axisValues ? fmt::format("[{}]{} = {}", section, key, joinValues(*axisValues))
                        : fmt::format("[{}]{}, which the INI does not give and LinuxCNC's start-up check takes as {}",
                                      section, key, fallback);
-        c.add(jointValues->front().line, "error", fmt::format("[{}]{}", joint, key),
+        c.add(jointValues->front().at, "error", fmt::format("[{}]{}", joint, key),
               fmt::format("[{}]{} = {} is {} {}{} ({}: a joint's limits must hold its axis's, and {})", joint, key,
                           joinValues(*jointValues), greater ? "above" : "below", axisSaid,
                           comparedAsText ? "; compared as text, as they are not both numbers" : "", kRefuses,
@@ -502,7 +505,7 @@ void run(Check& c) {
     for (const char ch : given)
       if (ch != ' ' && ch != '\t') noBlanks += ch;
     if (noBlanks != trajLetters)
-      c.add(traj ? traj->front().line : kinsLine.line, "warning", "[TRAJ]COORDINATES",
+      c.add(traj ? traj->front().at : kinsLine.at, "warning", "[TRAJ]COORDINATES",
             fmt::format("trivkins coordinates={} but [TRAJ]COORDINATES = {} ({})", kins["coordinates"],
                         traj ? traj->front().text : std::string("(none)"), kWarns));
   }
@@ -515,7 +518,7 @@ std::vector<Finding> startupCheck(const std::filesystem::path& ini, const std::s
   using namespace startup_detail;
   std::error_code ec;
   if (!std::filesystem::is_regular_file(ini, ec)) return {};
-  const TclIni read = readTclIni(ini);
+  const TclIni read = readTclIni(ini, shownAs);
   // `linuxcnc` reads [EMC]VERSION first (its first value) and converts any
   // INI not at 1.1 before the check sees it.
   const auto* version = read.values("EMC", "VERSION");
