@@ -513,7 +513,7 @@ Prepared prepare(const LinuxCncOptions& o, const fs::path& userFolder) {
   boards.erase(std::unique(boards.begin(), boards.end()), boards.end());
   if (const auto* period = hal.ini.find("EMCMOT", "SERVO_PERIOD")) {
     p.servoPeriodNs = app::linuxcnc_host::servoPeriodForClock(period->value);
-    p.servoPeriodAt = fmt::format("{}:{}", ini.filename().string(), period->line);
+    p.servoPeriodAt = fmt::format("{}:{}", period->file.empty() ? ini.filename().string() : period->file, period->line);
   } else {
     p.servoPeriodNs = 1'000'000;  // LinuxCNC's own when the INI gives none
     p.servoPeriodAt = "LinuxCNC's default, no [EMCMOT]SERVO_PERIOD";
