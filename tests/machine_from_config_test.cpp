@@ -385,6 +385,87 @@ unsigned lineWith(const fs::path& file, const std::string& text) {
   return 0;
 }
 
+// The two-7I77 fixture (tests/machine_from_config/two-7i77s/) copied into
+// `dir`, `from` replaced by `to` in its HAL file when given.
+fs::path twoSevenI77s(const test_support::TempDir& dir, const std::string& from = {}, const std::string& to = {}) {
+  const auto src = kSource / "tests/machine_from_config/two-7i77s";
+  fs::copy_file(src / "two_7i77s.ini", dir.path() / "two_7i77s.ini", fs::copy_options::overwrite_existing);
+  std::ifstream in(src / "two_7i77s.hal");
+  std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  if (!from.empty()) {
+    const auto at = text.find(from);
+    if (at == std::string::npos) throw std::runtime_error("two_7i77s.hal has no " + from);
+    text.replace(at, from.size(), to);
+  }
+  std::ofstream(dir.path() / "two_7i77s.hal") << text;
+  return dir.path() / "two_7i77s.ini";
+}
+
+// A card with two 7I77s (the 7I77x2 firmware: the second on smart-serial
+// channels 3 and 4, counters 6 to 11): the machine is the first 7I77's, and
+// each pin of the second is left out at its line, never taken as the first
+// 7I77's terminal of that number.
+TEST(MachineFromConfig, TheSecondSevenI77sPinsAreLeftOutAtTheirLine) {
+  const auto m = machineFromConfig(kSource / "tests/machine_from_config/two-7i77s/two_7i77s.ini");
+  ASSERT_TRUE(m.ok()) << errors(m);
+  const auto all = errors(m);
+  const std::string behind = ", and lbpkit's derived machine sits behind the first 7I77 only, so this pin is left out";
+  EXPECT_TRUE(holds(all, "two_7i77s.hal:22: warning: hm2_7i92.0.7i77.0.3.input-05 is on the second 7I77 "
+                         "(smart-serial channel 3)" + behind));
+  EXPECT_TRUE(holds(all, "two_7i77s.hal:28: warning: hm2_7i92.0.7i77.0.3.output-02 is on the second 7I77 "
+                         "(smart-serial channel 3)" + behind));
+  EXPECT_TRUE(holds(all, "two_7i77s.hal:30: warning: hm2_7i92.0.7i77.0.4.analogout1 is on the second 7I77 "
+                         "(smart-serial channel 4)" + behind));
+  EXPECT_EQ(std::count(all.begin(), all.end(), '\n'), 3) << all;
+  // The first 7I77's pins derive as on a card with one 7I77.
+  const auto d = load(m);
+  ASSERT_EQ(d.axes.size(), 2U);
+  EXPECT_EQ(d.axes[0].drives[0].analogOutput, 0U);
+  EXPECT_EQ(d.axes[0].drives[0].encoderInput, 0U);
+  EXPECT_EQ(d.axes[1].drives[0].analogOutput, 1U);
+  EXPECT_EQ(d.axes[1].drives[0].encoderInput, 1U);
+  EXPECT_EQ(switchNamed(d, "x-home").input, 0U);
+  EXPECT_EQ(switchNamed(d, "estop").input, 5U);
+  EXPECT_EQ(d.axes[0].brakeOutput, 3);
+  // Y's limit (the second's input 5) is no switch on the first's input 5,
+  // the coolant (its output 2) no output 2, its analogout1 no spindle.
+  ASSERT_EQ(d.switches.size(), 2U);
+  ASSERT_EQ(d.outputs.size(), 1U);
+  EXPECT_EQ(d.outputs[0].output, 3U);
+  EXPECT_FALSE(d.spindle.has_value());
+}
+
+// A joint whose drive or feedback is on the second 7I77 cannot be derived:
+// an error at the joint's line naming the pin.
+TEST(MachineFromConfig, AJointOnTheSecondSevenI77IsAnErrorAtItsLine) {
+  {
+    test_support::TempDir dir;
+    const auto ini = twoSevenI77s(dir, "pid.y.output => hm2_7i92.0.7i77.0.1.analogout1",
+                                  "pid.y.output => hm2_7i92.0.7i77.0.4.analogout0");
+    const auto m = machineFromConfig(ini);
+    EXPECT_FALSE(m.ok());
+    const auto hal = dir.path() / "two_7i77s.hal";
+    EXPECT_TRUE(holds(errors(m),
+                      fmt::format("two_7i77s.hal:{}: error: joint 1: its PID drives hm2_7i92.0.7i77.0.4.analogout0 "
+                                  "(two_7i77s.hal:{}), on the second 7I77 (smart-serial channel 4), and lbpkit's "
+                                  "derived machine sits behind the first 7I77 only, so this joint cannot be derived",
+                                  lineWith(hal, "joint.1.motor-pos-cmd"), lineWith(hal, "0.4.analogout0"))));
+  }
+  {
+    test_support::TempDir dir;
+    const auto ini = twoSevenI77s(dir, "hm2_7i92.0.encoder.01.position", "hm2_7i92.0.encoder.07.position");
+    const auto m = machineFromConfig(ini);
+    EXPECT_FALSE(m.ok());
+    const auto hal = dir.path() / "two_7i77s.hal";
+    const auto line = lineWith(hal, "encoder.07.position");
+    EXPECT_TRUE(holds(errors(m), fmt::format("two_7i77s.hal:{}: error: joint 1: its feedback "
+                                             "hm2_7i92.0.encoder.07.position (two_7i77s.hal:{}) is a counter of the "
+                                             "second 7I77 (6 to 11): lbpkit's derived machine sits behind the first "
+                                             "7I77 only, so this joint cannot be derived",
+                                             line, line)));
+  }
+}
+
 // Whether 7I77 input `input` reads on while the machine rests: a NC switch
 // on it (closed until it trips) reads on; a NO switch, or none, off.
 bool restsOn(const machine::MachineDescription& d, unsigned input) {

@@ -65,17 +65,20 @@ const std::vector<Expected>& table() {
       // with the INI's values ([lindex $::AXIS_0(P) 0]). Z's Tcl file drives
       // hm2_5i25.0.7i77.0.2.analogout1: channel 2, where the 7I77x2 firmware
       // has no remote (its 7I77s answer on channels 0-1 and 3-4), and
-      // machine --from-config, which goes by the analog output's number,
-      // finds analogout 1 already Y's. The configuration's own wiring
-      // as lbpkit's 5I25 firmware sees it.
+      // machine --from-config, whose machine sits behind the first 7I77
+      // (analog outputs on channel 1), says Z's drive is on no 7I77's
+      // analog outputs rather than taking it as the first 7I77's analogout1
+      // (Y's). The configuration's own wiring as lbpkit's 5I25 firmware
+      // sees it.
       {"5i25-7i77-mill-evgeniident",
        "DCS-M4.ini",
        {noRemoteOnChannel2("Devices/mesanet.com/7i77.0/axis-2.tcl:29"),
         noRemoteOnChannel2("Devices/mesanet.com/7i77.0/axis-2.tcl:30"),
         noRemoteOnChannel2("Devices/mesanet.com/7i77.0/axis-2.tcl:31"),
         noRemoteOnChannel2("Devices/mesanet.com/7i77.0/axis-2.tcl:33")},
-       {"LinuxCNC/axis-2.hal:5: error: joint 2: analogout 1 already serves another joint "
-        "(hm2_5i25.0.7i77.0.2.analogout1)"},
+       {"LinuxCNC/axis-2.hal:5: error: joint 2: its PID drives hm2_5i25.0.7i77.0.2.analogout1 "
+        "(Devices/mesanet.com/7i77.0/axis-2.tcl:33), on smart-serial port 0 channel 2, where no 7I77 has its analog "
+        "outputs (the first 7I77's are on channel 1, a second's on 4), so this joint cannot be derived"},
        {"60 hostmot2 names checked in 16 HAL files"}},
       // PNCconf for LinuxCNC 2.7: `addf hm2_5i25.0.pet_watchdog`, a function
       // 2.9's hostmot2 no longer exports (LinuxCNC refuses the line too: the

@@ -148,6 +148,30 @@ bool yes(const std::string& s) {
   return l == "yes" || l == "true" || l == "1";
 }
 
+// Where a 7I77 pin sits: hm2_<card>.<n>.7i77.<port>.<channel>.<pin>. The
+// 7I77 firmwares have one smart-serial port of 6 channels (docs/cards.md):
+// the first 7I77 answers on channel 0 (field I/O) and 1 (analog outputs), a
+// second 7I77 on 3 and 4; channels 2 and 5 are their expansion ports. A
+// machine file's machine sits behind the first 7I77 (connector 0). Empty
+// for a field input, output or analog output of the first 7I77 (or a pin of
+// no 7I77), else why the derived machine has no such terminal.
+std::string offFirst7I77(const std::string& pin) {
+  const auto p = split(pin, '.');
+  if (p.size() != 6 || p[0].rfind("hm2_", 0) != 0 || p[2] != "7i77") return {};
+  const bool analog = p[5].rfind("analogout", 0) == 0;
+  if (!analog && p[5].rfind("input-", 0) != 0 && p[5].rfind("output-", 0) != 0) return {};
+  const unsigned own = analog ? 1 : 0;
+  const auto port = digits(p[3]), channel = digits(p[4]);
+  if (port == 0U && channel == own) return {};
+  if (port == 0U && channel == own + 3)
+    return fmt::format("on the second 7I77 (smart-serial channel {}), and lbpkit's derived machine sits behind the first "
+                       "7I77 only",
+                       p[4]);
+  return fmt::format("on smart-serial port {} channel {}, where no 7I77 has its {}", p[3], p[4],
+                     analog ? "analog outputs (the first 7I77's are on channel 1, a second's on 4)"
+                            : "field I/O (the first 7I77's is on channel 0, a second's on 3)");
+}
+
 // A pin of a 7I77's or 7I76's field I/O: hm2_<card>.<n>.<7i77|7i76>.<port>.<channel>.<input-NN[-not]|output-NN>,
 // or an input on one of the card's own IO pins.
 struct FieldPin {
@@ -166,7 +190,7 @@ std::optional<FieldPin> fieldPin(const std::string& pin, const std::string& what
     return std::nullopt;
   }
   if (p.size() != 6 || p[0].rfind("hm2_", 0) != 0 || (p[2] != "7i77" && p[2] != "7i76")) return std::nullopt;
-  if (p[5].rfind(what + "-", 0) != 0) return std::nullopt;
+  if (p[5].rfind(what + "-", 0) != 0 || !offFirst7I77(pin).empty()) return std::nullopt;
   auto rest = p[5].substr(what.size() + 1);
   FieldPin f{p[2] == "7i77" ? "7I77" : "7I76", 0, false};
   if (rest.size() > 4 && rest.ends_with("-not")) {
@@ -186,10 +210,12 @@ std::optional<unsigned> modulePin(const std::string& pin, const std::string& mod
   return digits(p[3]);
 }
 
-// hm2_<card>.<n>.7i77.<port>.<channel>.analogoutK -> K
-std::optional<unsigned> analogOut(const std::string& pin) {
+// hm2_<card>.<n>.7i77.<port>.<channel>.analogoutK -> K: the first 7I77's
+// (any 7I77's with anyChannel).
+std::optional<unsigned> analogOut(const std::string& pin, bool anyChannel = false) {
   const auto p = split(pin, '.');
   if (p.size() != 6 || p[0].rfind("hm2_", 0) != 0 || p[2] != "7i77" || p[5].rfind("analogout", 0) != 0) return std::nullopt;
+  if (!anyChannel && !offFirst7I77(pin).empty()) return std::nullopt;
   return digits(p[5].substr(9));
 }
 
@@ -308,14 +334,14 @@ class Deriver {
   }
 
   std::string run() {
+    for (const auto& p : pinSignal_)
+      if (p.first.find(".7i76.") != std::string::npos) sevenI76_ = true;
     checkPins();
     const auto joints = jointCount();
     const auto letters = coordinates();
     const auto units = hal_.ini.find("TRAJ", "LINEAR_UNITS");
     const std::string u = units ? lower(units->value) : "mm";
     inch_ = u == "inch" || u == "in" || u == "imperial";
-    for (const auto& p : pinSignal_)
-      if (p.first.find(".7i76.") != std::string::npos) sevenI76_ = true;
     std::map<std::string, unsigned> seen;
     for (unsigned n = 0; n < joints; ++n) {
       const char letter = n < letters.size() ? letters[n] : '\0';
@@ -389,9 +415,15 @@ class Deriver {
   }
 
   // Every 7I77, 7I76, encoder, StepGen and card pin the nets name exists on
-  // the card: a number past the terminals is a pin LinuxCNC refuses.
+  // the card: a number past the terminals is a pin LinuxCNC refuses. A field
+  // input, output or analog output off the first 7I77 is left out, with a
+  // warning.
   void checkPins() {
     for (const auto& [pin, sig] : pinSignal_) {
+      if (const auto off = offFirst7I77(pin); !off.empty()) {
+        warning(where(pin), pin, fmt::format("{} is {}, so this pin is left out", pin, off));
+        continue;
+      }
       std::optional<unsigned> n;
       unsigned count = 0;
       std::string what;
@@ -409,7 +441,9 @@ class Deriver {
         what = "analog outputs";
       } else if (const auto e = modulePin(pin, "encoder", "position")) {
         n = e;
-        count = kEncoders;
+        // The 7I77 firmwares' counters 6 to 11 are a second 7I77's; with a
+        // 7I76, counter 6 is its spindle encoder's.
+        count = sevenI76_ ? kEncoders : 2 * kEncoders;
         what = "encoders";
       } else if (const auto sg = modulePin(pin, "stepgen", "position-cmd"); sg || modulePin(pin, "stepgen", "velocity-cmd")) {
         n = sg ? sg : modulePin(pin, "stepgen", "velocity-cmd");
@@ -842,12 +876,13 @@ class Deriver {
     for (const auto& p : pinsOn(cmdSig))
       if (p.ends_with(".command") && moduleOf(p.substr(0, p.size() - 8)) == "pid") pid = p.substr(0, p.size() - 8);
     std::optional<unsigned> encoder, analog, stepgen;
-    std::string board, analogPin;
+    std::string board, analogPin, encoderPin, offDrive;
     bool velocityStepgen = false;
     auto encoderOn = [&](const std::string& sig) {
       for (const auto& p : pinsOn(sig))
         if (const auto e = modulePin(p, "encoder", "position")) {
           encoder = *e;
+          encoderPin = p;
           board = cardOf(p);
         }
     };
@@ -864,6 +899,8 @@ class Deriver {
           analog = *a;
           analogPin = p;
           board = cardOf(p);
+        } else if (analogOut(p, true)) {
+          offDrive = p;
         }
         if (const auto s = modulePin(p, "stepgen", "velocity-cmd")) {
           stepgen = *s;
@@ -871,6 +908,21 @@ class Deriver {
           board = cardOf(p);
         }
       }
+    // A drive or an encoder off the first 7I77 is on no terminal of the
+    // machine's.
+    if (!stepgen && !analog && !offDrive.empty()) {
+      error(where(jp + "motor-pos-cmd"), jp + "motor-pos-cmd",
+            fmt::format("joint {}: its PID drives {} ({}), {}, so this joint cannot be derived", n, offDrive,
+                        at(where(offDrive)), offFirst7I77(offDrive)));
+      return;
+    }
+    if (encoder && *encoder >= kEncoders && *encoder < 2 * kEncoders && !sevenI76_) {
+      error(where(jp + "motor-pos-fb"), jp + "motor-pos-fb",
+            fmt::format("joint {}: its feedback {} ({}) is a counter of the second 7I77 (6 to 11): lbpkit's derived "
+                        "machine sits behind the first 7I77 only, so this joint cannot be derived",
+                        n, encoderPin, at(where(encoderPin))));
+      return;
+    }
     if (!stepgen && !analog) {
       error(where(jp + "motor-pos-cmd"), jp + "motor-pos-cmd",
             fmt::format("joint {}: neither a PID whose output reaches a 7I77 analogoutN nor a StepGen takes its "
@@ -1348,7 +1400,7 @@ class Deriver {
     spindle_.emplace_back("max_rpm", fmtNumber(std::abs(scale.v)) + "|10 V");
     // Its encoder: one on the spindle's feedback signals that no joint reads.
     std::optional<unsigned> encoder;
-    std::string board;
+    std::string board, encoderPin;
     for (const char* feedback : {"spindle.0.revs", "spindle.0.speed-in", "spindle.0.index-enable", "motion.spindle-revs",
                                  "motion.spindle-speed-in", "motion.spindle-index-enable"})
       for (const auto& p : pinsOn(signal(feedback))) {
@@ -1356,10 +1408,19 @@ class Deriver {
         if (parts.size() == 5 && parts[2] == "encoder" && !encoder) {
           if (const auto e = digits(parts[3]); e && !claimedEncoders_.count(*e)) {
             encoder = *e;
+            encoderPin = p;
             board = cardOf(p);
           }
         }
       }
+    if (encoder && *encoder >= kEncoders && !sevenI76_) {
+      warning(where(encoderPin), encoderPin,
+              fmt::format("{} is a counter of the second 7I77 (6 to 11): lbpkit's derived machine sits behind the "
+                          "first 7I77 only, so the spindle's encoder is left out",
+                          encoderPin));
+      spindle_.emplace_back("encoder_input", fmt::format("-1|{}.encoder.{:02d} is the second 7I77's", board, *encoder));
+      return;
+    }
     if (!encoder) {
       spindle_.emplace_back("encoder_input", "-1|no encoder on spindle.0.revs or speed-in");
       return;
