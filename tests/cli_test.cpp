@@ -15,6 +15,7 @@
 
 #include "config/fault_script.hpp"
 #include "support/process.hpp"
+#include "support/temp_dir.hpp"
 #include "remote/nv_store.hpp"
 #include "remote/remote_device.hpp"
 
@@ -97,7 +98,7 @@ TEST(Cli, RpdWpdOnTheVirtualCard) {
   EXPECT_EQ(trim(run({"rpd", "watchdogtime", "--state", state}).out), "100");  // after the power cycle
   EXPECT_EQ(trim(run({"rpd", "FAULT", "H", "--state", state}).out), "01");      // watchdog fault at power-up
   EXPECT_EQ(trim(run({"rpd", "nvunitnumber", "H", "--channel", "1"}).out), "11000AEE");
-  std::filesystem::remove(state);
+  test_support::removeStateFiles(state);
 }
 
 TEST(Cli, RpdWpdOverSerialToThePtyRemote) {
@@ -125,7 +126,7 @@ TEST(Cli, RpdWpdOverSerialToThePtyRemote) {
     EXPECT_EQ(trim(run({"rpd", "WATCHDOGTIME", "--serial", pty}).out), "100");
     EXPECT_EQ(d.stop(), 0);
   }
-  std::filesystem::remove(state);
+  test_support::removeStateFiles(state);
 }
 
 TEST(Cli, ErrorsSayWhatFailed) {
@@ -302,7 +303,7 @@ TEST(Cli, WpdToASimThatCannotSaveTheValueFails) {
   EXPECT_NE(w.err.find("EEPROM"), std::string::npos) << w.err;
   EXPECT_EQ(trim(run({"rpd", "NVWATCHDOGTIME", "--addr", where}).out), "50");
   EXPECT_EQ(d->stop(), 0);
-  for (const auto& p : {state, state + ".analog"}) std::filesystem::remove(p);
+  test_support::removeStateFiles(state);
 }
 
 TEST(Cli, WpdOverSerialFailsWhenTheRemoteCannotSaveTheValue) {
@@ -316,7 +317,7 @@ TEST(Cli, WpdOverSerialFailsWhenTheRemoteCannotSaveTheValue) {
   EXPECT_NE(w.err.find("EEPROM"), std::string::npos) << w.err;
   EXPECT_EQ(trim(run({"rpd", "NVWATCHDOGTIME", "--serial", pty}).out), "50");
   EXPECT_EQ(d->stop(), 0);
-  std::filesystem::remove(state);
+  test_support::removeStateFiles(state);
 }
 
 // Two sims on one EEPROM file would lose each other's writes.
@@ -329,7 +330,7 @@ TEST(Cli, ASecondSimOnTheSameStateFileIsRefused) {
   EXPECT_NE(r.err.find(state + ": in use by another lbpkit"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("lbpkit sim on 127.0.0.1:0"), std::string::npos) << r.err;  // who holds it
   EXPECT_EQ(first.stop(), 0);
-  for (const auto& p : {state, state + ".analog"}) std::filesystem::remove(p);
+  test_support::removeStateFiles(state);
 }
 
 TEST(Cli, SimsSideBySideEachHaveTheirOwnDefaultStateFile) {
@@ -463,7 +464,7 @@ TEST(Cli, SimConfigurationMistakesNameFileLineAndKey) {
   EXPECT_NE(r.err.find(dir + ": is not a regular file"), std::string::npos) << r.err;
   std::filesystem::remove(dir);
   std::filesystem::remove(path);
-  std::filesystem::remove(state);
+  test_support::removeStateFiles(state);
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "support/lbp_host.hpp"
+#include "support/temp_dir.hpp"
 #include "remote/field_io.hpp"
 
 namespace {
@@ -354,7 +355,7 @@ TEST(FieldIo, NonVolatileValuesTakeEffectOnlyAfterAPowerCycle) {
   }
   FieldIoProcessor again(o);  // the file keeps it across runs
   EXPECT_EQ(again.watchdogTimeMs(), 100);
-  std::filesystem::remove(file);
+  test_support::removeStateFiles(file.string());
 }
 
 TEST(FieldIo, PowerCutDuringAnNvWriteLeavesTheOldOrNewValue) {

@@ -20,6 +20,7 @@
 
 #include "machine_view.hpp"
 #include "support/process.hpp"
+#include "support/temp_dir.hpp"
 
 namespace {
 
@@ -257,7 +258,7 @@ TEST(MonitorView, TheMonitorShowsTheMillOfARunningSim) {
     EXPECT_TRUE(has(r.out, "spindle: command 0 rpm, actual 0 rpm, stopped")) << r.out;
     EXPECT_EQ(sim.stop(), 0);
   }
-  for (const char* suffix : {"", ".analog"}) std::filesystem::remove(state + suffix);
+  test_support::removeStateFiles(state);
 }
 
 // The same with a stepper: `lbpkit sim --card 7I92T` (the 7I77+7I76
@@ -283,7 +284,7 @@ TEST(MonitorView, TheMonitorShowsTheStepperAxisOfARunningSim) {
     EXPECT_TRUE(has(r.out, "  z       -1000.000      0.000  StepGen 0: 0 steps, 0 lost\n")) << r.out;
     EXPECT_EQ(sim.stop(), 0);
   }
-  for (const auto& f : {state, state + ".analog"}) std::filesystem::remove(f);
+  test_support::removeStateFiles(state);
 }
 
 TEST(MonitorView, AnApiThatWantsATokenSaysSo) {
@@ -328,5 +329,5 @@ TEST(MonitorView, TheMonitorRecoversFromAStallOfItsOwnAndSaysSo) {
     EXPECT_TRUE(has(after, "channel 1: 7I77 analog (unit 0x11000AEE)  CS: ok")) << after;
     EXPECT_EQ(sim.stop(), 0);
   }
-  for (const char* suffix : {"", ".analog"}) std::filesystem::remove(state + suffix);
+  test_support::removeStateFiles(state);
 }

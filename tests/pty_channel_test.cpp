@@ -17,6 +17,7 @@
 #include "support/card_host.hpp"
 #include "lbp/protocol.hpp"
 #include "support/process.hpp"
+#include "support/temp_dir.hpp"
 #include "pty/pty_channel.hpp"
 #include "remote/field_io.hpp"
 
@@ -255,7 +256,7 @@ TEST(PtyChannel, SimRefusesAChannelWithA7I77Processor) {
   r = run({"sim", "--bind", "127.0.0.1:0", "--api", "0", "--remote", "2=serial"}, std::chrono::seconds(10));
   EXPECT_EQ(r.exit, 1);
   EXPECT_NE(r.err.find("--remote \"2=serial\": give CHANNEL=pty"), std::string::npos) << r.err;
-  for (const char* suffix : {"", ".analog", ".flash"}) std::filesystem::remove(state.string() + suffix);
+  test_support::removeStateFiles(state.string());
 }
 
 // The whole path: `lbpkit sim --remote 2=pty`, a remote of our own on the
@@ -297,7 +298,7 @@ TEST(PtyChannel, SimChannelOnAPtyIsDiscovered) {
   EXPECT_NE(r.out.find("channel 2: 7I77 field I/O unit 0x12000AEE"), std::string::npos) << r.out << r.err;
   EXPECT_NE(r.out.find("WatchDogTime"), std::string::npos) << r.out;
   EXPECT_EQ(sim.stopWithin(std::chrono::seconds(10)), 0);
-  for (const char* suffix : {"", ".analog", ".flash"}) std::filesystem::remove(state.string() + suffix);
+  test_support::removeStateFiles(state.string());
 }
 
 }  // namespace

@@ -16,6 +16,7 @@
 
 #include "lbp/protocol.hpp"
 #include "support/process.hpp"
+#include "support/temp_dir.hpp"
 
 namespace {
 
@@ -38,7 +39,7 @@ Bytes exchange(int fd, Bytes command, std::size_t expect) {
 
 TEST(PtyRemote, AnExternalProgramTalksLbpThroughThePty) {
   const auto state = std::filesystem::temp_directory_path() / ("lbpkit-pty-" + std::to_string(::getpid()));
-  std::filesystem::remove(state);
+  test_support::removeStateFiles(state);
   test_support::Daemon d({"remote", "--pty", "--setup", "--state", state.string()});
   const std::string out = d.readUntil("serial device:");
   const auto at = out.find("serial device: ");
@@ -70,7 +71,7 @@ TEST(PtyRemote, AnExternalProgramTalksLbpThroughThePty) {
 
   EXPECT_EQ(d.stop(), 0);
   EXPECT_TRUE(std::filesystem::exists(state));  // EEPROM state saved
-  std::filesystem::remove(state);
+  test_support::removeStateFiles(state);
 }
 
 // A client that writes and never reads must not wedge the remote: a real
@@ -79,7 +80,7 @@ TEST(PtyRemote, AnExternalProgramTalksLbpThroughThePty) {
 // is its own, not a stale one.
 TEST(PtyRemote, AClientThatNeverReadsCannotWedgeIt) {
   const auto state = std::filesystem::temp_directory_path() / ("lbpkit-pty-wedge-" + std::to_string(::getpid()));
-  std::filesystem::remove(state);
+  test_support::removeStateFiles(state);
   test_support::Daemon d({"remote", "--pty", "--setup", "--state", state.string()});
   const std::string path = d.value("serial device: ");
   ASSERT_FALSE(path.empty());
@@ -122,7 +123,7 @@ TEST(PtyRemote, AClientThatNeverReadsCannotWedgeIt) {
 
   // SIGTERM stops it promptly.
   EXPECT_EQ(d.stopWithin(std::chrono::seconds(3)), 0);
-  std::filesystem::remove(state);
+  test_support::removeStateFiles(state);
 }
 
 }  // namespace

@@ -402,8 +402,7 @@ TEST(SimApi, ASecondSimOnTheSameApiPortIsRefused) {
       {"sim", "--bind", loopback(4) + ":0", "--no-realtime", "--state", state, "--api", api}, std::chrono::seconds(5));
   EXPECT_NE(r.exit, 0);
   EXPECT_NE(r.err.find("control API port " + api + " is in use (another lbpkit sim?)"), std::string::npos) << r.err;
-  std::filesystem::remove(state);
-  std::filesystem::remove(state + ".analog");
+  test_support::removeStateFiles(state);
   EXPECT_EQ(first.get().status, 200);
   EXPECT_EQ(first.stopWithin(2000ms), 0);
 }
@@ -855,7 +854,7 @@ TEST(SimApi, WarnsWhenServingBeyondLoopback) {
   EXPECT_NE(r.out.find("board_ip="), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("board_ip=0.0.0.0"), std::string::npos) << r.out;
   // run() kills the sim at its limit, so it leaves its owner notes too.
-  for (const auto* suffix : {"", ".owner", ".analog", ".analog.owner"}) std::filesystem::remove(state + suffix);
+  test_support::removeStateFiles(state);
 }
 
 // --- Values with no physical meaning ----------------------------------
@@ -917,8 +916,7 @@ TEST(SimApi, CliRefusesSpeedsWithNoPhysicalMeaning) {
     EXPECT_NE(r.exit, 0) << speed;
     EXPECT_NE(r.err.find("--speed"), std::string::npos) << speed << ": " << r.err;
     EXPECT_NE(r.err.find("10000"), std::string::npos) << speed << ": " << r.err;
-    std::filesystem::remove(state);
-    std::filesystem::remove(state + ".analog");
+    test_support::removeStateFiles(state);
   }
 }
 
@@ -958,8 +956,7 @@ TEST(SimApi, CliRefusesClocksItDoesNotKnow) {
     const auto r = test_support::run(args, std::chrono::seconds(5));
     EXPECT_NE(r.exit, 0) << extra[1];
     EXPECT_NE(r.err.find("--clock"), std::string::npos) << extra[1] << ": " << r.err;
-    std::filesystem::remove(state);
-    std::filesystem::remove(state + ".analog");
+    test_support::removeStateFiles(state);
   }
 }
 
@@ -1238,8 +1235,7 @@ TEST(SimMachine, TheCliRefusesMachineMistakes) {
                            std::chrono::seconds(5));
   EXPECT_NE(r.exit, 0);
   EXPECT_NE(r.err.find("--record /nonexistent-dir/trace.csv: No such file or directory"), std::string::npos) << r.err;
-  std::filesystem::remove(state);
-  std::filesystem::remove(state + ".analog");
+  test_support::removeStateFiles(state);
 }
 
 // --trace and --record write only what the user named as output: never

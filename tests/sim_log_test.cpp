@@ -16,6 +16,7 @@
 
 #include "lbpkit/wire/lbp16.hpp"
 #include "support/process.hpp"
+#include "support/temp_dir.hpp"
 
 namespace {
 
@@ -51,7 +52,7 @@ TEST(SimLog, DebugLevelNamesWritesThatNothingDecodes) {
   ::close(err);
   // Both remotes' EEPROM images (the field I/O's and the analog's).
   const std::string state = ::testing::TempDir() + "sim-log-" + std::to_string(::getpid()) + ".eeprom";
-  for (const auto* suffix : {"", ".analog"}) std::remove((state + suffix).c_str());
+  test_support::removeStateFiles(state);
 }
 
 }  // namespace

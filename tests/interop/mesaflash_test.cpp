@@ -139,7 +139,7 @@ TEST(Mesaflash, TheFlashIsKeptAcrossRestarts) {
   if (!have("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
   const auto state = (std::filesystem::temp_directory_path() / ("lbpkit-interop-flash-" + std::to_string(::getpid()))).string();
   auto clean = [&] {
-    for (const char* suffix : {"", ".analog", ".flash", ".flash.tmp"}) std::filesystem::remove(state + suffix);
+    test_support::removeStateFiles(state);
   };
   clean();
   auto start = [&] {

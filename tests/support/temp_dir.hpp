@@ -32,4 +32,18 @@ class TempDir {
   std::filesystem::path path_;
 };
 
+// A sim's or a remote's state file and the files it keeps beside it
+// (FILE.analog, FILE.program, FILE.analog.program, FILE.owner, ...): all
+// removed, so that a test that names a state file of its own leaves none
+// of them behind.
+inline void removeStateFiles(const std::string& state) {
+  const std::filesystem::path path(state);
+  const auto name = path.filename().string();
+  std::error_code ec;
+  std::filesystem::remove(path, ec);
+  const auto folder = path.parent_path().empty() ? std::filesystem::path(".") : path.parent_path();
+  for (std::filesystem::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec))
+    if (it->path().filename().string().rfind(name + ".", 0) == 0) std::filesystem::remove(it->path(), ec);
+}
+
 }  // namespace test_support
