@@ -371,15 +371,16 @@ TEST_F(LinuxCncCommand, ABoardAddressThatIsNotAUnicastOneIsRefusedBeforeAnything
 TEST_F(LinuxCncCommand, AnAddressOfThisPcOrItsGatewayIsRefused) {
   const std::string net = "lbpkit-pc-" + std::to_string(::getpid());
   const std::string lan = "10.79." + std::to_string(::getpid() % 250) + ".";
+  // Removed however the test ends, a set-up that failed half-way included.
+  struct RemoveNetns {
+    std::string name;
+    ~RemoveNetns() { sh("ip netns del " + name); }
+  } removeNetns{net};
   ASSERT_EQ(sh("ip netns add " + net + " && ip -n " + net + " link set lo up && ip -n " + net +
                " link add lan0 type veth peer name lan1 && ip -n " + net + " addr add " + lan + "2/24 dev lan0 && ip -n " +
                net + " link set lan1 up && ip -n " + net + " link set lan0 up && ip -n " + net + " route add default via " + lan + "1")
                 .exit,
             0);
-  struct RemoveNetns {
-    std::string name;
-    ~RemoveNetns() { sh("ip netns del " + name); }
-  } removeNetns{net};
   auto inPc = [&](const std::string& address) {
     atAddress(address);
     return sh("ip netns exec " + net + " " + LBPKIT_BINARY + " linuxcnc " + (config_ / "mill.ini").string());
