@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <fstream>
 #include <regex>
+#include <set>
 #include <cstdio>
 #include <sstream>
 #include <string>
@@ -99,7 +100,15 @@ std::string leftOf(pid_t run, const std::string& card) {
 }
 
 // The network namespaces of lbpkit linuxcnc runs there are now.
-std::string runNamespaces() { return sh("ls /run/netns 2>/dev/null | grep '^lbpkit-linuxcnc-' || true").out; }
+std::string runNamespaces() {
+  std::set<std::string> names;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator("/run/netns", ec))
+    if (e.path().filename().string().rfind("lbpkit-linuxcnc-", 0) == 0) names.insert(e.path().filename().string());
+  std::string text;
+  for (const auto& n : names) text += n + "\n";
+  return text;
+}
 
 class LinuxCncCommand : public ::testing::Test {
  protected:

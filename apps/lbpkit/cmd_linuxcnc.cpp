@@ -78,6 +78,15 @@ struct LinuxCncOptions {
   bool lateServo = false;  // found at the start: LinuxCNC will not run real-time here, and no --as-written
 };
 
+// This process (and whatever it starts) on `cpu` alone, when given.
+void pinTo(std::optional<unsigned> cpu) {
+  if (!cpu) return;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  CPU_SET(*cpu, &set);
+  ::sched_setaffinity(0, sizeof set, &set);
+}
+
 // A child process: argv run with stdout and stderr into `out` (a pipe's
 // write end) or inherited (-1), on `cpu` alone when given (and whatever it
 // starts with it). In a process group of its own, so that a terminal's
@@ -87,12 +96,7 @@ pid_t spawn(const std::vector<std::string>& argv, int out, std::optional<unsigne
   if (pid < 0) throw lbpkit::Error(fmt::format("cannot start {}: fork failed", argv.front()));
   if (pid == 0) {
     ::setpgid(0, 0);
-    if (cpu) {
-      cpu_set_t set;
-      CPU_ZERO(&set);
-      CPU_SET(*cpu, &set);
-      ::sched_setaffinity(0, sizeof set, &set);
-    }
+    pinTo(cpu);
     ::prctl(PR_SET_PDEATHSIG, SIGTERM);  // lbpkit killed outright: its children go too
     if (out >= 0) {
       ::dup2(out, 1);
@@ -245,12 +249,7 @@ pid_t startLinuxCnc(const LinuxCncLaunch& l) {
   // so that a terminal's Ctrl-C reaches only lbpkit, which stops it in order.
   ::setpgid(0, 0);
   ::prctl(PR_SET_PDEATHSIG, SIGKILL);  // and should lbpkit be gone already, the reaper kills it
-  if (l.cpu) {
-    cpu_set_t set;
-    CPU_ZERO(&set);
-    CPU_SET(*l.cpu, &set);
-    ::sched_setaffinity(0, sizeof set, &set);
-  }
+  pinTo(l.cpu);
   if (::unshare(CLONE_NEWPID | CLONE_NEWNS | CLONE_NEWIPC) != 0) refuse("new PID, mount and IPC namespaces");
   const pid_t script = ::fork();
   if (script < 0) refuse("fork");
@@ -321,16 +320,9 @@ std::string cardOfBoard(const std::string& prefix) {
 // The [EMC]VERSION of a configuration from before LinuxCNC 2.8's joints
 // (below 1.1, or none: "" then), which linuxcnc converts with update_ini
 // before it runs it; nothing for a newer one.
-std::optional<std::string> olderThanJoints(const fs::path& ini) {
-  std::ifstream in(ini);
-  std::string line, version;
-  bool inEmc = false;
-  while (std::getline(in, line)) {
-    const auto t = lbpkit::linuxcnc::trim(line);
-    if (!t.empty() && t[0] == '[') inEmc = t.rfind("[EMC]", 0) == 0;
-    if (inEmc && t.rfind("VERSION", 0) == 0 && t.find('=') != std::string::npos)
-      version = lbpkit::linuxcnc::trim(t.substr(t.find('=') + 1));
-  }
+std::optional<std::string> olderThanJoints(const lbpkit::linuxcnc::Ini& ini) {
+  const auto* entry = ini.find("EMC", "VERSION");
+  const std::string version = entry != nullptr ? entry->value : std::string();
   double v = 0.0;
   try {
     v = std::stod(version);
@@ -343,9 +335,11 @@ std::optional<std::string> olderThanJoints(const fs::path& ini) {
 // A copy of the configuration in `into`, as LinuxCNC would run it on the
 // virtual card: a PCI card's configuration (hm2_pci, a 5I25 or 6I25) on the
 // 7I92 at 10.10.10.10 (hm2_eth, its pins hm2_7i92.0.*, no firmware= to
-// load), and `display` in place of [DISPLAY]DISPLAY. Returns the copy's INI.
+// load), and `display` in place of [DISPLAY]DISPLAY; converted with
+// update_ini when `convertFrom` holds the [EMC]VERSION of a configuration
+// from before LinuxCNC 2.8 (olderThanJoints). Returns the copy's INI.
 fs::path copyConfiguration(const fs::path& ini, const fs::path& into, const std::vector<std::string>& pciPrefixes,
-                           const std::string& display) {
+                           const std::string& display, const std::optional<std::string>& convertFrom) {
   fs::create_directories(into);
   fs::copy(ini.parent_path(), into, fs::copy_options::recursive | fs::copy_options::overwrite_existing |
                                         fs::copy_options::skip_symlinks);
@@ -390,7 +384,7 @@ fs::path copyConfiguration(const fs::path& ini, const fs::path& into, const std:
   // A configuration older than LinuxCNC 2.8's joints: linuxcnc would ask,
   // in a dialog, to convert it with update_ini; the copy is converted
   // without asking (update_ini -f), as that dialog's "yes" would.
-  if (const auto version = olderThanJoints(copy)) {
+  if (const auto& version = convertFrom) {
     fmt::print("lbpkit linuxcnc: {} is a configuration from before LinuxCNC 2.8 ([EMC]VERSION {}): the copy is "
                "converted with update_ini -f, as linuxcnc's own dialog offers\n",
                ini.filename().string(), version->empty() ? "none" : *version);
@@ -503,8 +497,7 @@ Prepared prepare(const LinuxCncOptions& o, const fs::path& userFolder) {
   // What a servo thread that runs late needs (linuxcnc_host.hpp): the
   // servo period for the sim's host clock, and where the configuration
   // sets hm2_eth's wait for a reply itself.
-  std::vector<lbpkit::linuxcnc::Finding> unused;
-  const auto hal = lbpkit::linuxcnc::readConfiguration(ini, unused);
+  const auto& hal = result.hal;
   std::vector<std::string> boards;
   if (pci) boards.push_back("hm2_7i92.0");
   for (const auto& b : result.boards)
@@ -519,9 +512,10 @@ Prepared prepare(const LinuxCncOptions& o, const fs::path& userFolder) {
     p.servoPeriodAt = "LinuxCNC's default, no [EMCMOT]SERVO_PERIOD";
   }
   p.run = ini.string();
-  const bool convert = olderThanJoints(ini).has_value();
+  const auto oldVersion = olderThanJoints(hal.ini);
+  const bool convert = oldVersion.has_value();
   if (pci || !o.display.empty() || o.lateServo || convert) {
-    p.run = copyConfiguration(ini, userFolder / "config", p.pciPrefixes, o.display).string();
+    p.run = copyConfiguration(ini, userFolder / "config", p.pciPrefixes, o.display, oldVersion).string();
     if (convert) {
       // What LinuxCNC's start-up check will say of the converted copy, said
       // before anything starts (lbpkit check-config on it).

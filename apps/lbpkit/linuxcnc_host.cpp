@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "linuxcnc/program.hpp"
+#include "linuxcnc_run.hpp"
 
 namespace app::linuxcnc_host {
 
@@ -118,12 +119,8 @@ void LinuxCncLog::poll() {
     const auto name = e.path().filename().string();
     const bool print = name.rfind("linuxcnc.print.", 0) == 0;
     if ((!print && name.rfind("linuxcnc.debug.", 0) != 0) || files_.count(name) != 0 || files_.size() >= 16) continue;
-    const int fd = ::open(e.path().c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
     struct stat st {};
-    if (fd >= 0 && (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_uid != user_)) {
-      ::close(fd);
-      continue;
-    }
+    const int fd = linuxcnc_run::openUsersFile(e.path(), user_, st);
     if (fd >= 0) files_[name] = File{fd, print ? "print" : "debug", 0, {}, {}};
   }
   for (auto& [name, f] : files_) {

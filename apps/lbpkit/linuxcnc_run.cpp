@@ -25,6 +25,7 @@
 #include <cstring>
 #include <fstream>
 #include <regex>
+#include <set>
 #include <sstream>
 
 #include "lbpkit/error.hpp"
@@ -234,12 +235,16 @@ void removeDeadRuns() {
       fmt::print("lbpkit linuxcnc: removed link {}, left by a run that is gone (pid {})\n", name, owner(m));
     }
   }
+  // The owners first, then their folders: nothing is removed from /tmp
+  // while it is being read.
+  std::set<pid_t> gone;
   for (const auto& e : fs::directory_iterator("/tmp", ec)) {
     const auto name = e.path().filename().string();
-    if (std::regex_match(name, m, folder) && !runIsAlive(owner(m)))
-      for (const auto& removed : removeRunFolders(owner(m)))
-        fmt::print("lbpkit linuxcnc: removed folder {}, left by a run that is gone (pid {})\n", removed, owner(m));
+    if (std::regex_match(name, m, folder) && !runIsAlive(owner(m))) gone.insert(owner(m));
   }
+  for (const pid_t pid : gone)
+    for (const auto& removed : removeRunFolders(pid))
+      fmt::print("lbpkit linuxcnc: removed folder {}, left by a run that is gone (pid {})\n", removed, pid);
 }
 
 std::vector<std::string> removeRunFolders(pid_t owner) {
@@ -252,11 +257,10 @@ std::vector<std::string> removeRunFolders(pid_t owner) {
     // Only a real folder of root's: a name anyone could have made in /tmp
     // is not taken for a run's.
     if ((name == prefix || (name.size() == prefix.size() + 7 && name.rfind(prefix + "-", 0) == 0)) &&
-        ::lstat(e.path().c_str(), &st) == 0 && S_ISDIR(st.st_mode) && st.st_uid == 0) {
-      removeTree(e.path());
+        ::lstat(e.path().c_str(), &st) == 0 && S_ISDIR(st.st_mode) && st.st_uid == 0)
       removed.push_back(e.path().string());
-    }
   }
+  for (const auto& path : removed) removeTree(path);  // once /tmp has been read
   return removed;
 }
 
@@ -418,13 +422,22 @@ pid_t forkInRun() {
 
 int reaperPipe() { return gReaperPipe; }
 
+int openUsersFile(const fs::path& path, uid_t owner, struct stat& st) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) return -1;
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_uid != owner) {
+    ::close(fd);
+    return -1;
+  }
+  return fd;
+}
+
 std::optional<std::string> readUsersFile(const fs::path& path, uid_t owner, std::chrono::system_clock::time_point notBefore,
                                          std::size_t limit) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
-  if (fd < 0) return std::nullopt;
   struct stat st {};
-  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_uid != owner ||
-      std::chrono::system_clock::time_point(std::chrono::seconds(st.st_mtim.tv_sec + 1)) < notBefore) {
+  const int fd = openUsersFile(path, owner, st);
+  if (fd < 0) return std::nullopt;
+  if (std::chrono::system_clock::time_point(std::chrono::seconds(st.st_mtim.tv_sec + 1)) < notBefore) {
     ::close(fd);
     return std::nullopt;
   }

@@ -6,6 +6,7 @@
 // everything a run started end with it, even when it is killed outright.
 #pragma once
 
+#include <sys/stat.h>
 #include <sys/types.h>
 
 #include <chrono>
@@ -103,10 +104,12 @@ int reaperPipe();
 // at once is started this way.
 pid_t forkInRun();
 
-// A file of `owner`'s, read by root without trusting its path: opened with
-// O_NOFOLLOW|O_NONBLOCK, and read only if it is a regular file that belongs
-// to `owner`, was written at or after `notBefore`, and holds at most
-// `limit` bytes (the last `limit` otherwise).
+// A file of `owner`'s, opened by root without trusting its path: with
+// O_NOFOLLOW|O_NONBLOCK, and kept only if it is a regular file that belongs
+// to `owner` (`st` says what it is). Its descriptor, or -1.
+int openUsersFile(const std::filesystem::path& path, uid_t owner, struct stat& st);
+// Such a file, read whole if it was written at or after `notBefore`: at
+// most `limit` bytes (the last `limit` otherwise).
 std::optional<std::string> readUsersFile(const std::filesystem::path& path, uid_t owner,
                                          std::chrono::system_clock::time_point notBefore, std::size_t limit);
 

@@ -333,7 +333,8 @@ bool CheckResult::ok() const {
 
 CheckResult checkConfig(const std::filesystem::path& file, const BoardModel& model) {
   CheckResult result;
-  const HalConfig hal = readConfiguration(file, result.findings);
+  result.hal = readConfiguration(file, result.findings);
+  const HalConfig& hal = result.hal;
   result.files = hal.files;
   Checker r{hal, &result.findings};
 

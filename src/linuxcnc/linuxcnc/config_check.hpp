@@ -56,6 +56,7 @@ struct CheckResult {
   std::vector<Board> boards;
   unsigned references = 0;  // hostmot2 names looked up
   std::vector<std::string> files;  // the HAL files read
+  HalConfig hal;                    // the configuration as read: its INI, its HAL files' setp and nets
   [[nodiscard]] bool ok() const;
 };
 
