@@ -124,8 +124,12 @@ void LinuxCncLog::poll() {
     if (fd >= 0) files_[name] = File{fd, print ? "print" : "debug", 0, {}, {}};
   }
   for (auto& [name, f] : files_) {
-    // At most 1 MiB a look; a file that grows faster is read on at the next.
-    std::string chunk(1 << 20, '\0');
+    // What the file gained, at most 1 MiB a look (a file that grows faster
+    // is read on at the next): nothing is read, or allocated, when it did
+    // not grow.
+    struct stat st {};
+    if (::fstat(f.fd, &st) != 0 || st.st_size <= f.read) continue;
+    std::string chunk(static_cast<std::size_t>(std::min<off_t>(st.st_size - f.read, 1 << 20)), '\0');
     const auto n = ::pread(f.fd, chunk.data(), chunk.size(), f.read);
     if (n <= 0) continue;
     f.read += n;
