@@ -1011,6 +1011,28 @@ TEST(SimApi, OnTheHostClockEachHostCycleIsOnePeriod) {
   EXPECT_NE(std::find(faults.begin(), faults.end(), "WatchdogFault"), faults.end()) << silent["daughtercards"][0];
 }
 
+// hm2_eth's set-up writes a STOP ALL after its discovery DoIts and gives it
+// 51 ms of the wall clock (LinuxCNC: hostmot2/sserial.c). A command that is
+// no DoIt takes the host out of its cycle: the card follows the wall clock
+// at once (the STOP done in its firmware time, not after the host's 40 ms
+// silence), and the next cycle drives time again.
+TEST(SimApi, OnTheHostClockACommandOutOfTheCycleMeetsTheWallClock) {
+  Sim sim(loopback(18), {"--clock", "host=1ms"});
+  ASSERT_TRUE(sim.up());
+  HostOnSim host(sim);
+  for (int i = 0; i < 20; ++i) ASSERT_TRUE(host.ss.cycle().ok) << i;
+  const json cycling = sim.get().body;
+  // stopAll() writes STOP ALL and reads COMMAND until it clears.
+  EXPECT_EQ(host.ss.stopAll(), 0xAA) << "DATA after the global init";
+  const json stopped = sim.get().body;
+  EXPECT_EQ(stopped["clock"]["driven_by_host"], false) << stopped["clock"];
+  EXPECT_EQ(stopped["clock"]["host_left_cycle"].get<std::uint64_t>(),
+            cycling["clock"]["host_left_cycle"].get<std::uint64_t>() + 1)
+      << stopped["clock"];
+  EXPECT_EQ(stopped["clock"]["host_silences"], cycling["clock"]["host_silences"]) << "no silence counted";
+  EXPECT_GE(stopped["clock"]["host_cycles"].get<std::uint64_t>(), 20U);
+}
+
 // --- What /api/state shows ---------------------------------------------
 
 // mesaflash writes the card's EEPROM IP (with the write enable) to move a

@@ -137,6 +137,35 @@ TEST_F(HostClockTest, BeforeTheFirstCycleTimeFollowsTheWallClock) {
   EXPECT_FALSE(c.drivenByHost());
 }
 
+// hostmot2 writes a STOP ALL after the DoIts of its discovery and gives it
+// 51 ms of the wall clock (LinuxCNC: hostmot2/sserial.c): a host out of its
+// cycle meets the wall clock from its last cycle on, at once, not after the
+// silence, and its next cycle drives time again.
+TEST_F(HostClockTest, AHostOutOfItsCycleMeetsTheWallClockUntilItsNextCycle) {
+  SimClock c(servers::HostClock{1ms, 40ms}, false, &testWall);
+  c.hostCycle();
+  const SimTime atCycle = c.now();
+  pass(2ms);
+  EXPECT_EQ(c.now(), atCycle) << "between cycles, time stands";
+  c.hostLeftItsCycle();
+  EXPECT_FALSE(c.drivenByHost());
+  EXPECT_EQ(c.now(), atCycle + 2ms) << "the wall clock, from the last cycle";
+  pass(100us);
+  EXPECT_EQ(c.now(), atCycle + 2100us);
+  c.hostLeftItsCycle();  // a second command: still out of the cycle, counted once
+  EXPECT_EQ(c.cyclesLeft(), 1U);
+  c.hostCycle();
+  EXPECT_TRUE(c.drivenByHost());
+  EXPECT_EQ(c.now(), atCycle + 2100us + 1ms);
+  EXPECT_EQ(c.silences(), 0U) << "leaving the cycle is no silence";
+  pass(30ms);
+  EXPECT_EQ(c.now(), atCycle + 2100us + 1ms) << "driven again: time stands between cycles";
+  // On the wall clock a command changes nothing.
+  SimClock wallClock(1.0, false, &testWall);
+  wallClock.hostLeftItsCycle();
+  EXPECT_EQ(wallClock.cyclesLeft(), 0U);
+}
+
 TEST_F(HostClockTest, ThePeriodIsLearnedFromTheFirstCyclesSpacing) {
   SimClock c(servers::HostClock{SimTime{0}, 20ms}, false, &testWall);
   c.hostCycle();  // the first: its spacing from set-up says nothing

@@ -51,7 +51,8 @@ void SimClock::hostCycle(std::chrono::nanoseconds wallAgo) {
   // the kernel held back must not make a host on time look silent.
   const auto wall = std::max(wallBase_, wallNow_() - wallAgo);
   const lbp::SimTime t = at(wall);
-  if (hostCycles_ > 0 && silent(wall)) ++silences_;
+  if (hostCycles_ > 0 && !leftCycle_ && silent(wall)) ++silences_;
+  leftCycle_ = false;
   if (period_.count() == 0) learn(wall);
   lastCycleWall_ = wall;
   ++hostCycles_;
@@ -60,6 +61,12 @@ void SimClock::hostCycle(std::chrono::nanoseconds wallAgo) {
   // it wrote, as on a real-time machine on time.
   simBase_ = t + period_;
   wallBase_ = wall;
+}
+
+void SimClock::hostLeftItsCycle() {
+  if (source_ != Source::Host || paused_ || leftCycle_) return;
+  leftCycle_ = true;
+  ++cyclesLeft_;
 }
 
 void SimClock::heldBack(std::chrono::nanoseconds late) {

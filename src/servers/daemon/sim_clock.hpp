@@ -86,6 +86,19 @@ class SimClock {
   [[nodiscard]] bool drivenByHost() const;
   // How many times a host came back after a silence beyond the bound.
   [[nodiscard]] std::uint64_t silences() const { return silences_; }
+  // The host wrote a smart-serial command that is not a DOIT (a STOP, a
+  // START, a parameter access): it is setting the card up or recovering a
+  // channel, out of its servo cycle, and waits for the firmware on the wall
+  // clock (hostmot2 gives a STOP ALL 51 ms, a local read 22 ms, the STOP of
+  // its channel recovery 26 ms: LinuxCNC hostmot2/sserial.c). Time follows
+  // the wall clock from the host's last cycle on, as after a silence, until
+  // its next cycle. Held at the cycle's time instead, such a command would
+  // finish only when the host fell silent (40 ms): the STOP ALL hostmot2
+  // writes after its discovery DOITs then had 11 ms to spare, and none at
+  // all when the card was held back.
+  void hostLeftItsCycle();
+  // How many times a host left its cycle that way.
+  [[nodiscard]] std::uint64_t cyclesLeft() const { return cyclesLeft_; }
   // The card thread ran `late` after it should have (it woke that long
   // after its timer, or took a datagram that long after it came): while a
   // host drives time, that much of a silence is the card's own, not the
@@ -158,7 +171,7 @@ class SimClock {
   void fallBackTo(lbp::SimTime t);
   [[nodiscard]] lbp::SimTime at(Wall::time_point wall) const;  // simulated time at a wall-clock moment
   void learn(Wall::time_point wall);
-  [[nodiscard]] bool silent(Wall::time_point wall) const { return wall - wallBase_ > silence_; }
+  [[nodiscard]] bool silent(Wall::time_point wall) const { return leftCycle_ || wall - wallBase_ > silence_; }
 
   WallNow wallNow_;
   Source source_ = Source::Wall;
@@ -176,6 +189,8 @@ class SimClock {
   std::chrono::milliseconds silence_{20};
   std::uint64_t hostCycles_ = 0;
   std::uint64_t silences_ = 0;
+  bool leftCycle_ = false;  // hostLeftItsCycle() since the last cycle
+  std::uint64_t cyclesLeft_ = 0;
   std::chrono::nanoseconds heldBackFor_{0};
   std::uint64_t heldBackTimes_ = 0;
   Wall::time_point lastCycleWall_{};

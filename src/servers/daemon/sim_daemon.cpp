@@ -203,7 +203,8 @@ SimState SimDaemon::state() {
   s.clock = {clock_.speed(),       clock_.paused(),       clock_.behind(),
              clock_.slips(),       clock_.source() == SimClock::Source::Host,
              clock_.period(),      clock_.drivenByHost(), clock_.hostCycles(),
-             clock_.silences(),    clock_.heldBackFor(),  clock_.heldBackTimes()};
+             clock_.silences(),    clock_.heldBackFor(),  clock_.heldBackTimes(),
+             clock_.cyclesLeft()};
   const auto& id = lbp16_->identity();
   s.card = {id.name, options_.bindAddress, udp_->port(), id.mac, lbp16_->eeprom()};
   s.lbp16 = lbp16_->counters();
@@ -494,14 +495,19 @@ void SimDaemon::serve(std::chrono::milliseconds wait) {
   // servo cycle (hostmot2 and lbpkit's host library write one a cycle,
   // after the cycle's outputs): time moves one period on, so the host's
   // next cycle finds the DOIT done and the plant moved under its outputs.
+  // One that carried any other command takes the host out of its cycle
+  // (SimClock::hostLeftItsCycle): the wall clock again.
   const auto until = NetworkFaults::Clock::now() + wait;
   const bool served = udp_->serveOnce(wait,
                                       [&](std::span<const std::uint8_t> req, std::span<std::uint8_t> reply) {
-                                        const std::uint64_t doits = card_.part<hm2::SmartSerial>().counters().doits;
+                                        const auto before = card_.part<hm2::SmartSerial>().counters();
                                         const std::size_t n = lbp16_->handle(
                                             req, reply, catchUpTo(clock_.ago(udp_->sinceReceived()), budget()));
-                                        if (card_.part<hm2::SmartSerial>().counters().doits != doits)
+                                        const auto& after = card_.part<hm2::SmartSerial>().counters();
+                                        if (after.doits != before.doits)
                                           clock_.hostCycle(udp_->sinceReceived());
+                                        else if (after.commands != before.commands)
+                                          clock_.hostLeftItsCycle();
                                         if (packetTrace_) traceDatagram(req, reply.first(n));
                                         return n;
                                       });

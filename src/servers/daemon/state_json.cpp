@@ -293,6 +293,7 @@ json toJson(const SimState& s) {
     j["clock"]["host_silences"] = s.clock.silences;
     j["clock"]["held_back_ms"] = std::chrono::duration<double, std::milli>(s.clock.heldBack).count();
     j["clock"]["held_back_times"] = s.clock.heldBackTimes;
+    j["clock"]["host_left_cycle"] = s.clock.cyclesLeft;
   }
   const auto& e = s.card.eeprom;
   j["card"] = {{"name", s.card.name},

@@ -41,6 +41,7 @@ struct SimState {
     // `--clock host`: time moves a period per host cycle (sim_clock.hpp);
     // driven: it does right now (not paused, the period known, the host not
     // silent beyond the bound); silences: returns after such a silence;
+    // cyclesLeft: times the host left its cycle for another command;
     // heldBack: how long (and how often) the card thread itself was held
     // back while a host drove time, which no silence counts.
     bool host = false;
@@ -50,6 +51,7 @@ struct SimState {
     std::uint64_t silences = 0;
     std::chrono::nanoseconds heldBack{0};
     std::uint64_t heldBackTimes = 0;
+    std::uint64_t cyclesLeft = 0;
   } clock;
   // Who the card says it is on the network, and where it listens.
   struct Card {
