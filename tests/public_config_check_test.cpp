@@ -136,6 +136,21 @@ const std::vector<Expected>& table() {
       {"gtec-gantry-7i96s", "citic_gantry_robot.ini", {}, {}, {}},
       // A 7I96S + 7I77 testbed (a closed-loop stepper and a servo): passes both.
       {"gtec-testbed-7i96s-xy", "mesa_7i96s_7i77_xy.ini", {}, {}, {}},
+      // The same testbed as X (the servo, a home switch on the 7I96S's
+      // input 1) and C, the closed-loop stepper as a wrapped rotary axis
+      // homed on its encoder's index. check-config passes; C has no
+      // MIN_LIMIT or MAX_LIMIT (LinuxCNC leaves such a joint unbounded),
+      // and machine --from-config needs them for the axis's travel. The
+      // configuration's own rotary axis.
+      {"gtec-testbed-7i96s-xc",
+       "mesa_7i96s_7i77_xc.ini",
+       {},
+       {"mesa_7i96s_7i77_xc.ini:130: error: [JOINT_1] needs MIN_LIMIT below MAX_LIMIT: they give the axis its travel"},
+       {}},
+      // The same testbed's two motors both on X (coordinates=XX: the
+      // closed-loop stepper and the servo as a gantry pair, no switches,
+      // homed in place together): passes both.
+      {"gtec-testbed-7i96s-xx", "mesa_7i96s_7i77_xx.ini", {}, {}, {}},
   };
   return t;
 }
