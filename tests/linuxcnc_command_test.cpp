@@ -33,6 +33,7 @@
 #include "support/temp_dir.hpp"
 #include "support/temporary_user.hpp"
 #include "support/wait.hpp"
+#include "support/xvfb.hpp"
 
 namespace {
 
@@ -659,35 +660,16 @@ class AxisGui : public LinuxCncCommand {
     fs::copy_file(fs::path(LBPKIT_SOURCE_DIR) / "examples/linuxcnc/mill/mill.ini", config_ / "mill.ini",
                   fs::copy_options::overwrite_existing);
     atAddressOfItsOwn();
-    // A display number no X server on this PC uses.
-    for (int n = 90; n < 190 && display_.empty(); ++n)
-      if (!fs::exists("/tmp/.X11-unix/X" + std::to_string(n)) && !fs::exists("/tmp/.X" + std::to_string(n) + "-lock"))
-        display_ = ":" + std::to_string(n);
-    ASSERT_FALSE(display_.empty());
-    xvfb_ = ::fork();
-    if (xvfb_ == 0) {
-      const int null = ::open("/dev/null", O_WRONLY);
-      ::dup2(null, 1);
-      ::dup2(null, 2);
-      ::execlp("Xvfb", "Xvfb", display_.c_str(), "-screen", "0", "1024x768x24", "-nolisten", "tcp",
-               static_cast<char*>(nullptr));
-      ::_exit(127);
-    }
+    ASSERT_TRUE(desktop_.up()) << "Xvfb did not start";
+    display_ = desktop_.display();
     ASSERT_TRUE(test_support::waitFor([&] { return x("xdotool getdisplaygeometry").exit == 0; }, 10s))
         << "Xvfb " << display_ << " did not start";
-  }
-  void TearDown() override {
-    LinuxCncCommand::TearDown();
-    if (xvfb_ > 0) {
-      ::kill(xvfb_, SIGTERM);
-      ::waitpid(xvfb_, nullptr, 0);
-    }
   }
   // A command on the X display.
   interop::Shell x(const std::string& command) { return sh("DISPLAY=" + display_ + " " + command); }
 
+  test_support::Xvfb desktop_;
   std::string display_;
-  pid_t xvfb_ = -1;
 };
 
 TEST_F(AxisGui, AxisHomesTheMillThroughItsOwnControls) {

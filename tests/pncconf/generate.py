@@ -101,11 +101,13 @@ MATRIX = [
 
 # Per unit: travel (min, max), the home switch's position and where
 # LinuxCNC calls home, counts per unit (a 2000-line encoder on a 5 mm or
-# 0.2 in screw), velocity at 10 V, max velocity and acceleration.
+# 0.2 in screw), velocity at 10 V, max velocity and acceleration. A is a
+# rotary table with soft limits two turns each way: the display's G53 moves
+# turn it across them in seconds.
 AXES = {
-    "mm": dict(x=(0, 400), y=(0, 300), z=(-100, 0), a=(-9999, 9999),
+    "mm": dict(x=(0, 400), y=(0, 300), z=(-100, 0), a=(-360, 360),
                counts=1600, at10v=250, maxvel=50, maxacc=500, search=10, latch=1, back=5),
-    "inch": dict(x=(0, 16), y=(0, 12), z=(-4, 0), a=(-9999, 9999),
+    "inch": dict(x=(0, 16), y=(0, 12), z=(-4, 0), a=(-360, 360),
                  counts=40640, at10v=10, maxvel=2, maxacc=20, search=0.4, latch=0.04, back=0.2),
 }
 
@@ -316,7 +318,22 @@ def configure(app, entry):
         d[base + "searchdir"] = 1
         d[base + "latchdir"] = 0
         d[base + "usehomeindex"] = 1 if entry["homing"] == "index" else 0
-        d[base + "P"] = 1.0
+        # The servo loop as a user tunes it on PNCconf's axis page: P in
+        # units per second of velocity command per unit of error. The 7I77's
+        # DAC moves in steps of OUTPUT_SCALE / 4096 (about 100 counts of
+        # error at P = 1 for every axis here), so P must be over ~100 for
+        # the loop to hold an axis within a count; 200 holds it within half
+        # of one, and at a 1 ms servo period (loop gain 0.2 a period) is
+        # well inside stability. FF1 = 1: OUTPUT_SCALE is the velocity at
+        # 10 V.
+        d[base + "P"] = 200.0
+        # The analog output's limits in the PID's units, as the axis page
+        # sets them: PNCconf's default of +-10 suits an OUTPUT_SCALE of 10
+        # only. Left at 10 with a scale of 250 mm/s, the drive is held to
+        # 10 mm/s and every faster move ends in a following error, on a
+        # real 7I77 as on lbpkit's.
+        scale = d[base + "outputscale"]
+        d[base + "outputminlimit"], d[base + "outputmaxlimit"] = -scale, scale
         d[base + "FF1"] = 1.0
         d[base + "invertmotor"] = 0
         d[base + "invertencoder"] = 0
