@@ -696,6 +696,94 @@ TEST(CheckConfig, TclHalFilesAreReadAsFarAsLbpkitCan) {
       << r.out;
 }
 
+// A servo joint whose 7I77 analog output's maxlim/minlim hold its PID's
+// output under what MAX_VELOCITY needs (FF1 x MAX_VELOCITY): hostmot2 holds
+// the value to [minlim, maxlim] before it scales it, so every faster move
+// ends in a following error. LinuxCNC starts: a warning, naming the setp of
+// the limit and the INI's MAX_VELOCITY, and the exit status stays 0. With
+// limits that reach MAX_VELOCITY, or FF1 0 (no feed-forward to size the
+// output by), nothing is said.
+TEST(CheckConfig, AnAnalogOutputsLimitUnderMaxVelocityIsAWarning) {
+  test_support::TempDir dir("lbpkit-check-output-limit");
+  // One X servo: [JOINT_0] at lines 19-28 (MAX_VELOCITY at 21), the HAL's
+  // limits at lines 9 (minlim) and 10 (maxlim) when `limits`.
+  auto servo = [&](const std::string& name, const std::string& ff1, const std::string& minlim,
+                   const std::string& maxlim, bool limits = true) {
+    std::ofstream(dir.path() / (name + ".ini"))
+        << "[EMC]\nVERSION = 1.1\nMACHINE = servo\n\n[KINS]\nKINEMATICS = trivkins coordinates=X\nJOINTS = 1\n\n"
+        << "[TRAJ]\nCOORDINATES = X\nLINEAR_UNITS = mm\n\n"
+        << "[AXIS_X]\nMAX_VELOCITY = 50\nMAX_ACCELERATION = 500\nMIN_LIMIT = -100\nMAX_LIMIT = 100\n\n"
+        << "[JOINT_0]\nTYPE = LINEAR\nMAX_VELOCITY = 50.0\nMAX_ACCELERATION = 500\nMIN_LIMIT = -100\nMAX_LIMIT = 100\n"
+        << "FF1 = " << ff1 << "\nOUTPUT_SCALE = 250\nOUTPUT_MIN_LIMIT = " << minlim << "\nOUTPUT_MAX_LIMIT = " << maxlim
+        << "\n\n[HAL]\nHALFILE = " << name << ".hal\n";
+    std::ofstream hal(dir.path() / (name + ".hal"));
+    hal << "loadrt hostmot2\n"
+        << "loadrt hm2_eth board_ip=10.10.10.10 config=\"num_encoders=6 num_pwmgens=0 num_stepgens=0 "
+           "sserial_port_0=00xxxx\"\n"
+        << "loadrt pid names=pid.x\n"
+        << "setp pid.x.FF1 [JOINT_0]FF1\n"
+        << "net x-pos-cmd joint.0.motor-pos-cmd => pid.x.command\n"
+        << "net x-pos-fb hm2_7i92.0.encoder.00.position => pid.x.feedback joint.0.motor-pos-fb\n"
+        << "net x-output pid.x.output => hm2_7i92.0.7i77.0.1.analogout0\n"
+        << "setp hm2_7i92.0.7i77.0.1.analogout0-scalemax [JOINT_0]OUTPUT_SCALE\n";
+    if (limits)
+      hal << "setp hm2_7i92.0.7i77.0.1.analogout0-minlim [JOINT_0]OUTPUT_MIN_LIMIT\n"
+          << "setp hm2_7i92.0.7i77.0.1.analogout0-maxlim [JOINT_0]OUTPUT_MAX_LIMIT\n";
+    return dir.path() / (name + ".ini");
+  };
+
+  // Each configuration warned of, and the line check-config prints.
+  struct Warned {
+    const char* name;
+    const char* ff1;
+    const char* minlim;
+    const char* maxlim;
+    bool limits;
+    std::string line;
+  };
+  for (const auto& w : {
+           // PNCconf's +-10 with OUTPUT_SCALE 250: 10 mm/s of the 50 the INI allows.
+           Warned{"held", "1.0", "-10.0", "10.0", true,
+                  "held.hal:10: warning: joint 0: hm2_7i92.0.7i77.0.1.analogout0-maxlim 10 holds its PID's output to "
+                  "10 (10 units/s at FF1 1), under [JOINT_0]MAX_VELOCITY 50 (held.ini:21): a move faster than that "
+                  "ends in a following error; PNCconf's default limits of +-10 suit an OUTPUT_SCALE of 10 only"},
+           // The limit nearer 0 holds it, here minlim; FF1 2 halves the velocity.
+           Warned{"held_below", "2", "-20", "250", true,
+                  "held_below.hal:9: warning: joint 0: hm2_7i92.0.7i77.0.1.analogout0-minlim -20 holds its PID's "
+                  "output to -20 (10 units/s at FF1 2), under [JOINT_0]MAX_VELOCITY 50 (held_below.ini:21): a move "
+                  "faster than that ends in a following error"},
+           // No setp of the limits: hostmot2's own, the 7I77's +-10, at the
+           // line that nets the output.
+           Warned{"unset", "1", "-250", "250", false,
+                  "unset.hal:7: warning: joint 0: hm2_7i92.0.7i77.0.1.analogout0-maxlim 10 (hostmot2's default: none "
+                  "set) holds its PID's output to 10 (10 units/s at FF1 1), under [JOINT_0]MAX_VELOCITY 50 "
+                  "(unset.ini:21): a move faster than that ends in a following error; hostmot2's default limits of "
+                  "+-10 suit a scalemax of 10 only"}}) {
+    const auto r = check(servo(w.name, w.ff1, w.minlim, w.maxlim, w.limits));
+    EXPECT_EQ(r.exit, 0) << w.name << "\n" << r.out << r.err;
+    EXPECT_NE(r.out.find(w.line + "\n"), std::string::npos) << w.line << "\n" << r.out;
+    EXPECT_NE(r.out.find(": no errors, 1 warning\n"), std::string::npos) << r.out;
+  }
+  const auto warned = check(dir.path() / "held.ini", true);
+  EXPECT_EQ(warned.exit, 0) << warned.out << warned.err;
+  const auto j = json::parse(warned.out, nullptr, false);
+  ASSERT_FALSE(j.is_discarded()) << warned.out << warned.err;
+  EXPECT_EQ(j["ok"], true);
+  ASSERT_EQ(j["findings"].size(), 1U) << j.dump(2);
+  EXPECT_EQ(j["findings"][0]["severity"], "warning");
+  EXPECT_EQ(j["findings"][0]["name"], "hm2_7i92.0.7i77.0.1.analogout0-maxlim");
+
+  // Limits of +-OUTPUT_SCALE reach 250 mm/s; exactly MAX_VELOCITY is reached.
+  for (const auto& [name, ff1, minlim, maxlim] :
+       {std::tuple{"reaches", "1", "-250", "250"}, std::tuple{"reaches_exactly", "5", "-250", "250"},
+        std::tuple{"no_ff1", "0", "-10", "10"}}) {
+    const auto r = check(servo(name, ff1, minlim, maxlim));
+    EXPECT_EQ(r.exit, 0) << name << "\n" << r.out << r.err;
+    EXPECT_EQ(r.out.find("following error"), std::string::npos) << name << "\n" << r.out;
+    EXPECT_NE(r.out.find(": no problems\n"), std::string::npos) << name << "\n" << r.out;
+  }
+}
+
 TEST(CheckConfig, TextOutputSaysFileLineReasonAndNearestName) {
   const auto r = check(corpus() / "broken/wrong_channel.hal");
   EXPECT_EQ(r.exit, 1);

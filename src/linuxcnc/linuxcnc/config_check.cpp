@@ -4,12 +4,14 @@
 #include "linuxcnc/config_check.hpp"
 
 #include "linuxcnc/board_address.hpp"
+#include "linuxcnc/machine_from_config.hpp"
 #include "linuxcnc/startup_check.hpp"
 
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <optional>
 #include <regex>
 #include <set>
@@ -325,6 +327,43 @@ void evaluate(Checker& r, const std::vector<const Board*>& boards, const std::ma
   }
 }
 
+// A servo joint that the limits of its 7I77 analog output hold under its
+// MAX_VELOCITY. hostmot2 holds the value of an analogoutN to [minlim,
+// maxlim] before it scales it by scalemax (LinuxCNC:
+// src/hal/drivers/mesa-hostmot2/sserial.c), and with FF1 the PID's output
+// is FF1 x the commanded velocity (AnalogDrive::velocityAt), so the fastest
+// the output can command is min(maxlim, -minlim) / FF1. LinuxCNC starts,
+// and every move faster than that ends in "joint N following error": a
+// warning, at the setp of the limit that holds it (at the output's first
+// line when hostmot2's default does). PNCconf writes limits of +-10 whatever
+// OUTPUT_SCALE it writes.
+void outputLimitWarnings(const HalConfig& hal, const std::filesystem::path& ini, std::vector<Finding>& findings) {
+  for (const auto& d : analogDrives(hal, ini)) {
+    if (!d.maxVelocity) continue;
+    const bool byMax = d.maxlim.v <= -d.minlim.v;
+    const ConfigValue& limit = byMax ? d.maxlim : d.minlim;
+    const auto fastest = d.velocityAt(std::max(0.0, byMax ? d.maxlim.v : -d.minlim.v));
+    const double maxVelocity = std::abs(d.maxVelocity->v);
+    if (!fastest || !std::isfinite(*fastest) || !std::isfinite(maxVelocity) || *fastest >= maxVelocity * (1 - 1e-9))
+      continue;
+    const auto name = d.output + (byMax ? "-maxlim" : "-minlim");
+    const Where at = limit.setp.line != 0 ? limit.setp : d.outputAt;
+    // Limits of +-10 on a larger scalemax: PNCconf's when a setp gives the
+    // one that holds it, else hostmot2's own.
+    const bool tenOnLarger = d.maxlim.v == 10.0 && d.minlim.v == -10.0 && std::abs(d.scalemax.v) > 10.0;
+    findings.push_back(
+        {at.file, at.line, "warning", name,
+         fmt::format("joint {}: {} {:g}{} holds its PID's output to {:g} ({:g} units/s at FF1 {:g}), under "
+                     "[{}]MAX_VELOCITY {:g} ({}:{}): a move faster than that ends in a following error{}",
+                     d.joint, name, limit.v, limit.setp.line == 0 ? " (hostmot2's default: none set)" : "", limit.v,
+                     *fastest, d.ff1->v, d.section, d.maxVelocity->v, d.maxVelocity->at.file, d.maxVelocity->at.line,
+                     !tenOnLarger ? ""
+                     : limit.setp.line != 0 ? "; PNCconf's default limits of +-10 suit an OUTPUT_SCALE of 10 only"
+                                  : "; hostmot2's default limits of +-10 suit a scalemax of 10 only"),
+         {}});
+  }
+}
+
 }  // namespace
 
 bool CheckResult::ok() const {
@@ -342,6 +381,10 @@ CheckResult checkConfig(const std::filesystem::path& file, const BoardModel& mod
   // `linuxcnc` runs it before it loads anything.
   if (hal.hasIni)
     for (auto& f : startupCheck(file, hal.ini.file)) result.findings.push_back(std::move(f));
+
+  // A servo joint its analog output's limits hold under its MAX_VELOCITY
+  // (a warning: LinuxCNC starts).
+  if (hal.hasIni) outputLimitWarnings(hal, file, result.findings);
 
   // An INI whose HAL files gave lbpkit no HAL command to check (Tcl it does
   // not read, ...) has had nothing checked: that is no pass, though LinuxCNC

@@ -3,8 +3,10 @@
 // reference to a hostmot2 pin or parameter that LinuxCNC would refuse or
 // that cannot work: no such name, a smart-serial channel with no remote or
 // left out, a pin that exists only in another mode, a read-only parameter,
-// two outputs on one signal, an input nothing writes; and what LinuxCNC's
-// start-up check refuses in the INI (startup_check.hpp). Needs no LinuxCNC.
+// two outputs on one signal, an input nothing writes; what LinuxCNC's
+// start-up check refuses in the INI (startup_check.hpp); and a servo joint
+// its 7I77 analog output's maxlim/minlim hold under its MAX_VELOCITY (a
+// warning). Needs no LinuxCNC.
 #pragma once
 
 #include <filesystem>

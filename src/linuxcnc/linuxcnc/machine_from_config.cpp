@@ -246,13 +246,8 @@ Lines encoderLines(double countsPerMm, double pitch) {
 
 // A value the configuration gives, and where it says so: `from` for the
 // machine file's comment, `said` (the key or setp as written) and `at` for
-// an error.
-struct Value {
-  double v = 0.0;
-  std::string from;
-  std::string said;
-  Where at;
-};
+// an error (machine_from_config.hpp).
+using Value = ConfigValue;
 
 // A field input whose state reaches a pin, and whether it arrives inverted
 // (an odd number of `not`s and input-NN-not on the way).
@@ -774,27 +769,31 @@ class Deriver {
   // A value from a setp of `halName`, else from the INI's [section]key.
   [[nodiscard]] std::optional<Value> value(const std::string& halName, const std::string& section,
                                            const std::string& key) const {
-    if (const auto* s = hal_.setpOf(halName)) {
-      if (const auto v = number(s->value)) {
-        const auto written = s->written == s->value ? s->value : fmt::format("{} = {}", s->written, s->value);
-        Value out{*v, fmt::format("{}: setp {} {}", at(s->at), halName, written),
-                  fmt::format("setp {} {}", halName, written), s->at};
-        // A setp of [SECTION]KEY: an error names the INI's line.
-        if (const auto close = s->written.find(']'); s->written.starts_with("[") && close != std::string::npos)
-          if (const auto* e = hal_.ini.find(s->written.substr(1, close - 1), s->written.substr(close + 1))) {
-            out.said = fmt::format("{} = {}", s->written, e->value);
-            out.at = {e->file, e->line};
-          }
-        return out;
-      }
-    }
+    if (auto v = setpValue(halName)) return v;
     return iniValue(section, key);
+  }
+  // A value from the last setp of `halName` (a number), else none.
+  [[nodiscard]] std::optional<Value> setpValue(const std::string& halName) const {
+    const auto* s = hal_.setpOf(halName);
+    if (!s) return std::nullopt;
+    const auto v = number(s->value);
+    if (!v) return std::nullopt;
+    const auto written = s->written == s->value ? s->value : fmt::format("{} = {}", s->written, s->value);
+    Value out{*v, fmt::format("{}: setp {} {}", at(s->at), halName, written), fmt::format("setp {} {}", halName, written),
+              s->at, s->at};
+    // A setp of [SECTION]KEY: an error names the INI's line.
+    if (const auto close = s->written.find(']'); s->written.starts_with("[") && close != std::string::npos)
+      if (const auto* e = hal_.ini.find(s->written.substr(1, close - 1), s->written.substr(close + 1))) {
+        out.said = fmt::format("{} = {}", s->written, e->value);
+        out.at = {e->file, e->line};
+      }
+    return out;
   }
   [[nodiscard]] std::optional<Value> iniValue(const std::string& section, const std::string& key) const {
     if (const auto* e = hal_.ini.find(section, key))
       if (const auto v = number(e->value))
         return Value{*v, fmt::format("[{}]{} = {} ({}:{})", section, key, e->value, e->file, e->line),
-                     fmt::format("[{}]{} = {}", section, key, e->value), Where{e->file, e->line}};
+                     fmt::format("[{}]{} = {}", section, key, e->value), Where{e->file, e->line}, {}};
     return std::nullopt;
   }
   // Where [SECTION] is: the line above its first key in the INI; for a
@@ -857,13 +856,67 @@ class Deriver {
     return out;
   }
 
-  void joint(unsigned n, char letter, const std::string& name) {
-    // LinuxCNC 2.8 and later name the joints' pins joint.N; 2.7 axis.N.
-    const std::string jp = fmt::format("{}.{}.", jointPins_, n);
-    // Its INI section: [JOINT_N] (2.8 and later), [AXIS_N] (2.7), [AXIS_L].
+  // Joint n's pins: LinuxCNC 2.8 and later name them joint.N; 2.7 axis.N.
+  [[nodiscard]] std::string jointPins(unsigned n) const { return fmt::format("{}.{}.", jointPins_, n); }
+  // Joint n's INI section: [JOINT_N] (2.8 and later), [AXIS_N] (2.7),
+  // [AXIS_L].
+  [[nodiscard]] std::string sectionOf(unsigned n, char letter) const {
     std::string section = fmt::format("JOINT_{}", n);
     if (!hal_.ini.sections.count(section)) section = fmt::format("AXIS_{}", n);
     if (!hal_.ini.sections.count(section) && letter) section = std::string("AXIS_") + letter;
+    return section;
+  }
+  // The PID between a joint's command (signal `cmdSig`) and what drives the
+  // motor: the pid instance whose command is on it ("" when none).
+  [[nodiscard]] std::string pidOn(const std::string& cmdSig) const {
+    std::string pid;
+    for (const auto& p : pinsOn(cmdSig))
+      if (p.ends_with(".command") && moduleOf(p.substr(0, p.size() - 8)) == "pid") pid = p.substr(0, p.size() - 8);
+    return pid;
+  }
+  // Joint n's drive through `pid` on the 7I77 analog output `output`.
+  [[nodiscard]] AnalogDrive analogDrive(unsigned n, const std::string& section, const std::string& pid,
+                                        const std::string& output) const {
+    const Where iniAt = sectionWhere(section);
+    auto hostmot2 = [&](const std::string& parameter, double v) {
+      return setpValue(output + "-" + parameter)
+          .value_or(Value{v, fmt::format("hostmot2's default {} {:g} (none set)", parameter, v), {}, where(output), {}});
+    };
+    AnalogDrive d;
+    d.joint = n;
+    d.section = section;
+    d.pid = pid;
+    d.output = output;
+    d.outputAt = where(output);
+    d.scalemax = value(output + "-scalemax", section, "OUTPUT_SCALE")
+                     .value_or(Value{10.0, "hostmot2's default scalemax 10 (none set)", {}, iniAt, {}});
+    d.maxlim = hostmot2("maxlim", 10.0);
+    d.minlim = hostmot2("minlim", -10.0);
+    d.ff1 = value(pid + ".FF1", section, "FF1");
+    d.maxVelocity = iniValue(section, "MAX_VELOCITY");
+    return d;
+  }
+
+ public:
+  // Every joint whose PID drives an analogoutN of a 7I77 (analogDrives()).
+  std::vector<AnalogDrive> analogDrives() {
+    const auto joints = jointCount();
+    const auto letters = coordinates();
+    std::vector<AnalogDrive> out;
+    for (unsigned n = 0; n < joints; ++n) {
+      const auto pid = pidOn(signal(jointPins(n) + "motor-pos-cmd"));
+      if (pid.empty()) continue;
+      for (const auto& p : pinsOn(signal(pid + ".output")))
+        if (analogOut(p, true))
+          out.push_back(analogDrive(n, sectionOf(n, n < letters.size() ? letters[n] : '\0'), pid, p));
+    }
+    return out;
+  }
+
+ private:
+  void joint(unsigned n, char letter, const std::string& name) {
+    const std::string jp = jointPins(n);
+    const std::string section = sectionOf(n, letter);
     const auto fbSig = signal(jp + "motor-pos-fb"), cmdSig = signal(jp + "motor-pos-cmd");
     const Where iniAt = sectionWhere(section);
     if (fbSig.empty() || cmdSig.empty()) {
@@ -871,10 +924,7 @@ class Deriver {
               fmt::format("joint {}: {}motor-pos-cmd or -fb is on no signal: no axis for it", n, jp));
       return;
     }
-    // The PID between the joint's command and what drives the motor.
-    std::string pid;
-    for (const auto& p : pinsOn(cmdSig))
-      if (p.ends_with(".command") && moduleOf(p.substr(0, p.size() - 8)) == "pid") pid = p.substr(0, p.size() - 8);
+    const std::string pid = pidOn(cmdSig);
     std::optional<unsigned> encoder, analog, stepgen;
     std::string board, analogPin, encoderPin, offDrive;
     bool velocityStepgen = false;
@@ -982,7 +1032,7 @@ class Deriver {
     const double amax = maxAcc && maxAcc->v > 0 ? maxAcc->v : 250.0 / mmPerUnit;
     const double sv = searchVel.value_or(Value{}).v;
     const double lv = latchVel.value_or(Value{}).v;
-    const auto offset = homeOffset.value_or(Value{0.0, "LinuxCNC's default HOME_OFFSET = 0", {}, iniAt});
+    const auto offset = homeOffset.value_or(Value{0.0, "LinuxCNC's default HOME_OFFSET = 0", {}, iniAt, {}});
     const auto* useIndexEntry = hal_.ini.find(section, "HOME_USE_INDEX");
     const bool useIndex = useIndexEntry && yes(useIndexEntry->value);
 
@@ -1052,9 +1102,9 @@ class Deriver {
                                           *encoder, section));
         return;
       }
-      const auto outScale = value(analogPin + "-scalemax", section, "OUTPUT_SCALE")
-                                .value_or(Value{10.0, "hostmot2's default scalemax 10 (none set)", {}, iniAt});
-      const auto ff1 = value(pid + ".FF1", section, "FF1");
+      const auto drive = analogDrive(n, section, pid, analogPin);
+      const auto& outScale = drive.scalemax;
+      const auto& ff1 = drive.ff1;
       if (!within(encScale, kScaleBound) || !within(outScale, kOutputScaleBound) || !within(ff1, kFf1Bound)) return;
       const auto e = encoderLines(std::abs(encScale->v) / mmPerUnit, pitch);
       if (!encoderFits(e, *encScale)) return;
@@ -1077,9 +1127,10 @@ class Deriver {
                                                                     : "the encoder scale's sign"));
       // The PID's output is scalemax at 10 V; with FF1 the output is FF1 x
       // the commanded velocity, so the drive must give 10 V /
-      // (scalemax / FF1) per unit/s for the feed-forward to be right.
-      const double f = ff1 && ff1->v > 0 ? ff1->v : 1.0;
-      const double unitsPerSecondPerVolt = std::abs(outScale.v) / 10.0 / f;
+      // (scalemax / FF1) per unit/s for the feed-forward to be right (FF1 0
+      // or none: the scale taken alone).
+      const double unitsPerSecondPerVolt =
+          drive.velocityAt(std::abs(outScale.v)).value_or(std::abs(outScale.v)) / 10.0;
       const double gain = unitsPerSecondPerVolt * mmPerUnit / lead;
       // The amplifier's limit is 11 V of it.
       if (!derived(gain, kMinGain, kMaxLimit / 11.0, outScale,
@@ -1386,7 +1437,7 @@ class Deriver {
     }
     if (!analog && !on7I76) return;
     const auto scale = value(pin + "-scalemax", "SPINDLE_0", "OUTPUT_SCALE")
-                           .value_or(Value{10.0, "hostmot2's default scalemax 10 (none set)", {}, where(pin)});
+                           .value_or(Value{10.0, "hostmot2's default scalemax 10 (none set)", {}, where(pin), {}});
     if (!within(scale, kOutputScaleBound) ||
         !derived(std::abs(scale.v), std::max(1.0, 10.0 * kMinRpmPerVolt), std::min(kMaxRpm, 10.0 * kMaxRpmPerVolt), scale,
                  "the spindle's rpm at 10 V"))
@@ -1426,7 +1477,7 @@ class Deriver {
       return;
     }
     const auto encScale = value(fmt::format("{}.encoder.{:02d}.scale", board, *encoder), "SPINDLE_0", "ENCODER_SCALE")
-                              .value_or(Value{4096.0, "assumed 1024 lines (no scale set)", {}, where(pin)});
+                              .value_or(Value{4096.0, "assumed 1024 lines (no scale set)", {}, where(pin), {}});
     if (!within(encScale, kScaleBound) ||
         !derived(std::max(1.0, std::round(std::abs(encScale.v) / 4.0)), 1.0, kMaxEncoderLines, encScale,
                  "the spindle encoder's lines (counts a revolution / 4)"))
@@ -1581,6 +1632,16 @@ class Deriver {
 };
 
 }  // namespace
+
+std::optional<double> AnalogDrive::velocityAt(double pidOutput) const {
+  if (!ff1 || !(ff1->v > 0)) return std::nullopt;
+  return pidOutput / ff1->v;
+}
+
+std::vector<AnalogDrive> analogDrives(const HalConfig& hal, const std::filesystem::path& ini) {
+  std::vector<Finding> unused;  // what a machine derived from it would say: not asked here
+  return Deriver(hal, unused, ini).analogDrives();
+}
 
 DerivedMachine machineFromConfig(const std::filesystem::path& ini) {
   DerivedMachine m;

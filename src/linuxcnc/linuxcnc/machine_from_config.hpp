@@ -24,6 +24,7 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -40,5 +41,43 @@ struct DerivedMachine {
 };
 
 DerivedMachine machineFromConfig(const std::filesystem::path& ini);
+
+// A number a configuration gives: a setp of a HAL name (after [SECTION]KEY
+// substitution), an INI key, or a default.
+struct ConfigValue {
+  double v = 0.0;
+  std::string from;  // for a comment: "mill.hal:83: setp NAME [JOINT_0]OUTPUT_SCALE = 250"
+  std::string said;  // for a finding: "[JOINT_0]OUTPUT_SCALE = 250"
+  Where at;          // where the value is written: the INI's line for a setp of [SECTION]KEY
+  Where setp;        // the setp's own line (line 0: no setp gives it)
+};
+
+// A joint whose PID's output reaches a 7I77's analogoutN, followed as
+// machineFromConfig() follows it: the PID on the joint's motor-pos-cmd, the
+// analog output on the PID's output (any 7I77's), its INI section and values.
+struct AnalogDrive {
+  unsigned joint = 0;
+  std::string section;  // JOINT_N; AXIS_N or AXIS_L in a LinuxCNC 2.7 INI
+  std::string pid;      // "pid.x"
+  std::string output;   // "hm2_7i92.0.7i77.0.1.analogout0"
+  Where outputAt;       // the first line that names it
+  // hostmot2's parameters of the output (LinuxCNC:
+  // src/hal/drivers/mesa-hostmot2/sserial.c): the PID's output is held to
+  // [minlim, maxlim], then scaled so that scalemax gives 10 V. Each from its
+  // setp (scalemax else [section]OUTPUT_SCALE), else hostmot2's default, the
+  // range the 7I77 gives its analog outputs: scalemax 10, maxlim 10, minlim
+  // -10.
+  ConfigValue scalemax, maxlim, minlim;
+  std::optional<ConfigValue> ff1;          // setp of the PID's FF1, else [section]FF1
+  std::optional<ConfigValue> maxVelocity;  // [section]MAX_VELOCITY
+  // The velocity (units/s) a PID output of `pidOutput` commands: with FF1
+  // (velocity feed-forward) the PID's output is FF1 x the commanded velocity,
+  // and the drive is set up to match. None without an FF1 above 0.
+  [[nodiscard]] std::optional<double> velocityAt(double pidOutput) const;
+};
+
+// Every joint of the configuration `hal` (read from the INI `ini`) whose PID
+// drives an analogoutN of a 7I77, in joint order.
+std::vector<AnalogDrive> analogDrives(const HalConfig& hal, const std::filesystem::path& ini);
 
 }  // namespace lbpkit::linuxcnc
