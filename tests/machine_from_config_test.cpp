@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -130,6 +131,10 @@ TEST(MachineFromConfig, NegativeScalesHomingAndPermissives) {
   EXPECT_FALSE(home.tripAbove);
   EXPECT_EQ(home.position, -202.5);
   EXPECT_LE(x.travelMin, -202.5);
+  // The index comes at whole motor turns from where the machine powers up:
+  // it starts a whole number of turns (5 mm) from HOME_OFFSET, so the index
+  // the latch finds is the one at -200.
+  EXPECT_NEAR(std::remainder(x.initialPosition + 200.0, 5.0), 0.0, 1e-9) << x.initialPosition;
   // Y: FF1 0.5 doubles the drive's gain (2 mm/s per volt / 0.5 on 5 mm:
   // 0.8 rev/s per volt); it homes in place, so it starts at HOME_OFFSET.
   EXPECT_DOUBLE_EQ(d.axes[1].drives[0].amplifier.gain, 0.8);

@@ -1190,6 +1190,16 @@ class Deriver {
       // power-up is the one thing no configuration says.
       const double away = std::min(std::max(5.0 / mmPerUnit, 5.0 * std::abs(sv)), 0.4 * (hi - lo));
       initial = std::clamp(*edge - (sv > 0 ? away : -away), lo, hi);
+      if (useIndex) {
+        // The encoder's index comes at whole motor turns from where the
+        // machine powered up (QuadratureEncoder): it starts a whole number
+        // of turns from the index LinuxCNC calls HOME_OFFSET, so that the
+        // index the latch finds half a turn past the edge is that one.
+        const double side = initial < offset.v ? -1.0 : 1.0;
+        const double turns = std::ceil(std::abs(offset.v - initial) / leadUnits - 1e-9);
+        initial = offset.v + side * turns * leadUnits;
+        if (initial < lo || initial > hi) initial = offset.v + side * (turns - 1) * leadUnits;
+      }
       homeComment += fmt::format("; it starts {} {} from the switch, {} s of HOME_SEARCH_VEL", fmtNumber(away), unitName,
                                  fmtNumber(away / std::abs(sv)));
     }
