@@ -1185,10 +1185,11 @@ class Deriver {
                                    fmtNumber(leadUnits), unitName);
       lo = std::min(lo, *edge);
       hi = std::max(hi, *edge);
-      // Powered up a few seconds' search from its home switch (5 mm, or 5 s
-      // at HOME_SEARCH_VEL), within the travel: where the machine is at
-      // power-up is the one thing no configuration says.
-      const double away = std::min(std::max(5.0 / mmPerUnit, 5.0 * std::abs(sv)), 0.4 * (hi - lo));
+      // Powered up two seconds' search from its home switch (at least 5
+      // mm), within the travel: where the machine is at power-up is the one
+      // thing no configuration says, and a search that long runs homing's
+      // every phase (search, back-off, latch) as a longer one would.
+      const double away = std::min(std::max(5.0 / mmPerUnit, 2.0 * std::abs(sv)), 0.4 * (hi - lo));
       initial = std::clamp(*edge - (sv > 0 ? away : -away), lo, hi);
       if (useIndex) {
         // The encoder's index comes at whole motor turns from where the
