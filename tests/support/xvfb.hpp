@@ -7,6 +7,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -29,6 +30,8 @@ class Xvfb {
     if (display_.empty()) return;
     pid_ = ::fork();
     if (pid_ == 0) {
+      // A test killed outright (ctest's timeout) takes its X server along.
+      ::prctl(PR_SET_PDEATHSIG, SIGTERM);
       const int null = ::open("/dev/null", O_WRONLY);
       ::dup2(null, 1);
       ::dup2(null, 2);
