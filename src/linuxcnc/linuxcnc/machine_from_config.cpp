@@ -1201,8 +1201,9 @@ class Deriver {
         initial = offset.v + side * turns * leadUnits;
         if (initial < lo || initial > hi) initial = offset.v + side * (turns - 1) * leadUnits;
       }
-      homeComment += fmt::format("; it starts {} {} from the switch, {} s of HOME_SEARCH_VEL", fmtNumber(away), unitName,
-                                 fmtNumber(away / std::abs(sv)));
+      const double start = std::abs(*edge - initial);
+      homeComment += fmt::format("; it starts {} {} from the switch, {} s of HOME_SEARCH_VEL", fmtNumber(start), unitName,
+                                 fmtNumber(start / std::abs(sv)));
     }
     const double stopDistance = sv * sv / (2 * amax);
     const double marginLow = 2.0 / mmPerUnit + leadUnits + (sv < 0 ? stopDistance : 0.0);
