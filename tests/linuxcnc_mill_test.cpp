@@ -46,6 +46,7 @@
 #include "linuxcnc/network_namespace.hpp"
 #include "linuxcnc/servo_priority.hpp"
 #include "support/card_cpu.hpp"
+#include "support/linuxcnc_release.hpp"
 #include "support/process.hpp"
 #include "support/sim_child.hpp"
 
@@ -183,7 +184,8 @@ class LinuxCncRun {
         << std::regex_replace(std::regex_replace(ini, line, display), address, "IPADDRESS = " + cardAddress);
 
     const std::string inside = "mount --bind " + tmp.string() +
-                               " /tmp && exec env -u DISPLAY HOME=/tmp RTAPI_UID=65534 "
+                               " /tmp && exec " + test_support::inLinuxCncRoot() +
+                               "env -u DISPLAY HOME=/tmp RTAPI_UID=65534 "
                                "RTAPI_FIFO_PATH=/tmp/rtapi_fifo linuxcnc -r /tmp/config/mill.ini";
     std::vector<std::string> argv = {"ip",           "netns",         "exec",    net.ns(),  "unshare", "--pid",
                                      "--fork",       "--kill-child=SIGKILL", "--mount-proc", "--ipc", "--mount",
@@ -447,9 +449,11 @@ void expectHomedAndRan(std::map<std::string, json>& r, const std::vector<json>& 
 // What it takes to run the whole of LinuxCNC here; empty when all is there.
 std::string whyNotRunnable() {
   if (::geteuid() != 0) return "network namespaces need root";
-  for (const char* tool : {"linuxcnc", "halcmd", "ip", "unshare"})
-    if (!installed(tool)) return std::string(tool) + " is not installed (linuxcnc-uspace, iproute2, util-linux)";
-  if (shell("/usr/bin/python3 -c 'import linuxcnc, hal'") != 0)
+  for (const char* tool : {"linuxcnc", "halcmd"})
+    if (!test_support::haveClientProgram(tool)) return std::string(tool) + " is not installed (linuxcnc-uspace)";
+  for (const char* tool : {"ip", "unshare"})
+    if (!installed(tool)) return std::string(tool) + " is not installed (iproute2, util-linux)";
+  if (shell(test_support::inLinuxCncRoot() + "/usr/bin/python3 -c 'import linuxcnc, hal'") != 0)
     return "LinuxCNC's Python module is not installed for /usr/bin/python3";
   return {};
 }

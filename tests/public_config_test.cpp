@@ -78,7 +78,7 @@ class PublicConfigRun : public ::testing::TestWithParam<PublicConfig> {
  protected:
   void SetUp() override {
     if (::geteuid() != 0) GTEST_SKIP() << "lbpkit linuxcnc needs root";
-    if (!interop::have("linuxcnc") || !interop::have("ip") || !interop::have("Xvfb"))
+    if (!test_support::haveClientProgram("linuxcnc") || !interop::have("ip") || !interop::have("Xvfb"))
       GTEST_SKIP() << "linuxcnc-uspace, iproute2 or xvfb is not installed";
   }
 };
@@ -130,7 +130,11 @@ TEST_P(PublicConfigRun, HomesMovesAndRunsAProgram) {
   // above); the sim's clock and CPU are the ones it chooses for this PC.
   // Should LinuxCNC fail, its error dialog waits on the desktop: the run
   // is stopped after 240 s, and what LinuxCNC said is in its log.
-  const auto r = test_support::run({"linuxcnc", ini, "--display", display}, std::chrono::seconds(240));
+  // Another release's LinuxCNC where the test runs one
+  // (support/linuxcnc_release.hpp): lbpkit linuxcnc's --linuxcnc-root.
+  std::vector<std::string> command = {"linuxcnc", ini, "--display", display};
+  if (!test_support::linuxCncRoot().empty()) command.insert(command.end(), {"--linuxcnc-root", test_support::linuxCncRoot()});
+  const auto r = test_support::run(command, std::chrono::seconds(240));
   const std::string log = r.out + r.err;
   EXPECT_EQ(r.exit, 0) << log;
 

@@ -53,6 +53,7 @@
 #include "linuxcnc/config_check.hpp"
 #include "linuxcnc/program.hpp"
 #include "linuxcnc/hal_config.hpp"
+#include "linuxcnc/linuxcnc_root.hpp"
 #include "linuxcnc_host.hpp"
 #include "linuxcnc_run.hpp"
 #include "linuxcnc/network_namespace.hpp"
@@ -73,6 +74,7 @@ struct LinuxCncOptions {
   std::string card;
   std::string display;  // in place of the INI's [DISPLAY]DISPLAY
   std::string cpu = "last";  // --cpu N|last|any: LinuxCNC's and the card thread's CPU
+  std::string linuxcncRoot;  // --linuxcnc-root: another Debian release's LinuxCNC (linuxcnc/linuxcnc_root.hpp)
   std::vector<std::string> simArguments;  // after --
   bool asWritten = false;  // --as-written: untouched, on the wall clock, on any PC
   bool lateServo = false;  // found at the start: LinuxCNC will not run real-time here, and no --as-written
@@ -217,7 +219,8 @@ struct LinuxCncLaunch {
   std::string netns;           // the network namespace's name (/run/netns/NAME)
   std::string privateTmp;      // the run's folder for LinuxCNC's /tmp (root's, 0700 until bound)
   std::vector<std::string> keep;  // keptInTmp
-  std::string linuxcnc;        // the linuxcnc script's absolute path
+  std::string linuxcnc;        // the linuxcnc script's absolute path (in `root` when given)
+  std::string root;            // --linuxcnc-root: another release's LinuxCNC, or "" for this PC's
   std::string ini;
   std::string fifo;            // rtapi_app's socket (RTAPI_FIFO_PATH)
   std::optional<unsigned> cpu;
@@ -295,6 +298,13 @@ pid_t startLinuxCnc(const LinuxCncLaunch& l) {
   const int tmp = ::open("/tmp", O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
   if (tmp < 0 || ::fchmod(tmp, 01777) != 0) refuse("/tmp's mode");
   ::close(tmp);
+  if (!l.root.empty()) {
+    if (const auto problem = lbpkit::linuxcnc::enterLinuxCncRoot(l.root); !problem.empty()) {
+      const std::string text = fmt::format("lbpkit linuxcnc: cannot start LinuxCNC: {}\n", problem);
+      (void)!::write(2, text.data(), text.size());
+      ::_exit(126);
+    }
+  }
   if (!app::linuxcnc_run::dropTo(l.user)) refuse(("the user " + l.user.name).c_str());
   ::prctl(PR_SET_PDEATHSIG, SIGKILL);  // a change of user clears it
   if (l.user.root) {
@@ -619,8 +629,16 @@ int runLinuxCnc(const LinuxCncOptions& o) {
     throw lbpkit::Error("lbpkit linuxcnc needs root (a network namespace and a veth pair): run it with sudo");
   const auto started = std::chrono::system_clock::now();
   const run::RunAs user = run::invokingUser();
-  const auto linuxcnc = lbpkit::linuxcnc::systemProgram("linuxcnc");
-  if (!linuxcnc) throw lbpkit::Error("linuxcnc is not installed (Debian's linuxcnc-uspace)");
+  std::optional<std::string> linuxcnc;
+  if (o.linuxcncRoot.empty()) {
+    linuxcnc = lbpkit::linuxcnc::systemProgram("linuxcnc");
+    if (!linuxcnc) throw lbpkit::Error("linuxcnc is not installed (Debian's linuxcnc-uspace)");
+  } else {
+    // Checked here, entered by LinuxCNC's PID 1 (startLinuxCnc).
+    if (const auto problem = lbpkit::linuxcnc::linuxCncRootProblem(o.linuxcncRoot); !problem.empty())
+      throw lbpkit::Error(fmt::format("--linuxcnc-root {}", problem));
+    linuxcnc = "/usr/bin/linuxcnc";
+  }
   if (!lbpkit::linuxcnc::systemProgram("ip")) throw lbpkit::Error("ip is not installed (Debian's iproute2)");
 
   // What runs that are gone left, then this run's own: its names carry
@@ -761,11 +779,13 @@ int runLinuxCnc(const LinuxCncOptions& o) {
     launch.privateTmp = folder.makeFolder("tmp", 0700, run::RunAs{}).string();
     launch.keep = keptInTmp({fs::absolute(o.ini).string(), p.run, o.display});
     launch.linuxcnc = *linuxcnc;
+    launch.root = o.linuxcncRoot;
     launch.ini = p.run;
     launch.fifo = "/tmp/rtapi_fifo";  // rtapi_app's socket, in LinuxCNC's own /tmp
     launch.cpu = cpu;
-    fmt::print("lbpkit linuxcnc: LinuxCNC ({}) in network namespace {}, the card {} at {}{}; Ctrl-C stops both\n", p.run,
-               ns.name(), p.card, p.boardIp, cpu ? fmt::format(", both on CPU {}", *cpu) : std::string());
+    fmt::print("lbpkit linuxcnc: LinuxCNC ({}{}) in network namespace {}, the card {} at {}{}; Ctrl-C stops both\n",
+               p.run, o.linuxcncRoot.empty() ? std::string() : ", from " + o.linuxcncRoot, ns.name(), p.card,
+               p.boardIp, cpu ? fmt::format(", both on CPU {}", *cpu) : std::string());
     std::fflush(stdout);
     lcnc = startLinuxCnc(launch);
     app::linuxcnc_host::LinuxCncLog log(launch.privateTmp, user.uid);
@@ -836,6 +856,10 @@ void addLinuxCncCommand(CLI::App& app) {
                   "The CPU LinuxCNC and the sim's card thread share, so the card answers before hm2_eth looks "
                   "whatever else runs: a CPU's number, last (the last one lbpkit may use) or any (not pinned)")
       ->capture_default_str();
+  cmd->add_option("--linuxcnc-root", o->linuxcncRoot,
+                  "Run the LinuxCNC installed in this folder (a Debian root with linuxcnc-uspace, such as "
+                  "scripts/linuxcnc-releases makes: Debian 13's or unstable's) in place of this PC's; the "
+                  "configuration and your home stay where they are");
   cmd->add_flag("--as-written", o->asWritten,
                "Run the configuration untouched and the sim on the wall clock, also on a PC whose kernel is not "
                "real-time (by default there the sim follows LinuxCNC's servo cycles and a copy of the configuration "

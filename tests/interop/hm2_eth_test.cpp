@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
@@ -89,6 +90,62 @@ TEST_F(LinuxCnc, Hm2EthRunsTheVirtual7i77) {
   EXPECT_TRUE(waitFor([&] { return sim_->get()["watchdog"]["bitten"] == true; }, 1000ms));
   halcmd("start");
   EXPECT_TRUE(waitFor([&] { return getp("hm2_7i92.0.watchdog.has_bit") == "TRUE"; }, 1000ms));
+}
+
+// hostmot2's smart-serial set-up (LinuxCNC: hostmot2/sserial.c,
+// hm2_sserial_parse_md and hm2_sserial_stopstart) writes STOP ALL (0x800)
+// and gives it 51 ms of the wall clock, then START (0xF00) and 8000 ms.
+// Debian 12's snapshot went on when either ran out; from 2.9.4 (LinuxCNC
+// commit cbdb967b0d, #1747) the load fails. The card answers both in time
+// on the host clock (a command that is not a DoIt meets the wall clock:
+// docs/clocks.md) and on the wall clock, and no release says a set-up
+// command timed out.
+TEST_F(LinuxCnc, SmartSerialSetUpIsAnsweredInTimeOnBothClocks) {
+  for (const bool hostClock : {true, false}) {
+    SCOPED_TRACE(hostClock ? "host clock" : "wall clock");
+    sim_ = cardSim({}, hostClock);
+    ASSERT_TRUE(sim_->up());
+    const auto messages = fifo_ + ".messages";
+    const auto r = load("00xxxxxx", true, messages);
+    std::ifstream in(messages);
+    const std::string said{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    std::filesystem::remove(messages);
+    ASSERT_EQ(r.exit, 0) << r.out << said;
+    EXPECT_EQ(said.find("Timeout"), std::string::npos) << said;
+    EXPECT_EQ(said.find("ailed to"), std::string::npos) << said;  // "Failed to restart device"
+    EXPECT_TRUE(waitFor([&] { return getp("hm2_7i92.0.sserial.port-0.port_state") == "3"; }, 2000ms))
+        << "port_state " << getp("hm2_7i92.0.sserial.port-0.port_state");
+    EXPECT_NE(halcmd("show pin hm2_7i92.0.7i77.0.0.input-00").out.find("input-00"), std::string::npos);
+    hal("halrun -U");
+    sim_.reset();
+  }
+}
+
+// sserial_port_0=xxxxxxxx: every channel of the port off. hostmot2 loads,
+// makes no smart-serial port and no 7I77 pins, and runs the card's other
+// modules. Debian 12's snapshot returned from the smart-serial set-up as soon
+// as it saw every channel off; from 2.9.4 (commit cbdb967b0d) it probes
+// the instance all the same (reset, version, baud rate, START in setup
+// mode) and then finds no remote: the sim answers that probe as a card
+// with nothing enabled.
+TEST_F(LinuxCnc, SmartSerialSetUpWithEveryChannelOffLoadsTheRestOfTheCard) {
+  startSim();
+  const auto messages = fifo_ + ".messages";
+  const auto r = load("xxxxxxxx", true, messages);
+  std::ifstream in(messages);
+  const std::string said{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  std::filesystem::remove(messages);
+  ASSERT_EQ(r.exit, 0) << r.out << said;
+  std::printf("LinuxCNC %d.%d.%d with sserial_port_0=xxxxxxxx said:\n%s\n", test_support::linuxCncRelease().major,
+              test_support::linuxCncRelease().minor, test_support::linuxCncRelease().patch, said.c_str());
+  const auto pins = halcmd("show pin").out;
+  EXPECT_EQ(pins.find("7i77"), std::string::npos) << pins;
+  EXPECT_EQ(pins.find("sserial.port-0"), std::string::npos) << pins;
+  EXPECT_NE(pins.find("hm2_7i92.0.encoder.00.count"), std::string::npos) << pins;
+  sim_->post("/api/encoder", {{"encoder", 0}, {"velocity", 20000}});
+  EXPECT_TRUE(waitFor([&] { return std::atoi(getp("hm2_7i92.0.encoder.00.count").c_str()) > 1000; }, 1000ms));
+  EXPECT_EQ(getp("hm2_7i92.0.io_error"), "FALSE");
+  EXPECT_EQ(said.find("Timeout"), std::string::npos) << said;
 }
 
 TEST_F(LinuxCnc, FieldIoModesProduceTheirPins) {

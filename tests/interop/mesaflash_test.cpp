@@ -24,10 +24,10 @@ namespace interop {
 namespace {
 
 TEST(Mesaflash, ReadsTheVirtualCard) {
-  if (!have("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
+  if (!test_support::haveClientProgram("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
   Sim sim(loopback());
   ASSERT_TRUE(sim.up());
-  const std::string card = "timeout 30 " + onCardCpu() + "mesaflash --device 7i92 --addr " + loopback();
+  const std::string card = "timeout 30 " + onCardCpu() + test_support::inLinuxCncRoot() + "mesaflash --device 7i92 --addr " + loopback();
   auto r = sh(card + " --readhmid");
   ASSERT_EQ(r.exit, 0) << r.out;
   EXPECT_NE(r.out.find("BoardName : MESA7I92"), std::string::npos) << r.out;
@@ -82,11 +82,11 @@ std::string fakeBitfile() {
 }
 
 TEST(Mesaflash, WritesAndVerifiesTheVirtualFlash) {
-  if (!have("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
+  if (!test_support::haveClientProgram("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
   Sim sim(loopback());
   ASSERT_TRUE(sim.up());
   const auto bit = fakeBitfile();
-  const std::string card = "timeout 120 " + onCardCpu() + "mesaflash --device 7i92 --addr " + loopback();
+  const std::string card = "timeout 120 " + onCardCpu() + test_support::inLinuxCncRoot() + "mesaflash --device 7i92 --addr " + loopback();
   auto r = sh(card + " --verify " + bit);  // a blank part has no boot block
   EXPECT_NE(r.out.find("BootSector is invalid"), std::string::npos) << r.out;
   r = sh(card + " --write " + bit + " --fix-boot-block");
@@ -104,10 +104,10 @@ TEST(Mesaflash, WritesAndVerifiesTheVirtualFlash) {
 // processors list all their modes there, whatever the current one. Its
 // verbose parameter list shows UNSIGNED parameters whose unit reads "None".
 TEST(Mesaflash, ShowsEverySoftwareModeOfBothRemotes) {
-  if (!have("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
+  if (!test_support::haveClientProgram("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
   Sim sim(loopback());
   ASSERT_TRUE(sim.up());
-  const auto r = sh("timeout 60 " + onCardCpu() + "mesaflash --device 7i92 --addr " + loopback() + " --sserial --verbose");
+  const auto r = sh("timeout 60 " + onCardCpu() + test_support::inLinuxCncRoot() + "mesaflash --device 7i92 --addr " + loopback() + " --sserial --verbose");
   ASSERT_EQ(r.exit, 0) << r.out;
   const auto field = r.out.find("channel 0: 7I77 GPIO");
   const auto analog = r.out.find("channel 1: 7I77 ANALOG");
@@ -136,7 +136,7 @@ TEST(Mesaflash, ShowsEverySoftwareModeOfBothRemotes) {
 // What mesaflash --write programmed is in the flash file
 // next to the EEPROM, and a sim started again on the same state verifies.
 TEST(Mesaflash, TheFlashIsKeptAcrossRestarts) {
-  if (!have("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
+  if (!test_support::haveClientProgram("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
   const auto state = (std::filesystem::temp_directory_path() / ("lbpkit-interop-flash-" + std::to_string(::getpid()))).string();
   auto clean = [&] {
     test_support::removeStateFiles(state);
@@ -148,7 +148,7 @@ TEST(Mesaflash, TheFlashIsKeptAcrossRestarts) {
     return d;
   };
   const auto bit = fakeBitfile();
-  const std::string card = "timeout 120 " + onCardCpu() + "mesaflash --device 7i92 --addr " + loopback();
+  const std::string card = "timeout 120 " + onCardCpu() + test_support::inLinuxCncRoot() + "mesaflash --device 7i92 --addr " + loopback();
   auto first = start();
   auto r = sh(card + " --write " + bit + " --fix-boot-block");
   EXPECT_EQ(r.exit, 0) << r.out;
@@ -170,7 +170,7 @@ TEST(Mesaflash, TheFlashIsKeptAcrossRestarts) {
 // board-name table decides --device): the IDROM's name, ports, the
 // firmware's modules and pins.
 TEST(Mesaflash, ReadsEveryCardOfTheCatalogue) {
-  if (!have("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
+  if (!test_support::haveClientProgram("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
   struct Case {
     std::string card, device;
     std::vector<std::string> lines;  // each must appear in --readhmid
@@ -199,7 +199,7 @@ TEST(Mesaflash, ReadsEveryCardOfTheCatalogue) {
     Sim sim(loopback(), {"--card", c.card});
     ASSERT_TRUE(sim.up());
     EXPECT_EQ(sim.get()["card"]["name"], c.card);
-    const std::string card = "timeout 30 " + onCardCpu() + "mesaflash --device " + c.device + " --addr " + loopback();
+    const std::string card = "timeout 30 " + onCardCpu() + test_support::inLinuxCncRoot() + "mesaflash --device " + c.device + " --addr " + loopback();
     auto r = sh(card + " --readhmid");
     ASSERT_EQ(r.exit, 0) << r.out;
     for (const auto& line : c.lines) EXPECT_NE(r.out.find(line), std::string::npos) << line << "\n" << r.out;
@@ -210,7 +210,7 @@ TEST(Mesaflash, ReadsEveryCardOfTheCatalogue) {
     EXPECT_NE(r.out.find("channel 0: 7I77 GPIO (unit 0x12000AEE)"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("channel 1: 7I77 ANALOG (unit 0x11000AEE)"), std::string::npos) << r.out;
     // Another card's name is not this one: mesaflash finds no 7I92 here.
-    EXPECT_EQ(sh("timeout 30 " + onCardCpu() + "mesaflash --device 7i92 --addr " + loopback() + " --readhmid").out.find("MESA"),
+    EXPECT_EQ(sh("timeout 30 " + onCardCpu() + test_support::inLinuxCncRoot() + "mesaflash --device 7i92 --addr " + loopback() + " --readhmid").out.find("MESA"),
               std::string::npos);
     EXPECT_EQ(sim.stop(), 0);
   }
@@ -235,7 +235,7 @@ std::string fakeEfinixBin() {
 // its family does (Xilinx ICAP IPROG, Efinix configuration register): the
 // modules come back at power-up.
 TEST(Mesaflash, EachCardAnswersWithItsOwnLbp16DetailsAndReloads) {
-  if (!have("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
+  if (!test_support::haveClientProgram("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
   struct Case {
     std::string card, device, part;
     bool efinix;
@@ -249,7 +249,7 @@ TEST(Mesaflash, EachCardAnswersWithItsOwnLbp16DetailsAndReloads) {
     SCOPED_TRACE(c.card);
     Sim sim(loopback(), {"--card", c.card});
     ASSERT_TRUE(sim.up());
-    const std::string card = "timeout 120 " + onCardCpu() + "mesaflash --device " + c.device + " --addr " + loopback();
+    const std::string card = "timeout 120 " + onCardCpu() + test_support::inLinuxCncRoot() + "mesaflash --device " + c.device + " --addr " + loopback();
     auto r = sh(card + " --verbose");
     ASSERT_EQ(r.exit, 0) << r.out;
     for (const auto& line : {"ETH device " + c.card + " at ip=", "    board name: " + c.card + "\n  " + "  user leds",

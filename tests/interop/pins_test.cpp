@@ -261,7 +261,7 @@ TEST_F(LinuxCnc, Hm2EthCreatesThe7I76sPinsOnChannel3) {
 // OutM's OUT4 and OUT5 from the pin descriptors (inm.c, ssr.c, outm.c), and
 // what LinuxCNC writes lands in those modules' registers.
 TEST_F(LinuxCnc, Hm2EthCreatesThe7I96SsTb3InmSsrAndOutmPins) {
-  if (!have("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
+  if (!test_support::haveClientProgram("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
   const Cleanup cleanup{[&] {
     hal("halrun -U");
     sim_.reset();
@@ -286,7 +286,7 @@ TEST_F(LinuxCnc, Hm2EthCreatesThe7I96SsTb3InmSsrAndOutmPins) {
   halcmd("setp " + b + "ssr.00.out-02 1");
   halcmd("setp " + b + "outm.00.out-05 1");
   halcmd("setp " + b + "outm.00.invert-04 1");
-  const std::string rpo = "timeout 30 " + onCardCpu() + "mesaflash --device 7i96s --addr " + cardIp_ + " --rpo ";
+  const std::string rpo = "timeout 30 " + onCardCpu() + test_support::inLinuxCncRoot() + "mesaflash --device 7i96s --addr " + cardIp_ + " --rpo ";
   auto reg = [&](const char* address) {
     auto v = sh(rpo + address).out;
     while (!v.empty() && v.back() == '\n') v.pop_back();

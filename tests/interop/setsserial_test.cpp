@@ -30,6 +30,7 @@ class Setsserial : public LinuxCnc {
   void SetUp() override {
     LinuxCnc::SetUp();
     if (IsSkipped() || HasFatalFailure()) return;
+    std::filesystem::create_directories(firmware_.parent_path());
     for (const bool setup : {true, false})
       std::ofstream(setup ? setupConfig_ : operateConfig_)
           << "[card]\nname = \"7I92\"\n[[daughtercard]]\ntype = \"7I77\"\nw12_setup = " << (setup ? "true" : "false")
@@ -79,9 +80,11 @@ class Setsserial : public LinuxCnc {
   std::filesystem::path setupConfig_ = dir_.path() / "setup.toml";
   std::filesystem::path operateConfig_ = dir_.path() / "operate.toml";
   std::filesystem::path state_ = dir_.path() / "7i77.eeprom";
-  // Where setsserial's request_firmware looks (/lib/firmware), under a name
-  // of this test's own.
-  std::filesystem::path firmware_ = "/lib/firmware/lbpkit-test-" + std::to_string(::getpid()) + ".BIN";
+  // Where setsserial's request_firmware looks (/lib/firmware, the
+  // release's own when the test runs one: support/linuxcnc_release.hpp),
+  // under a name of this test's own.
+  std::filesystem::path firmware_ =
+      test_support::linuxCncRoot() + "/lib/firmware/lbpkit-test-" + std::to_string(::getpid()) + ".BIN";
   // W12 back to operate mode and the power cycled (the sim started again
   // on the same files): the processor boots the flash's image and reports
   // its software revision, `hex`.

@@ -27,6 +27,7 @@
 
 #include "linuxcnc/network_namespace.hpp"
 #include "support/card_cpu.hpp"
+#include "support/linuxcnc_release.hpp"
 #include "support/process.hpp"
 #include "support/sim_child.hpp"
 #include "support/wait.hpp"
@@ -144,7 +145,7 @@ class LinuxCnc : public ::testing::Test {
  protected:
   void SetUp() override {
     if (::geteuid() != 0) GTEST_SKIP() << "network namespaces need root";
-    if (!have("halcmd") || !have("ip")) GTEST_SKIP() << "linuxcnc-uspace or iproute2 is not installed (scripts/test installs them)";
+    if (!test_support::haveClientProgram("halcmd") || !have("ip")) GTEST_SKIP() << "linuxcnc-uspace or iproute2 is not installed (scripts/test installs them)";
     ::prctl(PR_SET_CHILD_SUBREAPER, 1);  // rtapi_app outlives halcmd: reap it ourselves
     const auto id = std::to_string(::getpid() % 100000);
     const auto net = "10.211." + std::to_string(::getpid() % 250) + ".";
@@ -183,7 +184,8 @@ class LinuxCnc : public ::testing::Test {
   // Commands to a HAL already running pass `nice` instead (halcmd below).
   Shell hal(const std::string& command, const char* nice = "") {
     const std::string priority = *nice != '\0' ? std::string(nice) : "chrt -f 1 " + onCardCpu();
-    return sh(priority + ns_->exec() + lbpkit::linuxcnc::rtapiEnvironment(fifo_) + "timeout 60 " + command);
+    return sh(priority + ns_->exec() + test_support::inLinuxCncRoot() + lbpkit::linuxcnc::rtapiEnvironment(fifo_) +
+              "timeout 60 " + command);
   }
   // `halcmd ARGS` to the HAL rtapi_app already runs (setp, getp, show,
   // stop, start) at nice 10: it needs no real-time priority, and yields the
