@@ -204,6 +204,17 @@ TEST(Mesaflash, ReadsEveryCardOfTheCatalogue) {
     ASSERT_EQ(r.exit, 0) << r.out;
     for (const auto& line : c.lines) EXPECT_NE(r.out.find(line), std::string::npos) << line << "\n" << r.out;
     for (const auto& line : c.absent) EXPECT_EQ(r.out.find(line), std::string::npos) << line << "\n" << r.out;
+    // The 7I96S's TB3 inputs (its InM module): mesaflash 3.4.9 names each
+    // by the encoder input it can also be (Input0_EncA0 .. Input7_EncB3:
+    // the InM entry of the pin-name table in mesaflash's hostmot2.c); 3.4.6
+    // (Debian 12) named them Input0 .. Input7.
+    if (c.card == "7I96S") {
+      const bool encoderNames = test_support::releaseOf("mesaflash").atLeast(3, 4, 9);
+      EXPECT_NE(r.out.find(encoderNames ? "InM              0        Input0_EncA0    (In)"
+                                        : "InM              0        Input0          (In)"),
+                std::string::npos)
+          << r.out;
+    }
     // The 7I77 wherever the firmware puts it: both processors on channels 0 and 1.
     r = sh(card + " --sserial");
     ASSERT_EQ(r.exit, 0) << r.out;

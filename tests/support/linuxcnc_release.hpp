@@ -51,21 +51,23 @@ inline std::string packageVersion(const std::string& package) {
   return "";
 }
 
-// LinuxCNC's release as major, minor, patch (2.9.0 for Debian 12's
-// 2.9.0~pre1 snapshot): what a per-release expectation compares.
+// A package's release as major, minor, patch (LinuxCNC 2.9.0 for Debian
+// 12's 2.9.0~pre1 snapshot, mesaflash 3.4.6 or 3.4.9): what a per-release
+// expectation compares.
 struct Release {
   int major = 0, minor = 0, patch = 0;
   [[nodiscard]] bool atLeast(int ma, int mi, int pa) const {
     return major != ma ? major > ma : minor != mi ? minor > mi : patch >= pa;
   }
 };
-inline Release linuxCncRelease() {
-  auto v = packageVersion("linuxcnc-uspace");
+inline Release releaseOf(const std::string& package) {
+  auto v = packageVersion(package);
   if (const auto colon = v.find(':'); colon != std::string::npos) v = v.substr(colon + 1);
   Release r;
   std::sscanf(v.c_str(), "%d.%d.%d", &r.major, &r.minor, &r.patch);
   return r;
 }
+inline Release linuxCncRelease() { return releaseOf("linuxcnc-uspace"); }
 
 // A LinuxCNC or mesaflash program is installed where the tests run it. A
 // release's root that lacks it is a failure, not a skip: the test was asked
