@@ -374,6 +374,30 @@ TEST_F(LinuxCncCommand, ABoardAddressThatIsNotAUnicastOneIsRefusedBeforeAnything
   EXPECT_EQ(runNamespaces(), before);
 }
 
+// --linuxcnc-root is entered by LinuxCNC's PID 1 as root: a folder another
+// user could write to on the way, a path through a link, or a folder
+// without LinuxCNC is refused by name before the namespace or the sim is
+// made (linuxcnc/linuxcnc_root.hpp).
+TEST_F(LinuxCncCommand, ALinuxCncRootAUserCouldPlantIsRefusedBeforeAnythingIsBuilt) {
+  const auto before = runNamespaces();
+  const auto planted = dir_.path() / "root";
+  fs::create_directories(planted / "usr/bin");
+  std::ofstream(planted / "usr/bin/linuxcnc") << "#!/bin/sh\ntouch " << (dir_.path() / "PWNED2").string() << "\n";
+  fs::permissions(planted / "usr/bin/linuxcnc", fs::perms::owner_all);
+  struct Case {
+    std::string root, says;
+  };
+  for (const auto& c : {Case{planted.string(), "is not root's own, or another user may write to it"},
+                        Case{"relative/root", "not an absolute path"}, Case{"/usr/share", "no /usr/bin/linuxcnc in it"}}) {
+    const auto r = runToEnd(config_ / "mill.ini", {"--linuxcnc-root", c.root});
+    EXPECT_EQ(r.exit, 1) << c.root << ":\n" << r.out;
+    EXPECT_NE(r.out.find("--linuxcnc-root " + c.root + ": " ), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find(c.says), std::string::npos) << r.out;
+  }
+  EXPECT_FALSE(fs::exists(dir_.path() / "PWNED2"));
+  EXPECT_EQ(runNamespaces(), before);
+}
+
 // An address this PC already has, or routes through, is refused by name:
 // in a network namespace of the test's own, with an address on a link and
 // a default route through a gateway beside it (a veth pair stands for the

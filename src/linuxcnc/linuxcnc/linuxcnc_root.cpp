@@ -42,10 +42,11 @@ std::string linuxCncRootProblem(const std::string& root) {
     end = root.find('/', end + 1);
     const std::string folder = end == std::string::npos ? root : (end == 0 ? "/" : root.substr(0, end));
     struct stat st {};
-    if (::lstat(folder.c_str(), &st) != 0) return failed(folder);
-    if (!S_ISDIR(st.st_mode)) return folder + ": not a folder";
+    if (::lstat(folder.c_str(), &st) != 0) return failed(root + ": " + folder);
+    if (!S_ISDIR(st.st_mode)) return root + ": " + folder + " is not a folder";
     if (st.st_uid != 0 || (st.st_mode & (S_IWGRP | S_IWOTH)) != 0)
-      return folder + ": not root's own, or writable by another user (a LinuxCNC root is entered as root)";
+      return root + ": " + folder +
+             " is not root's own, or another user may write to it (a LinuxCNC root is entered as root)";
   }
   struct stat st {};
   if (::stat((root + "/usr/bin/linuxcnc").c_str(), &st) != 0 || !S_ISREG(st.st_mode))
