@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Figures docs/library.md quotes: the cost of one full host cycle for one 7I77
 // through the in-process card, and how many DOITs a full discovery takes.
 #include <benchmark/benchmark.h>

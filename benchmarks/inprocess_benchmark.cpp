@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The in-process mill's hot paths, so a regression in one shows; the
 // scenario as a whole is BM_MillClosedLoop (machine_benchmark.cpp). The
 // goal is 2000 x real time on one core (0.5 us of CPU per simulated

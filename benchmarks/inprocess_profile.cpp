@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Runs the in-process scenario (lbpkit::MillClosedLoop,
 // src/adapters/sim_card/mill_closed_loop.hpp) for a fixed
 // number of 1 kHz cycles, for a profiler: instruction counts under

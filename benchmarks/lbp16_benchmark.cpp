@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Server-side cost of one LBP16 datagram: what `lbpkit sim` spends between
 // receiving hm2_eth's per-cycle read request and sending the reply.
 #include <benchmark/benchmark.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The virtual mill: how many simulated seconds the in-process card plus
 // the machine behind it run per second of CPU, in the one in-process
 // scenario (lbpkit::MillClosedLoop: a P position loop on every axis at

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # The installed public API: the host library (shared and static) with its
 # headers in include/lbpkit, a CMake package for find_package(lbpkit) and a
 # pkg-config file lbpkit.pc. The models, servers and adapters are internal and

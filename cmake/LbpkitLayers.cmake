@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # The dependency rules (docs/architecture.md: Layout), checked when the project is
 # configured and built. scripts/check-layers (ctest LayerRules) checks every
 # #include by name; these checks make the compiler and CMake enforce them.
@@ -10,10 +11,11 @@
 #   lbpkit_host          lbpkit_wire                 (fmt PRIVATE; its public headers use neither)
 #   lbpkit_models        lbpkit_wire                 (never lbpkit_host)
 #   lbpkit_config        lbpkit_models (+ wire)      (toml++ PUBLIC; never host, servers or adapters)
-#   lbpkit_servers       lbpkit_models, lbpkit_web (+ wire through it; never lbpkit_host, config or the adapters)
+#   lbpkit_servers       lbpkit_models, lbpkit_web, lbpkit_process (+ wire; never lbpkit_host, config or the adapters)
 #   lbpkit_web           nothing of ours (the web view's files and event stream, src/servers/web)
 #   lbpkit_sim_adapter   lbpkit_host, lbpkit_models
-#   lbpkit_linuxcnc      lbpkit_host (+ wire)        (what LinuxCNC's hostmot2 makes of a card: never models)
+#   lbpkit_linuxcnc      lbpkit_host (+ wire), lbpkit_process (what LinuxCNC's hostmot2 makes of a card: never models)
+#   lbpkit_process       nothing of ours             (other programs, this one's CPUs)
 # This function fails the configure step when a target links another
 # lbpkit_* library outside that list, or names an include folder under src/
 # outside its own. Inside lbpkit_models (lbp <- remote <- hostmot2, one
@@ -23,13 +25,15 @@ function(lbpkit_check_layer_links)
   set(allowed_lbpkit_host lbpkit_wire)
   set(allowed_lbpkit_models lbpkit_wire)
   set(allowed_lbpkit_config lbpkit_models lbpkit_wire)
-  set(allowed_lbpkit_servers lbpkit_models lbpkit_wire lbpkit_web)
+  set(allowed_lbpkit_servers lbpkit_models lbpkit_wire lbpkit_web lbpkit_process)
   set(allowed_lbpkit_web "")
   set(allowed_lbpkit_sim_adapter lbpkit_host lbpkit_models lbpkit_wire)
-  set(allowed_lbpkit_linuxcnc lbpkit_host lbpkit_wire)
+  set(allowed_lbpkit_linuxcnc lbpkit_host lbpkit_wire lbpkit_process)
+  set(allowed_lbpkit_process "")
   set(src_root ${PROJECT_SOURCE_DIR}/src)
   set(apps_root ${PROJECT_SOURCE_DIR}/apps)
-  foreach(target lbpkit_wire lbpkit_host lbpkit_models lbpkit_config lbpkit_servers lbpkit_web lbpkit_sim_adapter lbpkit_linuxcnc)
+  foreach(target lbpkit_wire lbpkit_host lbpkit_models lbpkit_config lbpkit_servers lbpkit_web lbpkit_sim_adapter lbpkit_linuxcnc
+                 lbpkit_process)
     if(NOT TARGET ${target})
       message(FATAL_ERROR "layer rules: target ${target} is gone; update cmake/LbpkitLayers.cmake")
     endif()

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Makes lbpkit(1) (run at build time: cmake -P, see cmake/LbpkitPackage.cmake):
 # docs/man/lbpkit.1.in, written by hand, with its COMMANDS section filled in
 # from the built tool's own --help, every command (and their subcommands, if

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # What the Debian package (and `cmake --install`) ships beside the library
 # (cmake/LbpkitInstall.cmake): the lbpkit tool, its manual page and its bash
 # completion; and the package itself, made by CPack:
@@ -42,6 +43,11 @@ install(FILES ${man_page}.gz DESTINATION ${CMAKE_INSTALL_MANDIR}/man1 OPTIONAL)
 # bash-completion from this folder.
 install(FILES ${PROJECT_SOURCE_DIR}/contrib/bash-completion/lbpkit
         DESTINATION ${CMAKE_INSTALL_DATADIR}/bash-completion/completions)
+
+# The licences: lbpkit's (MIT), what it has compiled in (Chart.js), and the
+# third-party configurations in the source tree's tests/, in Debian's
+# machine-readable copyright format, where Debian keeps a package's.
+install(FILES ${PROJECT_SOURCE_DIR}/packaging/copyright DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/lbpkit)
 
 # The Debian package: one package, lbpkit_<version>_amd64.deb, with the tool
 # and the library (shared, static, headers, CMake package, lbpkit.pc).

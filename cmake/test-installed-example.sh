@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # ctest InstalledExample: install lbpkit from a build tree, build
 # examples/cycle against the installed files alone, three ways (CMake
 # find_package with lbpkit::host, the shared library; CMake with
@@ -16,12 +17,13 @@ echo "== install to $prefix"
 rm -rf "$prefix" "$example"
 "$cmake" --install "$build" --prefix "$prefix" >/dev/null
 # Only what is public: the tool with its man page and bash completion, the
-# library (shared and static, headers), its CMake package and lbpkit.pc, and
-# the Python module.
+# library (shared and static, headers), its CMake package and lbpkit.pc, the
+# Python module, and the licences (share/doc/lbpkit/copyright).
 unexpected=$(cd "$prefix" && find . \( -type f -o -type l \) ! -path './include/lbpkit/*.hpp' \
              ! -path './lib*/liblbpkit_wire.a' ! -path './lib*/liblbpkit_host.a' ! -path './lib*/liblbpkit_host.so*' \
              ! -path './lib*/cmake/lbpkit/*.cmake' ! -path './lib*/pkgconfig/lbpkit.pc' ! -path ./bin/lbpkit \
              ! -path ./share/man/man1/lbpkit.1.gz ! -path ./share/bash-completion/completions/lbpkit \
+             ! -path ./share/doc/lbpkit/copyright \
              ! -path './lib/python3/dist-packages/lbpkit/*')
 if [[ -n $unexpected ]]; then
   echo "installed files that are not public:"; echo "$unexpected"; exit 1

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // libFuzzer target: the files a user hands lbpkit, each read by its own
 // loader from what the fuzzer writes. The first byte picks the kind: a
 // machine file (config::loadMachineFile), a fault script

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // libFuzzer target: the host library's discovery parser fed by a hostile
 // remote. The remote's whole 64 KiB address space is the fuzz input (what is
 // not given reads as 0); the PTOC and GTOC pointers and the discovery RPC's

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // libFuzzer target: arbitrary datagrams into the virtual card's LBP16
 // handler. Nothing may crash, hang or read out of bounds, and the card must
 // still answer a well-formed request afterwards.

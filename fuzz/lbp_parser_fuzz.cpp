@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // libFuzzer target: arbitrary byte streams (with arbitrary gaps) into a 7I77
 // field I/O processor's LBP parser.
 #include <cstdint>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // libFuzzer target: random register reads and writes from the host side to
 // the HostMot2 card's SSLBP (COMMAND, DATA, CS, interface registers of every
 // channel), with random time between them, against the 7I77's processors.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `import lbpkit`: the Python names of Card (card.hpp), VirtualBoard and
 // VirtualMachine (virtual_board.hpp) and what they return. Python names are
 // snake_case; the manual's words otherwise (field input, AnalogOut0, CS).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // What `lbpkit.Card` is to Python: the host library on one card, reached by
 // LBP16 over UDP (a 7I92 and kin, or `lbpkit sim`) or in process (the
 // virtual 7I92 + 7I77 of lbpkit::SimTransport, optionally with a machine

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "virtual_board.hpp"
 
 #include <fmt/format.h>

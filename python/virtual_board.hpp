@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // What `card.board` and `card.machine` are to Python: the in-process
 // virtual 7I92 + 7I77 seen from the outside world (the terminals a user
 // wires and measures, the faults a user provokes), and the machine behind

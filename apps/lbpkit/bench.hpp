@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `lbpkit bench`: the performance figures, measured on the machine
 // at hand, each beside what it is compared against in the same run. What the
 // parts share: the options, and the processes they start (sims, LinuxCNC in
@@ -37,7 +38,7 @@ struct Run {
   int exit = -1;  // -1 when it could not start or was killed
   std::string out;
 };
-// Runs argv (argv[0] a name lbpkit::linuxcnc::systemProgram finds, or an
+// Runs argv (argv[0] a name lbpkit::process::systemProgram finds, or an
 // absolute path) with stdin from /dev/null, and waits for it. Its output is
 // collected through a file in scratch(), not a pipe: rtapi_app, which the
 // first halcmd starts, keeps halcmd's output open long after halcmd exits.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `lbpkit bench --only boards`: N boards on N loopback addresses (a CI
 // farm's), as N `lbpkit sim` processes and as one process serving N cards,
 // side by side: their memory and CPU per board at idle and while a client

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `lbpkit bench --only inprocess`: the host library over the in-process card
 // (lbpkit::SimTransport), host cycle at 1 kHz, for N simulated seconds: the
 // board alone, and the board with the mill machine behind it (a P position

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `lbpkit bench --only network,discovery`: LinuxCNC's hm2_eth against
 // `lbpkit sim`, as the interop tests run it (tests/interop_test.cpp):
 // LinuxCNC in a network namespace joined by a veth pair to the root
@@ -28,7 +29,7 @@
 #include "lbpkit/lbp16_transport.hpp"
 #include "lbpkit/sserial.hpp"
 #include "linuxcnc/network_namespace.hpp"
-#include "linuxcnc/program.hpp"
+#include "process/process.hpp"
 
 namespace bench {
 namespace {
@@ -38,7 +39,7 @@ using nlohmann::json;
 // Why LinuxCNC cannot be run here, or nothing.
 std::optional<std::string> unavailable() {
   if (::geteuid() != 0) return "needs root (network namespaces, a veth pair): run `sudo lbpkit bench`";
-  using lbpkit::linuxcnc::systemProgram;
+  using lbpkit::process::systemProgram;
   if (!systemProgram("halcmd") || !systemProgram("halrun") || !systemProgram("ip"))
     return "LinuxCNC (linuxcnc-uspace: halcmd, halrun) or iproute2 (ip) is not installed";
   return std::nullopt;
@@ -60,7 +61,7 @@ class LinuxCncLink {
     inside_ = {installed("env")};
     for (auto& setting : lbpkit::linuxcnc::rtapiSettings(fifo_)) inside_.push_back(std::move(setting));
     std::string path;
-    for (const auto folder : lbpkit::linuxcnc::kSystemFolders) path += (path.empty() ? "" : ":") + std::string(folder);
+    for (const auto folder : lbpkit::process::kSystemFolders) path += (path.empty() ? "" : ":") + std::string(folder);
     inside_.insert(inside_.end(), {"PATH=" + path, installed("timeout"), "60"});
     halcmd_ = installed("halcmd");
     halrun_ = installed("halrun");
@@ -117,7 +118,7 @@ class LinuxCncLink {
   // The PIDs of the processes in the namespace (`ip netns pids`).
   std::vector<std::string> pids() const {
     std::vector<std::string> out;
-    std::istringstream in(lbpkit::linuxcnc::runProgram({"ip", "netns", "pids", ns_->name()}).output);
+    std::istringstream in(lbpkit::process::runProgram({"ip", "netns", "pids", ns_->name()}).output);
     for (std::string w; in >> w;) out.push_back(w);
     return out;
   }

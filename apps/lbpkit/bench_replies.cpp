@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `lbpkit bench --only replies`: how fast the sim answers, beside the
 // most trivial server there is. A client at 1 kHz (a servo thread's rate,
 // SCHED_FIFO when allowed) sends one small datagram a cycle and times the
@@ -32,7 +33,7 @@
 #include "common.hpp"
 #include "lbpkit/error.hpp"
 #include "lbpkit/wire/lbp16.hpp"
-#include "linuxcnc/program.hpp"
+#include "process/process.hpp"
 
 namespace bench {
 namespace {
@@ -57,12 +58,7 @@ constexpr const char* kEchoServer =
     "    s.sendto(data, peer)\n";
 
 // Pins the calling thread (or process) to CPU `cpu`.
-void pinTo(int cpu) {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  CPU_SET(static_cast<unsigned>(cpu), &set);
-  (void)::sched_setaffinity(0, sizeof set, &set);
-}
+void pinTo(int cpu) { (void)lbpkit::process::pinToCpu(static_cast<unsigned>(cpu)); }
 
 // python3 (from the system's folders) running kEchoServer at SCHED_FIFO 40
 // when allowed (on CPU `cpu` alone unless it is -1), stopped by the
@@ -213,13 +209,13 @@ json point(const char* cpus, const char* load, const std::string& server, const 
 json runReplies(const Options& o) {
   json j{{"points", json::array()},
          {"goal", "the sim's round trip p99.9 under 50 us at 1 kHz, idle and loaded, beside the echo server's"}};
-  if (!lbpkit::linuxcnc::systemProgram("python3"))
+  if (!lbpkit::process::systemProgram("python3"))
     return {{"skipped", "python3 is not installed (the echo server it is compared with)"}};
   const std::uint16_t cmd = lbp16::hm2Read(8);
   const std::uint8_t read[4] = {static_cast<std::uint8_t>(cmd), static_cast<std::uint8_t>(cmd >> 8), 0x00, 0x01};
   // The last CPU this process may run on (a cpuset or taskset may leave
   // it fewer than the machine has).
-  const auto allowed = app::allowedCpus();
+  const auto allowed = lbpkit::process::allowedCpus();
   const int last = allowed.empty() ? 0 : static_cast<int>(allowed.back());
   for (const int cpu : {-1, last}) {
     EchoServer echo(cpu);

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // What `lbpkit bench`'s parts start and measure: sims, CPU hogs, programs
 // by an argument vector, /proc figures. Every process started here is
 // stopped by the object that started it, by its PID.
@@ -11,6 +12,7 @@
 
 #include <fmt/core.h>
 #include <httplib.h>
+#include <nlohmann/json.hpp>
 
 #include <cerrno>
 #include <fstream>
@@ -19,7 +21,7 @@
 #include "bench.hpp"
 #include "common.hpp"
 #include "lbpkit/error.hpp"
-#include "linuxcnc/program.hpp"
+#include "process/process.hpp"
 
 namespace bench {
 
@@ -41,12 +43,7 @@ void sleepFor(std::chrono::duration<double> d) {
 namespace {
 
 // Waits for a child, through the EINTR of a Ctrl-C (the child got it too).
-int reap(pid_t pid) {
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  return status;
-}
+int reap(pid_t pid) { return lbpkit::process::reap(pid); }
 
 std::string self() {
   std::error_code ec;
@@ -70,17 +67,7 @@ struct Scratch {
 
 }  // namespace
 
-void stopProcess(pid_t pid) {
-  if (pid <= 0) return;
-  ::kill(pid, SIGTERM);
-  for (int i = 0; i < 60; ++i) {
-    int status = 0;
-    if (::waitpid(pid, &status, WNOHANG) == pid) return;
-    std::this_thread::sleep_for(50ms);
-  }
-  ::kill(pid, SIGKILL);
-  reap(pid);
-}
+void stopProcess(pid_t pid) { (void)lbpkit::process::stopWithGrace(pid, 3s); }
 
 bool printedSkip(const nlohmann::json& j) {
   if (!j.contains("skipped")) return false;
@@ -98,7 +85,7 @@ Run run(const std::vector<std::string>& argv) {
   if (argv.empty()) return r;
   std::string path = argv.front();
   if (path.find('/') == std::string::npos) {
-    const auto found = lbpkit::linuxcnc::systemProgram(path);
+    const auto found = lbpkit::process::systemProgram(path);
     if (!found) {
       r.out = path + " is not installed";
       return r;
@@ -137,7 +124,7 @@ Run run(const std::vector<std::string>& argv) {
 }
 
 std::string installed(const std::string& name) {
-  auto path = lbpkit::linuxcnc::systemProgram(name);
+  auto path = lbpkit::process::systemProgram(name);
   if (!path) throw lbpkit::Error(name + " is not installed (looked for in the system's folders)");
   return *path;
 }
@@ -153,8 +140,11 @@ SimProcess::SimProcess(std::vector<std::string> addresses, std::vector<std::stri
   // Several cards keep their EEPROMs in a folder of their own.
   args.insert(args.end(), {"--state", several ? stateFile_.string() + ".d" : stateFile_.string()});
   args.insert(args.end(), extra.begin(), extra.end());
-  int out[2];
-  if (::pipe2(out, O_CLOEXEC) != 0) throw lbpkit::Error("pipe failed");
+  // Serving once it greets on descriptor 3 (lbpkit sim --ready-fd: every
+  // card, its control API and web view), with the API's port.
+  args.insert(args.end(), {"--ready-fd", "3"});
+  int out[2], ready[2];
+  if (::pipe2(out, O_CLOEXEC) != 0 || ::pipe2(ready, O_CLOEXEC) != 0) throw lbpkit::Error("pipe failed");
   const auto log = stateFile_.string() + ".log";
   pid_ = ::fork();
   if (pid_ < 0) throw lbpkit::Error("fork failed");
@@ -163,6 +153,7 @@ SimProcess::SimProcess(std::vector<std::string> addresses, std::vector<std::stri
     const int err = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
     ::dup2(out[1], 1);
     ::dup2(err, 2);
+    ::dup2(ready[1], 3);
     std::vector<char*> argv;
     for (auto& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
@@ -170,26 +161,26 @@ SimProcess::SimProcess(std::vector<std::string> addresses, std::vector<std::stri
     ::_exit(127);
   }
   ::close(out[1]);
+  ::close(ready[1]);
   out_ = out[0];
-  // Its banner names the control API's port; it is serving by then (with
-  // several cards, once it says so).
   std::string text;
-  const std::string marker = fmt::format("control API: http://{}:", several ? addresses_.front() : "127.0.0.1");
-  const std::string served = several ? "served by one thread" : marker;
   const auto end = std::chrono::steady_clock::now() + 15s;
-  while (std::chrono::steady_clock::now() < end && text.find(served) == std::string::npos) {
-    pollfd p{out_, POLLIN, 0};
+  while (std::chrono::steady_clock::now() < end && text.find('\n') == std::string::npos) {
+    pollfd p{ready[0], POLLIN, 0};
     if (::poll(&p, 1, 100) <= 0) {
       if (app::gStop.load()) break;
       continue;
     }
     char buf[1024];
-    const ssize_t n = ::read(out_, buf, sizeof buf);
+    const ssize_t n = ::read(ready[0], buf, sizeof buf);
     if (n <= 0) break;
     text.append(buf, static_cast<std::size_t>(n));
   }
-  const auto at = text.find(marker);
-  if (at != std::string::npos) apiPort_ = std::atoi(text.c_str() + at + marker.size());
+  ::close(ready[0]);
+  const auto greeting = nlohmann::json::parse(text.substr(0, text.find('\n')), nullptr, false);
+  if (greeting.is_object() && greeting.contains("cards") && !greeting["cards"].empty() &&
+      greeting["cards"][0]["api"].is_object())
+    apiPort_ = greeting["cards"][0]["api"]["port"].get<int>();
   if (apiPort_ <= 0) {
     std::ifstream in(log);
     const std::string why((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -224,7 +215,7 @@ nlohmann::json SimProcess::state() const {
 
 CpuHog::CpuHog() {
   // One per CPU this process may run on: each keeps one busy.
-  const auto n = std::max<std::size_t>(1, app::allowedCpus().size());
+  const auto n = std::max<std::size_t>(1, lbpkit::process::allowedCpus().size());
   for (std::size_t i = 0; i < n; ++i) {
     const pid_t pid = ::fork();
     if (pid < 0) throw lbpkit::Error("fork failed");

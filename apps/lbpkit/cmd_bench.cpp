@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lbpkit bench: the performance figures on the machine at hand, each
 // beside what it is compared against in the same run (bench.hpp).
 #include <fmt/core.h>

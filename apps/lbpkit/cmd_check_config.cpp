@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lbpkit check-config FILE.ini|FILE.hal: every hostmot2 pin and parameter a
 // LinuxCNC configuration names, checked against what the driver will create
 // (no LinuxCNC, no card, no root needed: the card's IDROM and its remotes'
@@ -9,6 +10,7 @@
 
 #include "common.hpp"
 #include "linuxcnc/config_check.hpp"
+#include "linuxcnc/hal_name.hpp"
 #include "hal_card.hpp"
 
 namespace app {
@@ -43,15 +45,13 @@ lbpkit::linuxcnc::Hm2Config inMode(lbpkit::linuxcnc::Hm2Config c, char digit) {
 // pins).
 std::vector<lbpkit::linuxcnc::Board> model(const CheckOptions& o, const lbpkit::linuxcnc::Board& loaded,
                                       const lbpkit::linuxcnc::Hm2Config& config, unsigned sevenI77s, std::string& whyNot) {
-  const auto dot = loaded.prefix.find('.');
-  const auto kind = loaded.prefix.substr(4, dot - 4);
-  unsigned index = 0;
-  try {
-    index = static_cast<unsigned>(std::stoul(loaded.prefix.substr(dot + 1)));
-  } catch (const std::exception&) {
+  const auto name = lbpkit::linuxcnc::hal_name::parse(loaded.prefix);
+  if (!name) {
     whyNot = "its name has no board number";
     return {};
   }
+  const auto& kind = name->board;
+  const unsigned index = name->index;
   struct Candidate {
     const hm2::cards::Card* card;
     const hm2::cards::Firmware* firmware;

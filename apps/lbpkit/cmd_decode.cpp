@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lbpkit decode FILE.pcap: every LBP16 command in a capture (UDP port
 // 27181), with the register it names, the SSLBP commands written through
 // them, and every LBP command of a serial-line capture (`lbpkit remote --pty

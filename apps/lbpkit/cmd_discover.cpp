@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lbpkit discover: every smart-serial remote, its modes and process data.
 #include <fmt/core.h>
 

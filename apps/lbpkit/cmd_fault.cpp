@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lbpkit fault: a fault (or its end) for a running `lbpkit sim`, from the
 // command line. Each is the control API's own request (docs/control-api.md,
 // docs/faults.md): `lbpkit fault network drop=0.01 direction=reply` is

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lbpkit info: the card, its IDROM modules, and pin functions by connector.
 #include <fmt/core.h>
 

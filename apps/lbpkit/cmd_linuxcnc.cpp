@@ -51,8 +51,9 @@
 #include "lbpkit/error.hpp"
 #include "linuxcnc/board_address.hpp"
 #include "linuxcnc/config_check.hpp"
-#include "linuxcnc/program.hpp"
+#include "process/process.hpp"
 #include "linuxcnc/hal_config.hpp"
+#include "linuxcnc/hal_name.hpp"
 #include "linuxcnc/linuxcnc_root.hpp"
 #include "linuxcnc_host.hpp"
 #include "linuxcnc_run.hpp"
@@ -75,6 +76,7 @@ struct LinuxCncOptions {
   std::string display;  // in place of the INI's [DISPLAY]DISPLAY
   std::string cpu = "last";  // --cpu N|last|any: LinuxCNC's and the card thread's CPU
   std::string linuxcncRoot;  // --linuxcnc-root: another Debian release's LinuxCNC (linuxcnc/linuxcnc_root.hpp)
+  int readyFd = -1;          // --ready-fd N: the run's greeting, once LinuxCNC starts
   std::vector<std::string> simArguments;  // after --
   bool asWritten = false;  // --as-written: untouched, on the wall clock, on any PC
   bool lateServo = false;  // found at the start: LinuxCNC will not run real-time here, and no --as-written
@@ -82,55 +84,36 @@ struct LinuxCncOptions {
 
 // This process (and whatever it starts) on `cpu` alone, when given.
 void pinTo(std::optional<unsigned> cpu) {
-  if (!cpu) return;
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  CPU_SET(*cpu, &set);
-  ::sched_setaffinity(0, sizeof set, &set);
+  if (cpu) lbpkit::process::pinToCpu(*cpu);
 }
 
 // A child process: argv run with stdout and stderr into `out` (a pipe's
-// write end) or inherited (-1), on `cpu` alone when given (and whatever it
-// starts with it). In a process group of its own, so that a terminal's
-// Ctrl-C reaches only lbpkit, which stops it in order.
-pid_t spawn(const std::vector<std::string>& argv, int out, std::optional<unsigned> cpu = {}) {
-  const pid_t pid = app::linuxcnc_run::forkInRun();
-  if (pid < 0) throw lbpkit::Error(fmt::format("cannot start {}: fork failed", argv.front()));
-  if (pid == 0) {
-    ::setpgid(0, 0);
-    pinTo(cpu);
-    ::prctl(PR_SET_PDEATHSIG, SIGTERM);  // lbpkit killed outright: its children go too
-    if (out >= 0) {
-      ::dup2(out, 1);
-      ::dup2(out, 2);
-    }
-    std::vector<char*> args;
-    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    ::execv(args[0], args.data());
-    ::_exit(127);
+// write end) or inherited (-1), `ready` (a pipe's write end, or -1) as its
+// descriptor 3, on `cpu` alone when given (and whatever it starts with it),
+// in the run's PID namespace. In a process group of its own, so that a
+// terminal's Ctrl-C reaches only lbpkit, which stops it in order; it gets
+// SIGTERM should lbpkit be killed outright.
+pid_t spawn(const std::vector<std::string>& argv, int out, int ready = -1, std::optional<unsigned> cpu = {}) {
+  lbpkit::process::SpawnOptions o;
+  o.out = out;
+  o.ready = ready;
+  o.cpu = cpu;
+  o.ownProcessGroup = true;
+  o.deathSignal = SIGTERM;
+  o.nullStdin = false;
+  o.fork = &app::linuxcnc_run::forkInRun;
+  try {
+    return lbpkit::process::spawn(argv, o);
+  } catch (const std::runtime_error& e) {
+    throw lbpkit::Error(e.what());
   }
-  ::setpgid(pid, pid);
-  return pid;
 }
 
-// Stops a child (SIGTERM, then SIGKILL after `grace`) and reaps it: its
-// exit status, or -1.
+// Stops a child (SIGTERM, then SIGKILL to it and its process group after
+// `grace`) and reaps it: its exit status, or -1.
 int stop(pid_t pid, std::chrono::milliseconds grace) {
-  if (pid <= 0) return -1;
-  ::kill(pid, SIGTERM);
-  const auto deadline = std::chrono::steady_clock::now() + grace;
-  int status = 0;
-  while (::waitpid(pid, &status, WNOHANG) == 0) {
-    if (std::chrono::steady_clock::now() > deadline) {
-      ::kill(-pid, SIGKILL);
-      ::kill(pid, SIGKILL);
-      ::waitpid(pid, &status, 0);
-      break;
-    }
-    std::this_thread::sleep_for(20ms);
-  }
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  const int status = lbpkit::process::stopWithGrace(pid, grace, SIGTERM, true);
+  return status >= 128 ? -1 : status;
 }
 
 // The PID namespace a process is in (an inode number), or 0.
@@ -321,9 +304,10 @@ pid_t startLinuxCnc(const LinuxCncLaunch& l) {
 
 // The card a board's HAL name is (hm2_7i92.0 -> 7I92), or empty.
 std::string cardOfBoard(const std::string& prefix) {
-  const auto kind = prefix.substr(4, prefix.find('.') - 4);  // "hm2_7i92.0" -> "7i92"
+  const auto name = lbpkit::linuxcnc::hal_name::parse(prefix);
+  if (!name) return {};
   for (const auto& card : hm2::cards::all())
-    if (card.halName == kind) return std::string(card.name);
+    if (card.halName == name->board) return std::string(card.name);
   return {};
 }
 
@@ -399,7 +383,7 @@ fs::path copyConfiguration(const fs::path& ini, const fs::path& into, const std:
                "converted with update_ini -f, as linuxcnc's own dialog offers\n",
                ini.filename().string(), version->empty() ? "none" : *version);
     std::fflush(stdout);
-    const auto converted = lbpkit::linuxcnc::runProgram({"update_ini", "-f", copy.string()});
+    const auto converted = lbpkit::process::runProgram({"update_ini", "-f", copy.string()});
     if (converted.status != 0)
       throw lbpkit::Error(fmt::format("{}: update_ini -f could not convert it (LinuxCNC could not either): {}",
                                       ini.string(), converted.output));
@@ -628,10 +612,14 @@ int runLinuxCnc(const LinuxCncOptions& o) {
   if (::geteuid() != 0)
     throw lbpkit::Error("lbpkit linuxcnc needs root (a network namespace and a veth pair): run it with sudo");
   const auto started = std::chrono::system_clock::now();
+  // --ready-fd: a descriptor of the caller's, kept from everything the run
+  // starts (the greeting is written once, by this process).
+  if (o.readyFd >= 0 && ::fcntl(o.readyFd, F_SETFD, FD_CLOEXEC) != 0)
+    throw lbpkit::Error(fmt::format("--ready-fd {}: no such open descriptor", o.readyFd));
   const run::RunAs user = run::invokingUser();
   std::optional<std::string> linuxcnc;
   if (o.linuxcncRoot.empty()) {
-    linuxcnc = lbpkit::linuxcnc::systemProgram("linuxcnc");
+    linuxcnc = lbpkit::process::systemProgram("linuxcnc");
     if (!linuxcnc) throw lbpkit::Error("linuxcnc is not installed (Debian's linuxcnc-uspace)");
   } else {
     // Checked here, entered by LinuxCNC's PID 1 (startLinuxCnc).
@@ -639,7 +627,7 @@ int runLinuxCnc(const LinuxCncOptions& o) {
       throw lbpkit::Error(fmt::format("--linuxcnc-root {}", problem));
     linuxcnc = "/usr/bin/linuxcnc";
   }
-  if (!lbpkit::linuxcnc::systemProgram("ip")) throw lbpkit::Error("ip is not installed (Debian's iproute2)");
+  if (!lbpkit::process::systemProgram("ip")) throw lbpkit::Error("ip is not installed (Debian's iproute2)");
 
   // What runs that are gone left, then this run's own: its names carry
   // this process's pid (linuxcnc_run.hpp).
@@ -691,7 +679,11 @@ int runLinuxCnc(const LinuxCncOptions& o) {
   // view on this PC's loopback.
   int pipeFds[2];
   if (::pipe2(pipeFds, O_CLOEXEC) != 0) throw lbpkit::Error("cannot make a pipe for the sim's output");
-  std::vector<std::string> simArgv = {"/proc/self/exe", "sim", "--bind", p.boardIp, "--api", "127.0.0.1:0"};
+  // The sim's greeting (lbpkit sim --ready-fd 3): it serves, and where.
+  int readyFds[2];
+  if (::pipe2(readyFds, O_CLOEXEC) != 0) throw lbpkit::Error("cannot make a pipe for the sim's greeting");
+  std::vector<std::string> simArgv = {"/proc/self/exe", "sim", "--bind", p.boardIp, "--api", "127.0.0.1:0",
+                                      "--ready-fd", "3"};
   if (!p.card.empty()) simArgv.insert(simArgv.end(), {"--card", p.card});
   if (!machine.empty()) simArgv.insert(simArgv.end(), {"--machine", machine});
   // LinuxCNC and the card thread on one CPU: each datagram hm2_eth sends
@@ -699,21 +691,7 @@ int runLinuxCnc(const LinuxCncOptions& o) {
   // there before hm2_eth looks for it, whatever else the PC runs. hm2_eth's
   // set-up gives each read 1.6 ms (LinuxCNC: hm2_eth.c), mesaflash's
   // discovery 2 ms; a real card answers in microseconds.
-  std::optional<unsigned> cpu;
-  if (o.cpu == "last") {
-    const auto cpus = app::allowedCpus();
-    if (!cpus.empty()) cpu = cpus.back();
-  } else if (o.cpu != "any") {
-    int n = -1;
-    try {
-      std::size_t used = 0;
-      n = std::stoi(o.cpu, &used);
-      if (used != o.cpu.size()) n = -1;
-    } catch (const std::exception&) {
-    }
-    if (n < 0) throw lbpkit::Error(fmt::format("--cpu {}: give a CPU's number, last or any", o.cpu));
-    cpu = app::checkedCpu(n, "--cpu");
-  }
+  const std::optional<unsigned> cpu = app::cpuOption(o.cpu);
   if (cpu) simArgv.insert(simArgv.end(), {"--cpu", std::to_string(*cpu)});
   // On the host clock where the servo thread runs late, unless the sim's
   // options after -- choose a clock.
@@ -729,10 +707,12 @@ int runLinuxCnc(const LinuxCncOptions& o) {
     fmt::print("  - the sim on the clock its options after -- give\n");
   }
   simArgv.insert(simArgv.end(), o.simArguments.begin(), o.simArguments.end());
-  pid_t sim = spawn(simArgv, pipeFds[1]);
+  pid_t sim = spawn(simArgv, pipeFds[1], readyFds[1]);
   ::close(pipeFds[1]);
+  ::close(readyFds[1]);
   const int simOut = pipeFds[0];
-  std::string simText;
+  const int simReady = readyFds[0];
+  std::string simText, greeting;
   pid_t lcnc = -1;
   int exitCode = 0;
   auto readSim = [&](int timeoutMs) {
@@ -755,17 +735,29 @@ int runLinuxCnc(const LinuxCncOptions& o) {
     while (readSim(0)) {
     }
     ::close(simOut);
+    ::close(simReady);
     ns.remove();
   };
   try {
+    // Up when it greets (its card, control API and web view serving); its
+    // output, its banner among it, goes to the user meanwhile.
     const auto deadline = std::chrono::steady_clock::now() + 15s;
-    while (simText.find("web view: ") == std::string::npos || simText.find('\n', simText.find("web view: ")) == std::string::npos) {
-      if (app::gStop || std::chrono::steady_clock::now() > deadline || ::waitpid(sim, nullptr, WNOHANG) == sim) {
+    bool readyOpen = true;
+    while (greeting.find('\n') == std::string::npos) {
+      if (app::gStop || !readyOpen || std::chrono::steady_clock::now() > deadline ||
+          ::waitpid(sim, nullptr, WNOHANG) == sim) {
         sim = -1;
         throw lbpkit::Error("lbpkit sim did not start (its output is above)");
       }
-      readSim(100);
+      readSim(0);
+      pollfd pfd{simReady, POLLIN, 0};
+      if (::poll(&pfd, 1, 100) <= 0) continue;
+      char buf[4096];
+      const auto n = ::read(simReady, buf, sizeof buf);
+      if (n <= 0) readyOpen = false;
+      else greeting.append(buf, static_cast<std::size_t>(n));
     }
+    readSim(0);
 
     // LinuxCNC in the namespace, and in PID, IPC and mount namespaces of
     // its own: whatever it starts ends with it, its HAL's shared memory goes
@@ -788,6 +780,21 @@ int runLinuxCnc(const LinuxCncOptions& o) {
                p.boardIp, cpu ? fmt::format(", both on CPU {}", *cpu) : std::string());
     std::fflush(stdout);
     lcnc = startLinuxCnc(launch);
+    if (o.readyFd >= 0) {
+      // --ready-fd: the run's greeting for a program that drives it (the
+      // sim's, the namespace and the copy LinuxCNC runs), then closed.
+      const nlohmann::json ready = {
+          {"lbpkit", "linuxcnc"},
+          {"sim", nlohmann::json::parse(greeting.substr(0, greeting.find('\n')), nullptr, false)},
+          {"network_namespace", nsName},
+          {"board_ip", p.boardIp},
+          {"linuxcnc", {{"ini", p.run}, {"root", o.linuxcncRoot.empty() ? nlohmann::json(nullptr)
+                                                                      : nlohmann::json(o.linuxcncRoot)}}}};
+      const std::string line = ready.dump() + "\n";
+      if (::write(o.readyFd, line.data(), line.size()) != static_cast<ssize_t>(line.size()))
+        fmt::print(stderr, "lbpkit linuxcnc: --ready-fd {}: the greeting could not be written\n", o.readyFd);
+      ::close(o.readyFd);
+    }
     app::linuxcnc_host::LinuxCncLog log(launch.privateTmp, user.uid);
     // Its servo thread SCHED_FIFO below the card thread, as on a real-time
     // kernel (linuxcnc/servo_priority.hpp).
@@ -856,6 +863,11 @@ void addLinuxCncCommand(CLI::App& app) {
                   "The CPU LinuxCNC and the sim's card thread share, so the card answers before hm2_eth looks "
                   "whatever else runs: a CPU's number, last (the last one lbpkit may use) or any (not pinned)")
       ->capture_default_str();
+  cmd->add_option("--ready-fd", o->readyFd,
+                  "N: once the sim serves and LinuxCNC has started, write one JSON line to descriptor N (the sim's "
+                  "greeting: its addresses and API; the network namespace; the configuration LinuxCNC runs) and "
+                  "close it: for a program that drives the run")
+      ->check(CLI::Range(0, 1 << 20));
   cmd->add_option("--linuxcnc-root", o->linuxcncRoot,
                   "Run the LinuxCNC installed in this folder (a Debian root with linuxcnc-uspace, such as "
                   "scripts/linuxcnc-releases makes: Debian 13's or unstable's) in place of this PC's; the "

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lbpkit machine --from-config CONFIG.ini [-o FILE.toml]: the machine file
 // of the machine a LinuxCNC configuration expects (linuxcnc/machine_from_config.hpp),
 // checked by loading it as lbpkit sim would.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lbpkit monitor: a live terminal view of a running 7I77: inputs, outputs,
 // analog values, encoders and faults, cycling at the servo rate; and, when
 // the card is an `lbpkit sim --machine`, the machine behind it (axes,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lbpkit rpd / wpd: read and write a remote's parameters by name, like
 // Mesa's RPD and WPD (manual: RPD, WPD, AND UFLBP).
 #include <fcntl.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lbpkit pins: the HAL pins and parameters LinuxCNC's hostmot2 driver will
 // create for this card and its remotes in the configured modes.
 #include <fmt/core.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lbpkit remote: one virtual 7I77 processor on a serial face (a pty).
 #include <fmt/core.h>
 

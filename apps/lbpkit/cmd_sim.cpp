@@ -1,9 +1,15 @@
+// SPDX-License-Identifier: MIT
 // lbpkit sim: a virtual 7I92 with 7I77s on the network (LBP16 over UDP),
 // with an HTTP control API to watch the board and change its world.
 #include <fmt/core.h>
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
+#include <cstring>
 #include <cmath>
 #include <initializer_list>
 #include <filesystem>
@@ -47,7 +53,7 @@ struct SimCommandOptions {
   std::string clock = "wall";  // --clock wall|host[=PERIOD]
   bool paused = false;
   bool noRealtime = false;
-  int cpu = -1;  // --cpu N: the card thread on CPU N alone
+  std::string cpu = "any";  // --cpu N|last|any: the card thread on CPU N alone
   int cpuLatencyUs = -1;     // --cpu-latency US
   bool demo = false;
   std::string machine;
@@ -55,6 +61,7 @@ struct SimCommandOptions {
   std::string trace;  // --trace FILE.pcap: every datagram in and reply out
   std::vector<std::string> remotes;  // --remote CH=pty, repeatable
   std::string card;  // --card NAME: which Mesa card (hostmot2/cards/catalogue.hpp)
+  int readyFd = -1;  // --ready-fd N: the greeting for programs (readyGreeting)
 };
 
 // --remote CH=pty: the SSLBP channel CH brought out to a pseudo-terminal.
@@ -236,7 +243,7 @@ CardRun cardOptions(const SimCommandOptions& o, const std::string& bind, std::si
     throw lbpkit::Error("--speed and --clock host exclude each other: on the host clock a servo period passes per host "
                         "cycle");
   s.realtime = !o.noRealtime;
-  if (o.cpu != -1) s.cpu = app::checkedCpu(o.cpu, "--cpu");
+  s.cpu = app::cpuOption(o.cpu);
   if (o.cpuLatencyUs >= 0) s.cpuLatency = std::chrono::microseconds(o.cpuLatencyUs);
   s.demo = o.demo;
   if (!o.machine.empty()) {
@@ -418,6 +425,53 @@ std::vector<std::filesystem::path> filesBeside(const std::vector<std::filesystem
   return out;
 }
 
+// --ready-fd N: what a program that started the sim needs to use it, as
+// one JSON line once every card, its control API and web view serve (as
+// QEMU's QMP greets its client), so that no program reads the banner, which
+// is for people and may change its words:
+//   {"lbpkit":"sim","cards":[{"card":"7I92","lbp16":{"address":"127.0.0.1","port":27181},
+//     "api":{"address":"127.0.0.1","port":27182,"url":"http://127.0.0.1:27182"},
+//     "web":"http://127.0.0.1:27182/","clock":"wall","state":"...","flash":"...",
+//     "external_remotes":[{"channel":2,"pty":"/dev/pts/3"}]}]}
+// "api" and "web" are null without a control API (--no-api); "clock" is
+// "wall" or "host"; the token (--api-token) is never written.
+nlohmann::json readyGreeting(const std::vector<CardRun>& runs,
+                             const std::vector<std::unique_ptr<servers::SimDaemon>>& daemons) {
+  auto cards = nlohmann::json::array();
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const auto& s = runs[i].options;
+    const auto& d = *daemons[i];
+    const std::string url = fmt::format("http://{}:{}", s.apiAddress, d.apiPort());
+    const auto api = d.apiPort() >= 0 ? nlohmann::json{{"address", s.apiAddress}, {"port", d.apiPort()}, {"url", url}}
+                                      : nlohmann::json(nullptr);
+    auto remotes = nlohmann::json::array();
+    for (const auto& [channel, pty] : d.externalRemotes()) remotes.push_back({{"channel", channel}, {"pty", pty}});
+    cards.push_back({{"card", (s.card.card != nullptr ? *s.card.card : hm2::cards::defaultCard()).name},
+                     {"lbp16", {{"address", s.bindAddress}, {"port", d.port()}}},
+                     {"api", api},
+                     {"web", api.is_null() ? api : nlohmann::json(url + "/")},
+                     {"clock", s.hostClock ? "host" : "wall"},
+                     {"state", runs[i].state.string()},
+                     {"flash", s.flashFile.string()},
+                     {"external_remotes", remotes}});
+  }
+  return {{"lbpkit", "sim"}, {"cards", cards}};
+}
+
+// Writes the greeting to `fd` and closes it; a descriptor that is not open
+// is the caller's mistake, said at once.
+void greet(int fd, const nlohmann::json& greeting) {
+  const std::string line = greeting.dump() + "\n";
+  std::size_t done = 0;
+  while (done < line.size()) {
+    const auto n = ::write(fd, line.data() + done, line.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) throw lbpkit::Error(fmt::format("--ready-fd {}: cannot write the greeting: {}", fd, std::strerror(errno)));
+    done += static_cast<std::size_t>(n);
+  }
+  ::close(fd);
+}
+
 void removeFilesWritten(const std::vector<std::filesystem::path>& states,
                         const std::vector<std::filesystem::path>& before) {
   for (const auto& file : filesBeside(states))
@@ -429,6 +483,10 @@ void removeFilesWritten(const std::vector<std::filesystem::path>& states,
 
 int runSim(const SimCommandOptions& o) {
   if (o.bind.empty()) throw lbpkit::Error("--bind: give ADDR[:PORT]");
+  if (o.readyFd >= 0 && ::fcntl(o.readyFd, F_GETFD) < 0)
+    throw lbpkit::Error(fmt::format("--ready-fd {}: no such open descriptor (the program starting the sim passes "
+                                    "one it made, such as a pipe's write end)",
+                                    o.readyFd));
   if (o.bind.size() > 1) {
     // What names one file, or one pseudo-terminal, cannot serve several cards.
     for (const auto& [given, what] : {std::pair{!o.record.empty(), "--record"}, {!o.trace.empty(), "--trace"},
@@ -471,6 +529,7 @@ int runSim(const SimCommandOptions& o) {
   }
   if (runs.size() > 1) fmt::print("lbpkit sim: {} cards, served by one thread\n", runs.size());
   std::fflush(stdout);
+  if (o.readyFd >= 0) greet(o.readyFd, readyGreeting(runs, daemons));
   std::vector<servers::SimDaemon*> cards;
   for (auto& d : daemons) cards.push_back(d.get());
   servers::SimDaemon::runAll(cards, app::gStop, app::stopFd());
@@ -530,8 +589,15 @@ void addSimCommand(CLI::App& app) {
                   "Wireshark)");
   cmd->add_flag("--no-realtime", o->noRealtime, "Do not ask for real-time (SCHED_FIFO) scheduling of the card thread");
   cmd->add_option("--cpu", o->cpu,
-                  "Run the card thread on this CPU alone; start the host on the same CPU (taskset -c N) and every "
-                  "reply is there before the host looks for it, however busy the PC is");
+                  "N|last|any: run the card thread on this CPU alone (last: the last this process may use); start "
+                  "the host on the same CPU (taskset -c N) and every reply is there before the host looks for it, "
+                  "however busy the PC is")
+      ->capture_default_str();
+  cmd->add_option("--ready-fd", o->readyFd,
+                  "N: once every card, its control API and web view serve, write one JSON line to descriptor N "
+                  "(their addresses, clock, state and flash files) and close it: for a program that starts the "
+                  "sim (the banner is for people)")
+      ->check(CLI::Range(0, 1 << 20));
   cmd->add_option("--cpu-latency", o->cpuLatencyUs,
                   "US: while the sim runs, no CPU sleeps deeper than it can wake from in US (PM QoS, root); 0 keeps "
                   "idle CPUs polling, so no thread waits for a CPU to wake (costs the idle CPUs' time; docs/sim.md)")

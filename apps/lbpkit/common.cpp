@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "common.hpp"
 
 #include <sched.h>
@@ -13,6 +14,7 @@
 
 #include "lbpkit/error.hpp"
 #include "lbpkit/lbp16_transport.hpp"
+#include "process/process.hpp"
 #include "sim_card/sim_transport.hpp"
 
 namespace app {
@@ -121,23 +123,12 @@ ApiAddress parseApiAddress(const std::string& text, const std::string& host) {
 
 namespace app {
 
-std::vector<unsigned> allowedCpus() {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  std::vector<unsigned> cpus;
-  if (::sched_getaffinity(0, sizeof set, &set) != 0) return cpus;
-  for (unsigned i = 0; i < CPU_SETSIZE; ++i)
-    if (CPU_ISSET(i, &set)) cpus.push_back(i);
-  return cpus;
-}
-
-unsigned checkedCpu(int cpu, const char* option) {
-  const auto cpus = allowedCpus();
-  for (const unsigned c : cpus)
-    if (cpu >= 0 && static_cast<unsigned>(cpu) == c) return c;
-  std::string list;
-  for (const unsigned c : cpus) list += (list.empty() ? "" : ", ") + std::to_string(c);
-  throw lbpkit::Error(fmt::format("{} {}: not a CPU this process may run on (those are {})", option, cpu, list));
+std::optional<unsigned> cpuOption(const std::string& text, std::string_view option) {
+  try {
+    return lbpkit::process::parseCpu(text, option);
+  } catch (const std::invalid_argument& e) {
+    throw lbpkit::Error(e.what());
+  }
 }
 
 }  // namespace app

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // What every lbpkit tool shares: how to reach a card, and output helpers.
 #pragma once
 
@@ -8,7 +9,9 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "lbpkit/hostmot2.hpp"
@@ -67,10 +70,9 @@ lbpkit::linuxcnc::BoardModel catalogueBoardModel(std::string card, std::string p
 // there is no machine (cmd_machine.cpp).
 std::string deriveMachineFile(const std::filesystem::path& ini, const std::filesystem::path& out, bool force);
 
-// The CPUs this process may run on (sched_getaffinity), ascending.
-std::vector<unsigned> allowedCpus();
-// `--cpu N` checked against them: N, or an error naming the CPUs there are.
-unsigned checkedCpu(int cpu, const char* option);
+// A --cpu option: N|last|any (lbpkit::process::parseCpu), an error naming
+// the CPUs this process may use as lbpkit::Error.
+std::optional<unsigned> cpuOption(const std::string& text, std::string_view option = "--cpu");
 
 }  // namespace app
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // What `lbpkit pins` and `lbpkit check-config` share: a card's HAL items as
 // LinuxCNC's hostmot2 would create them, from the card's IDROM and the
 // discovery of its smart-serial remotes in the configured modes.

@@ -14,7 +14,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "linuxcnc/program.hpp"
+#include "process/process.hpp"
 #include "linuxcnc_run.hpp"
 
 namespace app::linuxcnc_host {
@@ -50,7 +50,7 @@ RealTime detectRealTime() {
     else if (fs::exists("/proc/rtai")) kernel = "RTAI kernel";
   }
   if (kernel.empty()) return {false, fmt::format("the kernel ({}) is not real-time (no PREEMPT_RT)", u.release)};
-  const auto rtapi = lbpkit::linuxcnc::systemProgram("rtapi_app");
+  const auto rtapi = lbpkit::process::systemProgram("rtapi_app");
   struct stat st {};
   if (!rtapi || ::stat(rtapi->c_str(), &st) != 0 || st.st_uid != 0 || (st.st_mode & S_ISUID) == 0)
     return {false, kernel + ", but rtapi_app is not setuid root"};

@@ -29,7 +29,7 @@
 #include <sstream>
 
 #include "lbpkit/error.hpp"
-#include "linuxcnc/program.hpp"
+#include "process/process.hpp"
 
 namespace app::linuxcnc_run {
 
@@ -223,7 +223,7 @@ void removeDeadRuns() {
   for (const auto& e : fs::directory_iterator("/run/netns", ec)) {
     const auto name = e.path().filename().string();
     if (std::regex_match(name, m, netnsName) && !runIsAlive(owner(m))) {
-      const auto r = lbpkit::linuxcnc::runProgram({"ip", "netns", "del", name});
+      const auto r = lbpkit::process::runProgram({"ip", "netns", "del", name});
       fmt::print("lbpkit linuxcnc: removed network namespace {}, left by a run that is gone (pid {}){}\n", name,
                  owner(m), r.status == 0 ? "" : ": " + r.output);
     }
@@ -231,7 +231,7 @@ void removeDeadRuns() {
   for (const auto& e : fs::directory_iterator("/sys/class/net", ec)) {
     const auto name = e.path().filename().string();
     if (std::regex_match(name, m, link) && !runIsAlive(owner(m))) {
-      (void)lbpkit::linuxcnc::runProgram({"ip", "link", "del", name});
+      (void)lbpkit::process::runProgram({"ip", "link", "del", name});
       fmt::print("lbpkit linuxcnc: removed link {}, left by a run that is gone (pid {})\n", name, owner(m));
     }
   }
@@ -394,8 +394,8 @@ void startReaper(pid_t owner, const std::string& netns, const std::string& link)
     ::kill(-1, SIGKILL);  // from a namespace's PID 1: every other process in it
     while (::waitpid(-1, nullptr, 0) > 0 || errno == EINTR) {
     }
-    if (fs::exists("/sys/class/net/" + link)) (void)lbpkit::linuxcnc::runProgram({"ip", "link", "del", link});
-    if (fs::exists("/run/netns/" + netns)) (void)lbpkit::linuxcnc::runProgram({"ip", "netns", "del", netns});
+    if (fs::exists("/sys/class/net/" + link)) (void)lbpkit::process::runProgram({"ip", "link", "del", link});
+    if (fs::exists("/run/netns/" + netns)) (void)lbpkit::process::runProgram({"ip", "netns", "del", netns});
     (void)removeRunFolders(owner);
     ::_exit(0);
   }

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The machine section of `lbpkit monitor`: what `lbpkit sim --machine`
 // reports at GET /api/machine (axes, drives, switches, spindle, E-stop
 // chain, probe, outputs), fetched off the servo cycle and formatted for the

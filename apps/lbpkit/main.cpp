@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lbpkit: tools for the Mesa 7I77 system, real or virtual.
 #include <fmt/core.h>
 

@@ -1,3 +1,4 @@
+-- SPDX-License-Identifier: MIT
 -- Wireshark / tshark dissector for LBP16, the register protocol of Mesa's
 -- Ethernet cards (7I92 and kin, and `lbpkit sim`) on UDP port 27181.
 --

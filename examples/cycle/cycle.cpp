@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Drive a Mesa 7I92 with a 7I77 (or `lbpkit sim`) over Ethernet with the
 // installed lbpkit library: open the card by IP address, read what it is,
 // discover the smart-serial remotes, start them, and run the real-time

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """lbpkit: Mesa smart-serial (7I77) cards from Python.
 
 The host library on a card over the network (``Card.open("192.168.1.121")``,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `lbpkit decode` of LBP on a serial line (manual: REFERENCE INFORMATION,
 // LBP; docs/protocol-facts.md#lbp): each command the host sent, by its
 // header (data read/write, RPC, local register by name), its CRC checked

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `lbpkit decode` of LBP16 datagrams (docs/protocol-facts.md#lbp16), and of
 // the SSLBP commands the host writes through them
 // (docs/protocol-facts.md#sslbp: COMMAND, CS, setup-mode remote accesses).

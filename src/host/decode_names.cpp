@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Register names for `lbpkit decode`: HostMot2 registers from the IDROM's
 // module descriptors (docs/protocol-facts.md#module-and-pin-descriptors),
 // the remote's local LBP registers (manual: LOCAL LBP READ/WRITE COMMANDS),

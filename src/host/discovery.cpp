@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "lbpkit/discovery.hpp"
 
 #include <fmt/format.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "lbpkit/faults.hpp"
 
 #include <array>

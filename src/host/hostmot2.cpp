@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "lbpkit/hostmot2.hpp"
 
 #include <fmt/format.h>

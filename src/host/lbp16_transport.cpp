@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "lbpkit/lbp16_transport.hpp"
 
 #include <arpa/inet.h>

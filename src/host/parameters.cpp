@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "lbpkit/parameters.hpp"
 
 #include <fmt/format.h>

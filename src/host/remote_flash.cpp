@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "lbpkit/remote_flash.hpp"
 
 #include <string>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "lbpkit/serial_remote.hpp"
 
 #include <fcntl.h>

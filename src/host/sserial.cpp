@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "lbpkit/sserial.hpp"
 
 #include <fmt/format.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "lbpkit/wire/process_data.hpp"
 
 #include <bit>

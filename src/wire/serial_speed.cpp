@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "lbpkit/wire/serial_speed.hpp"
 
 #include <termios.h>

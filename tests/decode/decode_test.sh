@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # lbpkit decode, lbpkit sim --trace, lbpkit remote --pty
 # --trace and the Wireshark dissector (contrib/wireshark/lbp16.lua).
 #

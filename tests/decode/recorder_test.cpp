@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The packet recorder behind `--trace` (no allocation on
 // the recording thread, a pcap libpcap reads back, a full ring drops rather
 // than waits) and the decoder's register names and SSLBP commands.

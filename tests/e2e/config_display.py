@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: MIT
 """A headless LinuxCNC display for any configuration, run by `lbpkit linuxcnc --display`.
 
 `linuxcnc` starts it as the [DISPLAY]DISPLAY of the copy `lbpkit linuxcnc`
@@ -9,7 +10,7 @@ each soft limit, then the middle), a short program of its own about the
 middle, each ended by comparing every joint's feedback with LinuxCNC's
 command, within one count of its ENCODER_SCALE (a step of its SCALE). It
 judges nothing: every step is one JSON line in --out, for
-tests/public_config_test.cpp to assert on; then it exits, and LinuxCNC with
+tests/e2e/public_config_test.cpp to assert on; then it exits, and LinuxCNC with
 it.
 
 The machine is the one `lbpkit machine --from-config` derived (no control API

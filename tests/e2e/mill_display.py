@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: MIT
 """A headless LinuxCNC display for the end-to-end test of the virtual mill.
 
 `linuxcnc` starts it as the INI's [DISPLAY]DISPLAY (the test replaces only
@@ -8,7 +9,7 @@ Python module (command, stat, error_channel) as a user would through AXIS,
 and looks at the simulated machine through `lbpkit sim`'s control API
 (GET/POST /api/machine). It judges nothing: every step is one JSON line in
 --out, with what LinuxCNC said and what the machine did, for
-tests/linuxcnc_mill_test.cpp to assert on.
+tests/e2e/linuxcnc_mill_test.cpp to assert on.
 
 The last step starts a move and reports "ready_for_kill"; the test then kills
 LinuxCNC (all of it, at once) and watches the machine through the API.

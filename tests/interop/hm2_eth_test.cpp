@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // LinuxCNC's hm2_eth (Debian's linuxcnc-uspace, installed by scripts/test)
 // against `lbpkit sim`, in a network namespace of the test's own: it loads,
 // makes the 7I77's pins, runs its smart-serial channels and muxed encoders

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Mesa's mesaflash (Debian's package, installed by scripts/test) against
 // `lbpkit sim`: it reads every card of the catalogue, writes and verifies
 // the configuration flash, lists both 7I77 remotes' modes. Each test starts

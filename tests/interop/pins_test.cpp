@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // What `lbpkit pins` and `lbpkit check-config` say of a card, against what
 // LinuxCNC's hm2_eth creates on it as halcmd lists it (Debian's
 // linuxcnc-uspace, installed by scripts/test), on every card of the

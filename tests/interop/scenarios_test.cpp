@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The scenarios in examples/scenarios/, each a fault script that replays a
 // LinuxCNC user's report, run against Debian's LinuxCNC (hm2_eth at 1 kHz)
 // as a developer runs them: `lbpkit sim --script FILE` on the host clock.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // LinuxCNC's own tool for a smart-serial remote's firmware and parameters,
 // setsserial (Debian's linuxcnc-uspace: setsserial(9)), through hm2_eth
 // against `lbpkit sim` with the 7I77's field I/O processor in setup mode
@@ -66,6 +67,10 @@ class Setsserial : public LinuxCnc {
     const auto file = fifo_ + ".hal";
     std::ofstream(file) << (setupBaud ? "loadrt hostmot2 sserial_baudrate=115200\n" : "loadrt hostmot2\n")
                         << "loadrt hm2_eth board_ip=" << cardIp_ << " config=\"num_encoders=6 sserial_port_0=0xxxxx\"\n"
+                        // hm2_eth's wait for each reply, as the other tests give it
+                        // (support/interop.hpp: patientDeadlines), before setsserial's
+                        // thousands of reads.
+                        << "setp hm2_7i92.0.packet-read-timeout 20000000\n"
                         << "loadrt setsserial cmd=\"" << command << "\"\n";
     const auto errors = fifo_ + ".err";
     const auto r = hal("sh -c 'halcmd -f " + file + " 2>" + errors + "; status=$?; halrun -U 2>>" + errors +
@@ -113,6 +118,12 @@ TEST_F(Setsserial, FlashProgramsTheFieldIoProcessorWhichRunsItAfterAPowerCycle) 
   const auto r = setsserial("flash hm2_7i92.0.7i77.0.0 " + firmware_.filename().string(), true);
   printSetsserialLines(r.out, r.err);
   EXPECT_EQ(r.exit, 0);
+  // Whose lateness a failed flash was: the sim's slowest answer (a card
+  // thread held back past the 7I77's 50 ms watchdog breaks an update in
+  // flight, where a real card is never late) and the links' errors.
+  if (r.err.find("Firmware Flash Success") == std::string::npos)
+    std::printf("the sim: %s\nits links: %s\n", card_->get()["server"].dump().c_str(),
+                card_->get("/api/link").dump().c_str());
   // What setsserial prints on real hardware: the geometry the remote
   // reports, each block erased and written (block 0, the boot block, never),
   // and success.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # tests/package/test-deb.sh: what a fresh Debian 12 has installed, from this
 # machine's dpkg status (stdin): the installed packages of priority required or
 # important (debootstrap's base) and every installed package they depend on

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # ctest PackageDeb: build lbpkit_<version>_amd64.deb with CPack from a built
 # tree, and check it as `apt install ./lbpkit_<version>_amd64.deb` on a fresh
 # Debian 12 would meet it, without installing anything on this machine and
@@ -54,6 +55,7 @@ has() { grep -Eq "$1" "$work/contents" || fail "the package has no file matching
 has '^/usr/bin/lbpkit$'
 has '^/usr/share/man/man1/lbpkit\.1\.gz$'
 has '^/usr/share/bash-completion/completions/lbpkit$'
+has '^/usr/share/doc/lbpkit/copyright$'
 has "^/usr/lib/(.*/)?liblbpkit_host\.so\.${version//./\\.}$"
 has '^/usr/lib/(.*/)?liblbpkit_host\.so->liblbpkit_host\.so\.[0-9]+\.[0-9]+$'
 has '^/usr/lib/(.*/)?liblbpkit_host\.a$'

@@ -1,11 +1,12 @@
+# SPDX-License-Identifier: MIT
 """Fixtures for the Python bindings' tests (ctest PythonBindings).
 
 ctest sets PYTHONPATH to the build tree's python/ folder and LBPKIT_BINARY
 to the lbpkit tool (for the UDP tests against `lbpkit sim`).
 """
 
+import json
 import os
-import re
 import subprocess
 
 import pytest
@@ -36,18 +37,21 @@ def sim_address(tmp_path):
     binary = os.environ.get("LBPKIT_BINARY")
     if not binary or not os.access(binary, os.X_OK):
         pytest.skip("LBPKIT_BINARY does not name the lbpkit tool (ctest sets it)")
+    # Up when it greets on the pipe given as --ready-fd: one JSON line with
+    # the address and port it bound (docs/sim.md).
+    ready_read, ready_write = os.pipe()
     proc = subprocess.Popen(
         [binary, "sim", "--demo", "--bind", "127.0.0.1:0", "--no-api", "--no-realtime",
-         "--state", str(tmp_path / "state.bin")],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+         "--state", str(tmp_path / "state.bin"), "--ready-fd", str(ready_write)],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, pass_fds=(ready_write,))
+    os.close(ready_write)
     try:
-        # The banner's first line names the port it bound: "on UDP 127.0.0.1:PORT".
-        line = proc.stdout.readline()
-        match = re.search(r"on UDP ([0-9.]+):([0-9]+)", line)
-        assert match, f"lbpkit sim said {line!r}; stderr: {proc.stderr.read() if proc.poll() is not None else ''}"
-        yield match.group(1), int(match.group(2))
+        with os.fdopen(ready_read) as ready:
+            line = ready.readline()
+        assert line, f"lbpkit sim did not start; stderr: {proc.stderr.read() if proc.poll() is not None else ''}"
+        card = json.loads(line)["cards"][0]
+        yield card["lbp16"]["address"], card["lbp16"]["port"]
     finally:
         proc.kill()
         proc.wait(timeout=10)
-        proc.stdout.close()
         proc.stderr.close()

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """The host library through Python, on the in-process virtual 7I92 + 7I77:
 discovery, process data by name, parameters, faults, simulated time."""
 

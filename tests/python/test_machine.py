@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Machine logic in Python against the in-process mill (docs/machine-mill.md):
 the analog outputs drive its amplifiers, its encoders count on the card, its
 switches are field inputs, all in simulated time."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """In Python: the 7I92T's 7I77+7I76 firmware in process, a stepper
 axis on StepGen 0 (card.machine: steps, lost steps, stall) and the 7I76
 beside the 7I77 (card.board.seven_i76: inputs, outputs, field power, the

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """The host library over LBP16/UDP against `lbpkit sim --demo` (its field
 outputs wired back to its inputs), started by the test on a free port."""
 

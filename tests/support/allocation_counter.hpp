@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Counts heap allocations, for the tests that prove a real-time path does
 // none: it replaces the global operator new, so include it in exactly one
 // source file of a test executable.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The CPU a real client (mesaflash, LinuxCNC's rtapi_app) shares with the
 // sim's card thread (`lbpkit sim --cpu N`). The clients give the card a few
 // milliseconds of the wall clock: mesaflash's discovery sleeps 2 ms and then
@@ -11,23 +12,15 @@
 // scheduled, as a real card's reply is.
 #pragma once
 
-#include <sched.h>
-
 #include <string>
 #include <vector>
+
+#include "process/process.hpp"
 
 namespace test_support {
 
 // The CPUs this test may run on, ascending.
-inline std::vector<unsigned> allowedCpus() {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  std::vector<unsigned> cpus;
-  if (::sched_getaffinity(0, sizeof set, &set) == 0)
-    for (unsigned i = 0; i < CPU_SETSIZE; ++i)
-      if (CPU_ISSET(i, &set)) cpus.push_back(i);
-  return cpus;
-}
+inline std::vector<unsigned> allowedCpus() { return lbpkit::process::allowedCpus(); }
 
 // The card's CPU: the last this test may use, or the `k`-th before it (two
 // cards and their clients side by side on two CPUs).
@@ -37,15 +30,16 @@ inline unsigned cardCpu(unsigned k = 0) {
   return cpus[cpus.size() - 1 - k % cpus.size()];
 }
 
+// `lbpkit sim` options with its card thread on `cpu` first (--cpu N).
+inline std::vector<std::string> withCardCpu(std::vector<std::string> options, unsigned cpu = cardCpu()) {
+  options.insert(options.begin(), {"--cpu", std::to_string(cpu)});
+  return options;
+}
+
 // A shell command's prefix that runs it, and all it starts, on `cpu`.
 inline std::string onCpu(unsigned cpu) { return "taskset -c " + std::to_string(cpu) + " "; }
 
 // This process (a child before its exec) on `cpu` alone.
-inline void runOnCpu(unsigned cpu) {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  CPU_SET(cpu, &set);
-  ::sched_setaffinity(0, sizeof set, &set);
-}
+inline void runOnCpu(unsigned cpu) { (void)lbpkit::process::pinToCpu(cpu); }
 
 }  // namespace test_support

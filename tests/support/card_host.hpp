@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Test helper: a host driving the virtual card's registers in simulated time.
 #pragma once
 

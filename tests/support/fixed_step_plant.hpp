@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The fixed-step plant: one servo axis and its drives integrated in small
 // equal steps (semi-implicit Euler), the straightforward way. The product
 // solves the same equations exactly between events (machine/servo_motion.hpp);

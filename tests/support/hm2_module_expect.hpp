@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Shared by the HostMot2 module tests: a module's IDROM record, field by field.
 #pragma once
 

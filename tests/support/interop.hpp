@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // What the tests of the real clients (tests/interop/: mesaflash, LinuxCNC's
 // hm2_eth, halcmd beside `lbpkit pins`) share: a shell command's output,
 // `lbpkit sim` as a user runs it, and LinuxCNC in a network namespace of
@@ -65,7 +66,8 @@ std::string fmt(const char* f, A... a) {
   return buf;
 }
 
-inline bool have(const char* tool) { return sh(std::string("command -v ") + tool).exit == 0; }
+// A program in the system's folders (process/process.hpp).
+inline bool have(const char* tool) { return lbpkit::process::systemProgram(tool).has_value(); }
 
 inline void reapOrphans() {
   while (::waitpid(-1, nullptr, WNOHANG) > 0) {
@@ -76,10 +78,7 @@ inline void reapOrphans() {
 // (support/card_cpu.hpp).
 inline std::string onCardCpu() { return test_support::onCpu(test_support::cardCpu()); }
 
-inline std::vector<std::string> withCardCpu(std::vector<std::string> extra) {
-  extra.insert(extra.begin(), {"--cpu", std::to_string(test_support::cardCpu())});
-  return extra;
-}
+using test_support::withCardCpu;
 
 // `lbpkit sim` on ADDRESS, on the port hm2_eth and mesaflash use, at the
 // priority a user runs it (no --no-realtime), its card thread on the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Test helper: the host side of an LBP exchange with a remote device model.
 #pragma once
 

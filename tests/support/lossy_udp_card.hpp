@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Test helper: the virtual card serving LBP16 on a real UDP socket
 // (127.0.0.1, a free port) from a thread of the test process, which can lose
 // replies or send them late, as a network does. Wired like `lbpkit sim

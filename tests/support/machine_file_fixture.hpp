@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Test helper: machine files written to a file of the test's own (named
 // after the process, so parallel test processes do not meet), loaded, and
 // removed afterwards.

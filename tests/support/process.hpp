@@ -1,11 +1,13 @@
+// SPDX-License-Identifier: MIT
 // lbpkit as an external program: run to completion, or kept running (a
 // daemon) and stopped as a user stops it when the test is done.
 #pragma once
 
+#include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
-#include <sys/wait.h>
 #include <sys/prctl.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -15,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include "process/process.hpp"
+
 namespace test_support {
 
 struct Result {
@@ -23,33 +27,36 @@ struct Result {
   std::string err;
 };
 
-inline pid_t spawn(const std::vector<std::string>& args, int& outFd, int& errFd) {
-  int out[2], err[2];
-  if (::pipe(out) != 0 || ::pipe(err) != 0) throw std::runtime_error("pipe");
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    // A test that aborts (a sanitizer's report) must not leave its sim
-    // behind to hold the address the next test binds.
-    ::prctl(PR_SET_PDEATHSIG, SIGTERM);
-    ::dup2(out[1], 1);
-    ::dup2(err[1], 2);
-    ::close(out[0]);
-    ::close(err[0]);
-    std::vector<std::string> copy = args;
-    std::vector<char*> argv;
-    // LBPKIT_BINARY in the environment: another build's lbpkit (scripts/test
-    // runs these tests against the ThreadSanitizer build's daemon).
-    static std::string bin = std::getenv("LBPKIT_BINARY") != nullptr ? std::getenv("LBPKIT_BINARY") : LBPKIT_BINARY;
-    argv.push_back(bin.data());
-    for (auto& a : copy) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    ::execv(bin.c_str(), argv.data());
-    ::_exit(127);
-  }
+// lbpkit ARGS with its output and errors into pipes (outFd, errFd: their
+// read ends); `readyFd` given: a third pipe whose write end the child has as
+// descriptor 3 (for `--ready-fd 3`), its read end in *readyFd.
+inline pid_t spawn(const std::vector<std::string>& args, int& outFd, int& errFd, int* readyFd = nullptr) {
+  int out[2], err[2], ready[2] = {-1, -1};
+  if (::pipe2(out, O_CLOEXEC) != 0 || ::pipe2(err, O_CLOEXEC) != 0) throw std::runtime_error("pipe");
+  if (readyFd != nullptr && ::pipe2(ready, O_CLOEXEC) != 0) throw std::runtime_error("pipe");
+  // LBPKIT_BINARY in the environment: another build's lbpkit (scripts/test
+  // runs these tests against the ThreadSanitizer build's daemon).
+  static const std::string bin =
+      std::getenv("LBPKIT_BINARY") != nullptr ? std::getenv("LBPKIT_BINARY") : LBPKIT_BINARY;
+  std::vector<std::string> argv = {bin};
+  argv.insert(argv.end(), args.begin(), args.end());
+  lbpkit::process::SpawnOptions o;
+  o.out = out[1];
+  o.err = err[1];
+  o.ready = ready[1];
+  o.nullStdin = false;
+  // A test that aborts (a sanitizer's report) must not leave its sim
+  // behind to hold the address the next test binds.
+  o.deathSignal = SIGTERM;
+  const pid_t pid = lbpkit::process::spawn(argv, o);
   ::close(out[1]);
   ::close(err[1]);
   outFd = out[0];
   errFd = err[0];
+  if (readyFd != nullptr) {
+    ::close(ready[1]);
+    *readyFd = ready[0];
+  }
   return pid;
 }
 
@@ -121,16 +128,18 @@ inline std::string patient7i77Watchdogs(const std::string& address, std::initial
 // A long-running lbpkit (a daemon) that is stopped when the test ends.
 class Daemon {
  public:
-  explicit Daemon(const std::vector<std::string>& args) { pid_ = spawn(args, out_, err_); }
+  // `ready`: it is given a pipe as descriptor 3 for its greeting (the
+  // caller puts `--ready-fd 3` in args; readyLine() reads it).
+  explicit Daemon(const std::vector<std::string>& args, bool ready = false) {
+    pid_ = spawn(args, out_, err_, ready ? &ready_ : nullptr);
+  }
   // Stopped as a user stops it (SIGTERM), so that it closes its state files
   // and removes their owner notes; killed if it has not gone within 10 s.
   ~Daemon() {
-    if (pid_ > 0 && stopWithin(std::chrono::seconds(10)) == -2) {
-      ::kill(pid_, SIGKILL);
-      ::waitpid(pid_, nullptr, 0);
-    }
+    if (pid_ > 0) (void)stopWithin(std::chrono::seconds(10));
     ::close(out_);
     ::close(err_);
+    if (ready_ >= 0) ::close(ready_);
   }
   Daemon(const Daemon&) = delete;
   Daemon& operator=(const Daemon&) = delete;
@@ -144,6 +153,22 @@ class Daemon {
   std::string readErrUntil(const std::string& marker, std::size_t from = 0) {
     return test_support::readUntil(err_, errText_, marker, std::chrono::seconds(10), from);
   }
+  // Its greeting on the ready pipe: the first line, or "" when it closed
+  // the pipe without one (it did not start) or `limit` passed.
+  std::string readyLine(std::chrono::milliseconds limit = std::chrono::seconds(15)) {
+    std::string line;
+    const auto deadline = std::chrono::steady_clock::now() + limit;
+    while (ready_ >= 0 && line.find('\n') == std::string::npos && std::chrono::steady_clock::now() < deadline) {
+      pollfd p{ready_, POLLIN, 0};
+      if (::poll(&p, 1, 100) <= 0) continue;
+      char buf[4096];
+      const ssize_t n = ::read(ready_, buf, sizeof buf);
+      if (n <= 0) break;
+      line.append(buf, static_cast<std::size_t>(n));
+    }
+    const auto end = line.find('\n');
+    return end == std::string::npos ? std::string() : line.substr(0, end);
+  }
   // The rest of a line after `marker`.
   std::string value(const std::string& marker) {
     const std::string t = readUntil(marker);
@@ -155,18 +180,15 @@ class Daemon {
   // when the daemon ignored the signal, so a wedged daemon fails the test
   // instead of hanging it.
   int stopWithin(std::chrono::milliseconds limit, int sig = SIGTERM) {
-    ::kill(pid_, sig);
-    const auto deadline = std::chrono::steady_clock::now() + limit;
-    int status = 0;
-    while (::waitpid(pid_, &status, WNOHANG) == 0) {
-      if (std::chrono::steady_clock::now() > deadline) return -2;  // the destructor kills it
-      ::usleep(10000);
-    }
+    bool killed = false;
+    const int status = lbpkit::process::stopWithGrace(pid_, limit, sig, false, &killed);
     pid_ = -1;
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    if (killed) return -2;
+    return status >= 128 ? -1 : status;
   }
   [[nodiscard]] pid_t pid() const { return pid_; }
   int stop(int sig = SIGTERM) {
+    if (pid_ <= 0) return -1;  // never kill(-1, ...): every process there is
     ::kill(pid_, sig);
     int status = 0;
     ::waitpid(pid_, &status, 0);
@@ -176,7 +198,7 @@ class Daemon {
 
  private:
   pid_t pid_ = -1;
-  int out_ = -1, err_ = -1;
+  int out_ = -1, err_ = -1, ready_ = -1;
   std::string text_;
   std::string errText_;
 };

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A 7I77 processor's firmware file for the tests: a program of a given
 // length in lbpkit's image format (remote/program_flash.hpp), made of bytes
 // that are never zero, so no erase block of it is all zero (setsserial and

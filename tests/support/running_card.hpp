@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Test helper: the in-process virtual card with its 7I77 discovered and
 // started in normal mode, ready for cycles.
 #pragma once

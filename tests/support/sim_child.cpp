@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "support/sim_child.hpp"
 
 #include <httplib.h>
@@ -15,9 +16,15 @@ SimChild::SimChild(SimOptions options) : options_(std::move(options)) {
   std::vector<std::string> args = {"sim", "--bind", bind, "--api", apiAddress_ + ":0", "--state", state_};
   if (options_.noRealtime) args.emplace_back("--no-realtime");
   args.insert(args.end(), options_.extra.begin(), options_.extra.end());
-  daemon_ = std::make_unique<Daemon>(args);
-  udpPort_ = std::atoi(daemon_->value("on UDP " + options_.address + ":").c_str());
-  apiPort_ = std::atoi(daemon_->value("control API: http://" + apiAddress_ + ":").c_str());
+  // Up when it greets on descriptor 3 (lbpkit sim --ready-fd: docs/sim.md),
+  // its card, control API and web view serving.
+  args.insert(args.end(), {"--ready-fd", "3"});
+  daemon_ = std::make_unique<Daemon>(args, true);
+  const auto greeting = nlohmann::json::parse(daemon_->readyLine(), nullptr, false);
+  if (!greeting.is_object() || !greeting.contains("cards") || greeting["cards"].empty()) return;
+  const auto& card = greeting["cards"][0];
+  udpPort_ = card["lbp16"]["port"].get<int>();
+  if (card["api"].is_object()) apiPort_ = card["api"]["port"].get<int>();
 }
 
 SimChild::~SimChild() { daemon_.reset(); }  // stopped before its folder goes

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `lbpkit sim` as a child process of a test: the virtual card on an address
 // of the test's own, its control API, and its state (EEPROM images, flash)
 // in a folder of its own that goes, with the sim, when the test is done.
@@ -42,6 +43,19 @@ struct HttpReply {
 // sim's API that a test did not start itself, such as lbpkit linuxcnc's).
 [[nodiscard]] nlohmann::json httpGetJson(const std::string& host, int port, const std::string& path,
                                          std::chrono::seconds limit = std::chrono::seconds(5));
+
+// A sim started as a Daemon with `--ready-fd 3` (Daemon(args, true)): its
+// greeting (lbpkit sim --ready-fd, docs/sim.md), null when it gave none.
+[[nodiscard]] inline nlohmann::json greeting(Daemon& sim) {
+  return nlohmann::json::parse(sim.readyLine(), nullptr, false);
+}
+// Its first card's LBP16 address as ADDR:PORT, or "".
+[[nodiscard]] inline std::string lbp16Address(Daemon& sim) {
+  const auto g = greeting(sim);
+  if (!g.is_object() || !g.contains("cards") || g["cards"].empty()) return {};
+  const auto& l = g["cards"][0]["lbp16"];
+  return l["address"].get<std::string>() + ":" + std::to_string(l["port"].get<int>());
+}
 
 class SimChild {
  public:

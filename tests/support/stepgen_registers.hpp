@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // StepGen 0 of a card on the host library, set up and commanded as LinuxCNC's
 // hostmot2 stepgen does (docs/hostmot2-modules.md#stepgen): step timing in
 // ClockLow ticks, the prescaler's DDS at full rate, then the rate register

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A folder of a test's own under the temporary directory, removed with
 // everything in it when the test is done.
 #pragma once

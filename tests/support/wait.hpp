@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Waiting for what a test looks for, up to a limit.
 #pragma once
 

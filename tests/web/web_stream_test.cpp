@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The web view's event stream against pages that stop reading:
 // the card's server time per datagram stays what it is without them
 // (figures printed), the sim's memory does not grow, and the stalled pages

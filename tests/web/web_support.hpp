@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // What the web view's tests share: `lbpkit sim` on a loopback address of the
 // test's own, a host (the lbpkit library) cycling it at about 1 kHz on a
 // thread of its own, a plain-socket client of the control API, and a

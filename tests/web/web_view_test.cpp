@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The web view in a real browser: headless Chromium from Debian,
 // driven through Debian's chromedriver, loads the page from `lbpkit sim`,
 // acts on the board as a user would (each action is an ordinary control-API

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // boot6: the remote fault byte across the M-bit boot on the 6-channel SSLBP 43 (Verilated by the
 // external sslbp-oracle tool; not part of the product's build). lbpkit's field I/O processor on
 // channel FIO_CH (default 3): START, field power off (LowVoltageFault), STOP ALL, M set and

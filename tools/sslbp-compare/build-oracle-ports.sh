@@ -1,4 +1,5 @@
 #!/bin/bash
+# SPDX-License-Identifier: MIT
 # Adds a build of the real SSLBP with another channel count to ORACLE_DIR, a build of the external
 # sslbp-oracle tool (Mesa's SSLBP sources from LinuxCNC/hostmot2-firmware — sserialwa.vhd, the
 # DumbAss8 CPU, sslbprom43.vhd — under Verilator; not part of this repository), which builds 6

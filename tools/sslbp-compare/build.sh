@@ -1,4 +1,5 @@
 #!/bin/bash
+# SPDX-License-Identifier: MIT
 # Builds sslbp_compare: lbpkit's 7I77 processors against Mesa's real SSLBP 43 (Verilated by the
 # external sslbp-oracle tool) and against lbpkit's own SSLBP model.
 #   tools/sslbp-compare/build.sh ORACLE_DIR [LBPKIT_BUILD_DIR] [OUT_DIR]

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // sslbp-compare: the same host sequences against Mesa's real SSLBP (version 43: the SSLBP sources
 // of LinuxCNC/hostmot2-firmware, sserialwa.vhd + the DumbAss8 CPU + sslbprom43.vhd, run under
 // Verilator by the external sslbp-oracle tool, not part of this repository) with lbpkit's own 7I77 processors on channels 0 and 1, and

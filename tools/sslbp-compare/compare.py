@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
 """Turns sslbp_compare logs into the markdown table of docs/sslbp-vs-firmware.md.
    compare.py ORACLE_LOG LBPKIT_LOG [ORACLE6_LOG]
 Rows pair the logs' OP lines in order (both ran the same host code). Verdict: "same" when every

@@ -1,4 +1,5 @@
 #!/bin/bash
+# SPDX-License-Identifier: MIT
 # Regenerates the comparison in docs/sslbp-vs-firmware.md:
 #   tools/sslbp-compare/build-oracle-ports.sh ORACLE_DIR 3       # + 3 channels, as on a 7I92 with one 7I77
 #   tools/sslbp-compare/run.sh ORACLE_DIR [LBPKIT_BUILD_DIR]     # builds, runs (about 3 min), prints the table

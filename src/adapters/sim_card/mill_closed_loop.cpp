@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "sim_card/mill_closed_loop.hpp"
 
 #include <algorithm>

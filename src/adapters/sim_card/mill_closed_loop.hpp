@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The in-process mill at 1 kHz, as one object: the 7I92 (Mesa's
 // 7i92_7i77x2 firmware, as `lbpkit sim` runs it) with one 7I77, the built-in
 // mill behind it, and the host library cycling as a LinuxCNC servo thread

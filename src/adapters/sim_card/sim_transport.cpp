@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "sim_card/sim_transport.hpp"
 
 #include "lbpkit/error.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The in-process virtual card as a Transport: direct register accesses in
 // simulated time (each access advances it, like a PCI read), so a whole
 // machine runs deterministically and faster than real time.

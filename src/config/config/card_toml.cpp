@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "config/card_toml.hpp"
 
 #include <fmt/core.h>

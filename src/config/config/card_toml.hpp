@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The card configuration of `lbpkit sim --config FILE` (docs/sim.md: `--config`;
 // examples/sim.toml): which daughtercards, field voltage, 7I77 or 7I77D,
 // jumpers, unit numbers.

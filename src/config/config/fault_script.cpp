@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "config/fault_script.hpp"
 
 #include <fmt/format.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A fault script: `[[fault]]` entries in the sim's TOML
 // (`lbpkit sim --config FILE`) or in a file of their own (`--script FILE`:
 // examples/scenarios/), each a control-API request carried out at a

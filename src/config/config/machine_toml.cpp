@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "config/machine_toml.hpp"
 
 #include <fmt/core.h>

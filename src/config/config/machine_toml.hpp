@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Machine files: the machine behind the 7I77 and the 7I76 (machine::MachineDescription)
 // written in TOML. examples/machines/mill.toml documents the schema, with
 // units and defaults; mill.toml, lathe.toml and gantry.toml there load to

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Reading lbpkit's TOML files (the sim's card configuration, machine files)
 // so that every mistake is an error naming the file, line, column and key:
 // a misspelt key that was silently ignored, or a value silently replaced by a

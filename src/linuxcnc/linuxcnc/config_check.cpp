@@ -1,9 +1,11 @@
+// SPDX-License-Identifier: MIT
 // Reads a LinuxCNC configuration as halcmd would (hostmot2(9), halcmd(1):
 // INI substitution, loadrt, net, setp, sets, link*, addf) and checks every
 // hostmot2 name against what the driver creates (hm2_pins.hpp).
 #include "linuxcnc/config_check.hpp"
 
 #include "linuxcnc/board_address.hpp"
+#include "linuxcnc/hal_name.hpp"
 #include "linuxcnc/machine_from_config.hpp"
 #include "linuxcnc/startup_check.hpp"
 
@@ -57,12 +59,10 @@ std::string nearest(const Board& b, const std::string& name, std::optional<Kind>
   return out;
 }
 
+// The board a hostmot2 name is on: "hm2_7i92.0" (hal_name.hpp), or "".
 std::string boardOf(const std::string& name) {
-  // hm2_<board>.<index>
-  const auto dot = name.find('.');
-  if (dot == std::string::npos) return {};
-  const auto dot2 = name.find('.', dot + 1);
-  return name.substr(0, dot2);
+  const auto n = hal_name::parse(name);
+  return n ? n->prefix() : std::string();
 }
 
 std::string upper(std::string s) {
@@ -71,10 +71,8 @@ std::string upper(std::string s) {
 }
 
 bool isEthernet(const std::string& prefix) {
-  for (const char* b : {"hm2_7i92.", "hm2_7i76e.", "hm2_7i96.", "hm2_7i80", "hm2_7i93.", "hm2_7i94.", "hm2_7i95.",
-                        "hm2_7i96s.", "hm2_7i97."})
-    if (prefix.rfind(b, 0) == 0) return true;
-  return false;
+  const auto n = hal_name::parse(prefix);
+  return n && hal_name::isEthernetBoard(n->board);
 }
 
 std::string sserialSummary(const Hm2Config& c) {

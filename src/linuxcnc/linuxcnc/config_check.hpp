@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lbpkit check-config: reads a LinuxCNC configuration (an INI and the HAL
 // files it names, or one HAL file) the way halcmd would, and reports every
 // reference to a hostmot2 pin or parameter that LinuxCNC would refuse or

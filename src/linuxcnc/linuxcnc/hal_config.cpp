@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // halcmd(1): INI substitution, comments, continued lines, quoting; the
 // INI's [HAL] section (LinuxCNC's INI documentation).
 #include "linuxcnc/hal_config.hpp"

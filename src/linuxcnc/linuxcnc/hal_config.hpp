@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A LinuxCNC configuration read as LinuxCNC reads it (halcmd(1), the INI
 // file's [HAL] section): the INI's values, and every HAL file it names
 // with [SECTION]KEY substituted, as the statements that matter to what a

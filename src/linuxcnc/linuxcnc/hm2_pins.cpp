@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // LinuxCNC 2.9's hostmot2 naming and pin allocation rules, as facts
 // (hostmot2(9), sserial(9), and what the driver does against `lbpkit sim`:
 // tests/interop/pins_test.cpp compares this list with halcmd's, pin for pin).
@@ -10,6 +11,7 @@
 
 #include "lbpkit/wire/hostmot2.hpp"
 #include "lbpkit/wire/names.hpp"
+#include "linuxcnc/hal_name.hpp"
 
 namespace lbpkit::linuxcnc {
 
@@ -233,7 +235,7 @@ void stepgenItems(Builder& b, const std::string& p, const CardInfo& card, const 
   const bool index = m.version == 0xC2;
   if (dpll) b.pin(p + ".stepgen.timer-number", Type::S32, Dir::In, "the StepGens (HM2DPLL timer)");
   for (int i = 0; i < n; ++i) {
-    const auto s = fmt::format("{}.stepgen.{:02d}", p, i);
+    const auto s = hal_name::module(p, "stepgen", static_cast<unsigned>(i));
     const auto origin = fmt::format("StepGen {}", i);
     for (const char* x : {"position-cmd", "velocity-cmd"}) b.pin(s + "." + x, Type::Float, Dir::In, origin);
     for (const char* x : {"velocity-fb", "position-fb"}) b.pin(s + "." + x, Type::Float, Dir::Out, origin);
@@ -264,7 +266,7 @@ void pwmgenItems(Builder& b, const std::string& p, int n) {
   for (const char* x : {"pwm_frequency", "pdm_frequency"})
     b.param(p + ".pwmgen." + x, Type::U32, Dir::RW, "the PWMGens");
   for (int i = 0; i < n; ++i) {
-    const auto s = fmt::format("{}.pwmgen.{:02d}", p, i);
+    const auto s = hal_name::module(p, "pwmgen", static_cast<unsigned>(i));
     const auto origin = fmt::format("PWMGen {}", i);
     b.pin(s + ".value", Type::Float, Dir::In, origin);
     b.pin(s + ".enable", Type::Bit, Dir::In, origin);
@@ -280,7 +282,7 @@ void pwmgenItems(Builder& b, const std::string& p, int n) {
 // n is secondary pin n + 1), which is the same on Mesa's firmwares.
 void inmItems(Builder& b, const std::string& p, const CardInfo& card, int n) {
   for (int i = 0; i < n; ++i) {
-    const auto s = fmt::format("{}.inm.{:02d}", p, i);
+    const auto s = hal_name::module(p, "inm", static_cast<unsigned>(i));
     const auto origin = fmt::format("InM {}", i);
     unsigned width = 0;
     for (const auto& pin : card.pins)
@@ -307,7 +309,7 @@ void inmItems(Builder& b, const std::string& p, const CardInfo& card, int n) {
 void outputModuleItems(Builder& b, const std::string& p, const CardInfo& card, std::uint8_t t, int n) {
   const bool ssr = t == tag::kSsr;
   for (int i = 0; i < n; ++i) {
-    const auto s = fmt::format("{}.{}.{:02d}", p, ssr ? "ssr" : "outm", i);
+    const auto s = hal_name::module(p, ssr ? "ssr" : "outm", static_cast<unsigned>(i));
     const auto origin = fmt::format("{} {}", ssr ? "SSR" : "OutM", i);
     if (ssr) b.pin(s + ".rate", Type::U32, Dir::In, origin);
     for (const auto& pin : card.pins) {
@@ -398,10 +400,10 @@ Hm2Config parseHm2Config(const std::string& text, std::vector<std::string>* prob
 std::string boardPrefix(const CardInfo& card, unsigned index) {
   std::string name = card.boardName;
   if (name.rfind("MESA", 0) == 0) name = name.substr(4);
-  return fmt::format("hm2_{}.{}", wire::asciiLower(name), index);
+  return hal_name::board(wire::asciiLower(name), index);
 }
 
-std::string boardPrefix(const std::string& halName, unsigned index) { return fmt::format("hm2_{}.{}", halName, index); }
+std::string boardPrefix(const std::string& halName, unsigned index) { return hal_name::board(halName, index); }
 
 std::string hm2EthBoardName(const std::string& lbp16Name) {
   // hm2_eth copies four characters of most names, eight (the whole name) of
@@ -509,7 +511,7 @@ std::vector<Item> hostmot2Items(const CardInfo& card, const Hm2Config& config, c
   if (!enc) enc = card.module(tag::kQCount);
   const int encoders = enc ? enabled(config, "num_encoders", enc->instances) : 0;
   for (int i = 0; i < encoders; ++i) {
-    const auto e = fmt::format("{}.encoder.{:02d}", p, i);
+    const auto e = hal_name::module(p, "encoder", static_cast<unsigned>(i));
     const auto origin = fmt::format("encoder {}", i);
     for (const char* s : {"count", "count-latched", "rawcounts", "rawlatch"}) b.pin(e + "." + s, Type::S32, Dir::Out, origin);
     for (const char* s : {"input-a", "input-b", "input-index", "quad-error"}) b.pin(e + "." + s, Type::Bit, Dir::Out, origin);
@@ -577,7 +579,7 @@ std::vector<Item> hostmot2Items(const CardInfo& card, const Hm2Config& config, c
       if (r.port != i || config.mode(i, r.channel) == 'x') continue;
       std::string raw = r.name;
       if (raw.size() > 1) raw[1] = static_cast<char>(raw[1] | 0x20);  // as the driver lower-cases it
-      remoteItems(b, fmt::format("{}.{}.{}.{}", p, raw, i, r.channel), r);
+      remoteItems(b, hal_name::remote(p, raw, i, r.channel), r);
     }
   }
 
@@ -617,7 +619,7 @@ std::vector<Item> hostmot2Items(const CardInfo& card, const Hm2Config& config, c
   }
   for (std::size_t i = 0; i < card.pins.size(); ++i) {
     const auto& pin = card.pins[i];
-    const auto g = fmt::format("{}.gpio.{:03d}", p, i);
+    const auto g = hal_name::module(p, "gpio", static_cast<unsigned>(i));
     const std::string does = gtag[i] == tag::kIoPort ? std::string("GPIO") : pin.function();
     const auto origin =
         Origin::ioPin(fmt::format("IO pin {} (connector {} pin {}): {}", i, pin.connector, pin.bit, does), does);

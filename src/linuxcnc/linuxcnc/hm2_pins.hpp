@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The HAL pins and parameters LinuxCNC's hostmot2 driver creates for a card
 // (its IDROM: modules and pin descriptors) and the smart-serial remotes found
 // on it (their PTOC and GTOC), given the driver's config= string. Naming and

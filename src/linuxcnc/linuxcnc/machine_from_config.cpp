@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The machine a configuration expects, from its INI and HAL files (the
 // LinuxCNC INI documentation: [JOINT_n] and homing; hostmot2(9): encoder
 // scale, analogout scalemax, stepgen position-scale; the 7I77 manual: the
@@ -13,6 +14,8 @@
 #include <map>
 #include <optional>
 #include <set>
+
+#include "linuxcnc/hal_name.hpp"
 
 namespace lbpkit::linuxcnc {
 
@@ -156,18 +159,17 @@ bool yes(const std::string& s) {
 // for a field input, output or analog output of the first 7I77 (or a pin of
 // no 7I77), else why the derived machine has no such terminal.
 std::string offFirst7I77(const std::string& pin) {
-  const auto p = split(pin, '.');
-  if (p.size() != 6 || p[0].rfind("hm2_", 0) != 0 || p[2] != "7i77") return {};
-  const bool analog = p[5].rfind("analogout", 0) == 0;
-  if (!analog && p[5].rfind("input-", 0) != 0 && p[5].rfind("output-", 0) != 0) return {};
+  const auto r = hal_name::parseRemote(pin);
+  if (!r || r->remote != "7i77") return {};
+  const bool analog = r->leaf.rfind("analogout", 0) == 0;
+  if (!analog && r->leaf.rfind("input-", 0) != 0 && r->leaf.rfind("output-", 0) != 0) return {};
   const unsigned own = analog ? 1 : 0;
-  const auto port = digits(p[3]), channel = digits(p[4]);
-  if (port == 0U && channel == own) return {};
-  if (port == 0U && channel == own + 3)
+  if (r->port == 0U && r->channel == own) return {};
+  if (r->port == 0U && r->channel == own + 3)
     return fmt::format("on the second 7I77 (smart-serial channel {}), and lbpkit's derived machine sits behind the first "
                        "7I77 only",
-                       p[4]);
-  return fmt::format("on smart-serial port {} channel {}, where no 7I77 has its {}", p[3], p[4],
+                       r->channel);
+  return fmt::format("on smart-serial port {} channel {}, where no 7I77 has its {}", r->port, r->channel,
                      analog ? "analog outputs (the first 7I77's are on channel 1, a second's on 4)"
                             : "field I/O (the first 7I77's is on channel 0, a second's on 3)");
 }
@@ -181,18 +183,16 @@ struct FieldPin {
 };
 
 std::optional<FieldPin> fieldPin(const std::string& pin, const std::string& what) {
-  const auto p = split(pin, '.');
   // An input on the card's own IO pins: hm2_<card>.<n>.gpio.NNN.in[_not]
   // (the 7I96S's TB3 inputs).
-  if (what == "input" && p.size() == 5 && p[0].rfind("hm2_", 0) == 0 && p[2] == "gpio" &&
-      (p[4] == "in" || p[4] == "in_not")) {
-    if (const auto n = digits(p[3])) return FieldPin{"card", *n, p[4] == "in_not"};
+  if (const auto m = hal_name::parseModule(pin); m && m->module == "gpio") {
+    if (what == "input" && (m->leaf == "in" || m->leaf == "in_not")) return FieldPin{"card", m->instance, m->leaf == "in_not"};
     return std::nullopt;
   }
-  if (p.size() != 6 || p[0].rfind("hm2_", 0) != 0 || (p[2] != "7i77" && p[2] != "7i76")) return std::nullopt;
-  if (p[5].rfind(what + "-", 0) != 0 || !offFirst7I77(pin).empty()) return std::nullopt;
-  auto rest = p[5].substr(what.size() + 1);
-  FieldPin f{p[2] == "7i77" ? "7I77" : "7I76", 0, false};
+  const auto r = hal_name::parseRemote(pin);
+  if (!r || r->leaf.rfind(what + "-", 0) != 0 || !offFirst7I77(pin).empty()) return std::nullopt;
+  auto rest = r->leaf.substr(what.size() + 1);
+  FieldPin f{r->remote == "7i77" ? "7I77" : "7I76", 0, false};
   if (rest.size() > 4 && rest.ends_with("-not")) {
     f.inverted = true;
     rest.resize(rest.size() - 4);
@@ -205,23 +205,24 @@ std::optional<FieldPin> fieldPin(const std::string& pin, const std::string& what
 
 // hm2_<card>.<n>.<module>.NN.<leaf> -> NN
 std::optional<unsigned> modulePin(const std::string& pin, const std::string& module, const std::string& leaf) {
-  const auto p = split(pin, '.');
-  if (p.size() != 5 || p[0].rfind("hm2_", 0) != 0 || p[2] != module || p[4] != leaf) return std::nullopt;
-  return digits(p[3]);
+  const auto m = hal_name::parseModule(pin);
+  if (!m || m->module != module || m->leaf != leaf) return std::nullopt;
+  return m->instance;
 }
 
 // hm2_<card>.<n>.7i77.<port>.<channel>.analogoutK -> K: the first 7I77's
 // (any 7I77's with anyChannel).
 std::optional<unsigned> analogOut(const std::string& pin, bool anyChannel = false) {
-  const auto p = split(pin, '.');
-  if (p.size() != 6 || p[0].rfind("hm2_", 0) != 0 || p[2] != "7i77" || p[5].rfind("analogout", 0) != 0) return std::nullopt;
+  const auto r = hal_name::parseRemote(pin);
+  if (!r || r->remote != "7i77" || r->leaf.rfind("analogout", 0) != 0) return std::nullopt;
   if (!anyChannel && !offFirst7I77(pin).empty()) return std::nullopt;
-  return digits(p[5].substr(9));
+  return digits(r->leaf.substr(9));
 }
 
+// The board a pin is on: "hm2_7i92.0", or "".
 std::string cardOf(const std::string& pin) {
-  const auto p = split(pin, '.');
-  return p.size() >= 2 ? p[0] + "." + p[1] : std::string();
+  const auto n = hal_name::parse(pin);
+  return n ? n->prefix() : std::string();
 }
 
 std::string fmtNumber(double v) {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lbpkit machine --from-config: the machine a LinuxCNC configuration for a
 // 7I77 expects, worked out backwards from its INI and HAL files, as a
 // machine file (examples/machines/mill.toml is the schema). Each joint

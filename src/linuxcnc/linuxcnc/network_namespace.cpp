@@ -8,16 +8,16 @@
 #include <utility>
 
 #include "lbpkit/error.hpp"
-#include "linuxcnc/program.hpp"
+#include "process/process.hpp"
 
 namespace lbpkit::linuxcnc {
 
 namespace {
-// Runs `ip` with `args` (by an argument vector: linuxcnc/program.hpp): its
+// Runs `ip` with `args` (by an argument vector: process/process.hpp): its
 // exit status and what it printed.
-ProgramResult ip(std::vector<std::string> args) {
+process::ProgramResult ip(std::vector<std::string> args) {
   args.insert(args.begin(), "ip");
-  return runProgram(args);
+  return process::runProgram(args);
 }
 
 std::string joined(const std::vector<std::string>& words) {

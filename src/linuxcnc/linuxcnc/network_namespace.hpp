@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Where LinuxCNC runs against a card on this PC: a network namespace of its
 // own, joined to the root namespace (where `lbpkit sim` answers) by veth
 // pairs. Debian 12's hm2_eth cannot use a board on loopback, and a
@@ -43,7 +44,7 @@ class NetworkNamespace {
   // test's own shell command line. A program lbpkit runs uses execArgv().
   [[nodiscard]] std::string exec() const { return "ip netns exec " + name_ + " "; }
   // {"ip", "netns", "exec", NAME}: what runs a program inside, by an argument
-  // vector (linuxcnc/program.hpp). `ip` looks a bare program name up in its
+  // vector (process/process.hpp). `ip` looks a bare program name up in its
   // PATH: what follows it is an absolute path (systemProgram), as lbpkit
   // finds every program it runs (docs/linuxcnc.md#what-runs-as-root).
   [[nodiscard]] std::vector<std::string> execArgv() const { return {"ip", "netns", "exec", name_}; }

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "linuxcnc/servo_priority.hpp"
 
 #include <sched.h>

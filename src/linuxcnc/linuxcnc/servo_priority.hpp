@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // LinuxCNC's servo thread as a real-time kernel would run it: SCHED_FIFO.
 //
 // Debian's LinuxCNC (linuxcnc-uspace) runs rtapi_app's threads at the

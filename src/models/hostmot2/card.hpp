@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A HostMot2 Ethernet card (a 7I92 unless told which: cards/catalogue.hpp)
 // with 7I77 daughtercards: the register file drivers see (over LBP16 on the
 // real card), the modules of the firmware it runs, and the 7I77 processors on

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // HostMot2 HM2DPLL: a phase-locked loop that locks a 42-bit phase
 // accumulator to the host's reads of its sync register, and four timers
 // that fire at set phases of it (docs/hostmot2-modules.md#dpll; firmware

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // HostMot2 QCount: plain (non-muxed) quadrature counters, one pin group per
 // encoder (docs/hostmot2-modules.md#qcount-plain-encoder; firmware qcountersf.vhd,
 // qcounterate.vhd, IDROMConst.vhd; LinuxCNC encoder.c). The registers and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hostmot2/idrom.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The HostMot2 identification area and IDROM (HostMot2 regmap; idrom.vhd and
 // IDROMConst.vhd; docs/protocol-facts.md#identification-area-and-idrom): what drivers read to learn the
 // card, its clocks, its modules and the function of every I/O pin.

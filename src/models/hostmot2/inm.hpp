@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // HostMot2 InM: filtered inputs read straight from FPGA pins, each with a
 // short or a long debounce time, plus four small MPG counters on inputs
 // 0..7 (the 7I96S's isolated inputs IN0..IN10 on TB3:

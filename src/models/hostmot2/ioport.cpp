@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hostmot2/ioport.hpp"
 
 namespace hm2 {

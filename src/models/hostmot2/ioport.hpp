@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // HostMot2 general purpose I/O ports (HostMot2 regmap: IOPort). Registers
 // (lbpkit/wire/hostmot2_modules.hpp; port p at +4p): data (read: pin
 // levels, write: output latch), DDR (1 = output), alternate source (1 = the

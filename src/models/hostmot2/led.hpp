@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // HostMot2 LED module (HostMot2 regmap: LED; docs/protocol-facts.md#module-tags):
 // one write-only register (lbpkit/wire/hostmot2_modules.hpp); the card's
 // LEDs take its top `count` bits (CR1..CR4 on a 7I92).

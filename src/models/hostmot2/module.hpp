@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A HostMot2 module: a block of 32-bit registers in the card's address space
 // plus the IDROM module descriptor that tells drivers where it is
 // (HostMot2 regmap; docs/protocol-facts.md#module-tags). One module per file, like LinuxCNC's

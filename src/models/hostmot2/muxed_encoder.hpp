@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // HostMot2 muxed quadrature counters: the 7I77's six encoder inputs reach the
 // FPGA over three pin groups, multiplexed by the ENCMUX select line (manual:
 // P1 HOST INTERFACE, ENCODER INTERFACE, MAXIMUM ENCODER COUNT RATE).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // HostMot2 MuxedQCountSel: the ENCMUX select line that multiplexes the
 // 7I77's six encoders onto three pin groups (manual: P1 HOST INTERFACE;
 // docs/protocol-facts.md#muxed-encoders). A module with pins in the IDROM but

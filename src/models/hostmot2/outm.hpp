@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // HostMot2 OutM: plain outputs under their own numbers, so a card's output
 // terminals get names of their own in HAL rather than GPIO numbers (the
 // 7I96S's OUT4 and OUT5 on TB3: hm2_7i96s.0.outm.00.out-04, -05).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // HostMot2 PWMGen: PWM/PDM generators with direction and /enable outputs
 // (docs/hostmot2-modules.md#pwmgen; firmware pwmpdmgenh.vhd, pwmrefh.vhd,
 // hostmot2.vhd, IDROMConst.vhd; LinuxCNC pwmgen.c).

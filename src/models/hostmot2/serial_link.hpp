@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The RS-422 link between an SSLBP channel and an LBP remote: characters at
 // the channel's baud rate, so an exchange takes the time its characters take
 // on the wire plus the remote's turnaround (manual: SSLBP, DOIT; LBP, FRAMING).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The SSerial module running SSLBP, HostMot2's smart-serial firmware for
 // LBP remotes (manual: REFERENCE INFORMATION, SSLBP; firmware behaviour from
 // Mesa's SSLBP source; docs/protocol-facts.md#sslbp).

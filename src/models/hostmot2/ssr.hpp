@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // HostMot2 SSR (XfrmrOut): isolated solid-state relay outputs, each a MOSFET
 // switch whose gate the FPGA drives through a transformer and rectifier, so
 // a switch closes only while the module's drive clock runs (the 7I96S's

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // HostMot2 StepGen: step/dir pulse generators (docs/hostmot2-modules.md#stepgen;
 // firmware kubstepgenz.vhd, hostmot2.vhd, IDROMConst.vhd; LinuxCNC stepgen.c).
 //

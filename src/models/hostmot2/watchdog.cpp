@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hostmot2/watchdog.hpp"
 
 namespace hm2 {

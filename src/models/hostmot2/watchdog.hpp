@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // HostMot2 watchdog (HostMot2 regmap; watchdog.vhd; docs/protocol-facts.md#hostmot2-watchdog).
 // Registers (their addresses: lbpkit/wire/hostmot2_modules.hpp):
 //   timer   32 bits, counts down at ClockLow while bit 31 is 0; a write

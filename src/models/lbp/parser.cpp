@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "lbp/parser.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The LBP command parser of a remote device (manual: LBP, FRAMING).
 //
 // Framing is by pre-parsing: the header says how many bytes the command has

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The LBP facts the models share with the host (lbpkit_wire), seen from the
 // models' own `lbp` namespace, so a model says lbp::local_read::kStatus.
 #pragma once

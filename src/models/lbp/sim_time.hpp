@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Simulated time shared by every device model.
 //
 // Models never read a wall clock: they are told what time it is. Only the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // What an LBP parser talks to: the remote device behind the protocol.
 #pragma once
 

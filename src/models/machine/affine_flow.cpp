@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "machine/affine_flow.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The exact solution of a small linear system with a constant input,
 //
 //   x' = A x + c   over a span t:   x(t) = Phi x(0) + Psi c,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // One machine axis behind the 7I77: the motor(s) and the load they move
 // through a leadscrew or gearing. Its motion under its drives is solved
 // exactly in simulated time by ServoMotion (servo_motion.hpp; no wall

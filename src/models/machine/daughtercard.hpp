@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Which terminals a part of the machine is wired to: the 7I77's (its field
 // inputs and outputs, analog outputs, drive enables and encoders), the
 // 7I76's that sits beside it on the 7I77+7I76 firmwares (its field inputs

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "machine/machine.hpp"
 
 #include "hostmot2/ioport.hpp"

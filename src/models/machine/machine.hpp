@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A machine behind one 7I77's terminals: axes with servo
 // amplifiers on the analog outputs and drive enables, encoders on the
 // card's muxed counters, switches on the field inputs, a spindle on AOUT5 +

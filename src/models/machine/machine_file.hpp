@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A machine behind the 7I77's terminals, described as plain data: which
 // analog output, drive enable and encoder input each motor is wired to, the
 // amplifiers, motors, loads and screws, the switches on the field inputs

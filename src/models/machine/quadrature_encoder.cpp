@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "machine/quadrature_encoder.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A quadrature encoder on a motor (or spindle) shaft, wired to one of the
 // 7I77's encoder inputs (manual: ENCODER INTERFACE; TB3 encoders 0..2, TB4
 // 3..5). It feeds the card's muxed-encoder model, which counts edges

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A servo amplifier behind one 7I77 analog output and one drive enable
 // (manual: ANALOG SERVO DRIVE INTERFACE, SERVO ENABLE OUTPUTS).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "machine/servo_motion.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The motion of a servo axis (Axis) under its drives (ServoAmplifier),
 // solved exactly between events rather than stepped.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A spindle on a VFD: speed command from a 7I77 analog output (AOUT5 by
 // custom, manual: ANALOG SERVO DRIVE INTERFACE) and run from ENA5, which
 // follows SpinEna alone (manual: SERVO ENABLE OUTPUTS). The VFD ramps the

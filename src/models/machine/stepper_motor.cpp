@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "machine/stepper_motor.hpp"
 
 #include <algorithm>

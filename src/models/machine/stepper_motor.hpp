@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A stepper motor on an axis, driven by a HostMot2 StepGen's step/dir
 // outputs: through its drive, each step the StepGen makes
 // turns the motor one (micro)step, so the axis is where the steps put it:

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "machine/switches.hpp"
 
 #include <algorithm>

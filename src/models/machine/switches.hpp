@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The switches wired to the 7I77's field inputs (manual: FIELD
 // INPUT/OUTPUT CONNECTORS, FIELD INPUT CHARACTERISTICS, WHY SINKING INPUTS),
 // or to the 7I76's on the 7I77+7I76 firmwares: home and limit

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "remote/analog.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The 7I77's analog output processor: SSLBP channel 1 (manual: ANALOG SERVO
 // DRIVE INTERFACE, SERVO ENABLE OUTPUTS, ANALOG SECTION WATCHDOG).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "remote/field_io.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The 7I77's isolated field I/O processor: SSLBP channel 0 (manual: FIELD I/O,
 // FIELD I/O PARAMETERS, SOFTWARE PROCESS DATA MODES).
 //

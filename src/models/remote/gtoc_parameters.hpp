@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The parameters each 7I77 processor lists in its GTOC: the one table that
 // decides which exist and which a host may write (docs/protocol-facts.md#gtoc-parameters).
 //

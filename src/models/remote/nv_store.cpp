@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "remote/nv_store.hpp"
 
 #include <fcntl.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The remote processor's EEPROM: non-volatile parameters that survive power
 // cycles (manual: NON-VOLATILE FIELD I/O PARAMETERS).
 //

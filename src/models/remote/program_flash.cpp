@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "remote/program_flash.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A 7I77 processor's program flash, as a host reaches it over LBP with
 // non-volatile access set to flash (local 0xEC = 2; LBP.INC) in setup mode
 // (manual: RPD, WPD, AND UFLBP: "the 7I77 MUST be in setup mode"): what

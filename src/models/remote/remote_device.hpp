@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // An LBP remote device: what every SSLBP remote processor has in common.
 //
 // A byte-addressed memory (manual: LBP, RPC COMMANDS; layout below), the

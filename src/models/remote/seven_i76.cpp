@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "remote/seven_i76.hpp"
 
 #include <algorithm>

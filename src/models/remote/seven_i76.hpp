@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The 7I76's field I/O processor: the smart-serial remote on the 7I76 (on
 // the 7I77+7I76 firmwares, SSerial channel 3: PIN_7I77_7I76_34.vhd;
 // docs/cards.md#the-7i76-field-io).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The control API's checks (who may use it) and routes on httplib's router
 // (api_routes.cpp), for the HTTP server that answers with them
 // (api_server.cpp). Only these two files see httplib.

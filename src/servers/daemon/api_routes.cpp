@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "daemon/api_routes.hpp"
 #include "daemon/api_http.hpp"
 

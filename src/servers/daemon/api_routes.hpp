@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The HTTP control API of `lbpkit sim`: its routes and the validation of
 // what they are sent.
 //

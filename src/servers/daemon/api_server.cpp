@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The control API's HTTP server: its own listening socket (no SO_REUSEPORT),
 // one poller thread that holds every connection and reads until a request is
 // whole (slow and idle clients cost it nothing but a socket, and meet the

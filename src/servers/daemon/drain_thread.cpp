@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "daemon/drain_thread.hpp"
 
 #include <utility>

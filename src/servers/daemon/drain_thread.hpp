@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A thread of its own that empties a ring filled on the card thread: it
 // calls `drain` a few times a second, and once more when it stops, so the
 // card thread only ever copies into preallocated memory and never waits on

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "daemon/fault_script.hpp"
 
 #include <fmt/format.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A fault script carried out: control-API requests at set
 // simulated times, each perhaps undone a while later (`for`), read from the
 // sim's TOML by the app (config/fault_script.hpp) and handed over as these

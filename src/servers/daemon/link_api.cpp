@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "daemon/link_api.hpp"
 
 #include <fmt/format.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The RS-422 link faults' face on the control API: POST /api/link
 // sets them on one smart-serial channel, GET /api/link shows, per channel,
 // what is set, what the cable did, and what the two ends made of it: the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "daemon/network_api.hpp"
 
 #include <fmt/format.h>

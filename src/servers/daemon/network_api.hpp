@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The network faults' face on the control API: POST /api/network
 // sets them, GET /api/network shows what is set and what it did. A fault
 // script's "network" entries are the same request at a set time.

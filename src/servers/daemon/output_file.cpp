@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "daemon/output_file.hpp"
 
 #include <fcntl.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A file the sim or a tool writes a record into (`--trace FILE.pcap`,
 // `--record FILE.csv`), opened so that it can destroy nothing the user did
 // not name as output: never through a symbolic link, never a FIFO, a device

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "daemon/packet_ring.hpp"
 
 #include <stdexcept>

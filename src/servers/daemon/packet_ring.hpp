@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // What the card saw and sent, on its way to a capture file: a ring of
 // fixed-size packet slots, allocated once, filled by one thread (the card
 // thread, or the pty remote's) and emptied by another (pcap_recorder.hpp).

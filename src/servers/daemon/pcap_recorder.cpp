@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "daemon/pcap_recorder.hpp"
 
 #include <fmt/format.h>

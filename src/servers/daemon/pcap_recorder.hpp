@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `lbpkit sim --trace FILE.pcap` and `lbpkit remote --pty --trace FILE.pcap`:
 // every datagram the card took and every reply it sent (or every LBP byte
 // in and out of a remote), with its time, to a pcap file (libpcap's

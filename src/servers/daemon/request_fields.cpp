@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "daemon/request_fields.hpp"
 
 #include <fmt/format.h>

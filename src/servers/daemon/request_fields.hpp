@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The fields of a control-API request body (and of a fault script's entry,
 // which is the same request at a set time): each read checks its type and
 // range, and every complaint is an std::invalid_argument that names the key

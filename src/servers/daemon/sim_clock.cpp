@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "daemon/sim_clock.hpp"
 
 #include <algorithm>

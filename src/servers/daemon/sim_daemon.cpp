@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "daemon/sim_daemon.hpp"
 
 #include <arpa/inet.h>
@@ -20,6 +21,7 @@
 #include "daemon/api_routes.hpp"
 #include "daemon/state_json.hpp"
 #include "lbp16/udp_server.hpp"
+#include "process/process.hpp"
 
 namespace servers {
 
@@ -252,6 +254,12 @@ Answer SimDaemon::stateAnswer() {
   return [s = state()] { return servers::stateJson(s); };
 }
 
+std::vector<std::pair<unsigned, std::string>> SimDaemon::externalRemotes() const {
+  std::vector<std::pair<unsigned, std::string>> out;
+  for (const auto& p : ptyChannels_) out.emplace_back(p->channel(), p->path());
+  return out;
+}
+
 std::string SimDaemon::banner() const {
   const auto& id = lbp16_->identity();
   std::string s = fmt::format("lbpkit sim: virtual {} (HostMot2, SSLBP {}.{}) on UDP {}:{}\n", id.name,
@@ -457,10 +465,7 @@ std::string SimDaemon::takeCardThread() {
     }
   }
   if (options_.cpu) {
-    cpu_set_t set;
-    CPU_ZERO(&set);
-    CPU_SET(*options_.cpu, &set);
-    if (pthread_setaffinity_np(pthread_self(), sizeof set, &set) != 0)
+    if (!lbpkit::process::pinToCpu(*options_.cpu))  // this thread alone
       log(LogLevel::Warn, fmt::format("the card thread cannot run on CPU {} alone: it runs on any", *options_.cpu));
     else
       schedule += fmt::format(", on CPU {}", *options_.cpu);

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `lbpkit sim`: a virtual 7I92 with 7I77s on the network.
 //
 // One thread owns the card: it waits on the LBP16 socket, answers each
@@ -119,6 +120,9 @@ class SimDaemon {
 
   [[nodiscard]] std::uint16_t port() const;
   [[nodiscard]] int apiPort() const { return apiPort_; }
+  // The SSLBP channels brought out to a pseudo-terminal (--remote CH=pty):
+  // each channel with the terminal's path.
+  [[nodiscard]] std::vector<std::pair<unsigned, std::string>> externalRemotes() const;
   // The whole board now (call on the card thread).
   [[nodiscard]] SimState state();
   // The same, and GET /api/machine's (with a machine), as the API's

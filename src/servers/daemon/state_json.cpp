@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "daemon/state_json.hpp"
 
 #include <fmt/format.h>

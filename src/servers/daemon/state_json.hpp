@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // GET /api/state: the models' observable state as JSON.
 //
 // The models expose what can be observed as plain State structs next to

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "daemon/trace_file.hpp"
 
 #include "daemon/output_file.hpp"

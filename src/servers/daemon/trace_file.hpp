@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `lbpkit sim --record FILE.csv`: the machine's servo-cycle trace
 // (trace_ring.hpp) written to a CSV file, header first, by a thread of its
 // own. The card thread only fills the ring; this thread drains it a few

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "daemon/trace_ring.hpp"
 
 #include <algorithm>

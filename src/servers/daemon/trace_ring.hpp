@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The machine's servo-cycle trace: a bounded ring of rows, one
 // per host cycle, filled on the card thread and read by others (the API's
 // GET /api/machine/trace, the --record CSV writer).

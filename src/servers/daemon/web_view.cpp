@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "daemon/web_view.hpp"
 
 #include <httplib.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The web view on the control API: the page at / and its files
 // (web/web_assets.hpp), and GET /api/events, the event stream that pushes the
 // page a frame 25 times a second (web/event_stream.hpp).

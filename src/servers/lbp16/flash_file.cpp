@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "lbp16/flash_file.hpp"
 
 #include <fcntl.h>

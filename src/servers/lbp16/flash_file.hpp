@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The 7I92's configuration flash kept in a file across runs, so that what
 // `mesaflash --write` programmed is still there (and `--verify` matches)
 // after `lbpkit sim` restarts.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "lbp16/lbp16_card.hpp"
 
 #include <algorithm>

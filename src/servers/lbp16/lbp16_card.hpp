@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A 7I92-style Ethernet card's LBP16 face: the memory spaces hm2_eth and
 // mesaflash use, around the HostMot2 register file (docs/protocol-facts.md#lbp16;
 // LBP16 as Mesa's Ethernet firmware implements it, hostmot2-firmware

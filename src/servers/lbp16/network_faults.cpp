@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "lbp16/network_faults.hpp"
 
 #include "lbpkit/wire/lbp16.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A bad network between the host and the virtual card, on purpose:
 // datagrams dropped, delayed, duplicated, reordered or damaged, per
 // direction, and the cable pulled for a while.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "lbp16/udp_server.hpp"
 
 #include <arpa/inet.h>

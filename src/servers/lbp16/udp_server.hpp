@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A UDP socket serving datagrams one at a time from fixed buffers, through
 // a network that may be made bad on purpose (network_faults.hpp).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "pty/pty_channel.hpp"
 
 #include <unistd.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // An SSLBP channel of the virtual card brought out to a pseudo-terminal, for
 // a remote of the user's own (`lbpkit sim --remote 2=pty`): the TB6
 // expansion port, channel 2, with a smart-serial remote in development on

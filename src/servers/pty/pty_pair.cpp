@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "pty/pty_pair.hpp"
 
 #include <fcntl.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A pseudo-terminal for a program that expects a serial port (a USB-RS422
 // adapter's /dev/ttyUSB0): the master side for lbpkit, non-blocking, and the
 // slave side kept open (so the master never sees a hang-up between clients)

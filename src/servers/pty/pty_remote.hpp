@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The serial face of a remote: a virtual 7I77 processor on a pseudo-terminal,
 // for programs that talk LBP to a real board through a USB-RS422 adapter
 // (Mesa's RPD/WPD/UFLBP do; manual: RPD, WPD, AND UFLBP).

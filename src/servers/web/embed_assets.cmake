@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Writes OUTPUT, a .cpp defining web::assets(): each file in FILES (a
 # |-separated list of URL=PATH=TYPE entries) as bytes compiled into lbpkit,
 # so the web view works offline and with no file beside the binary.

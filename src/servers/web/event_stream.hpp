@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The web view's event stream: server-sent events to every page
 // that asked for them, a frame at a fixed rate, on a thread of its own.
 //

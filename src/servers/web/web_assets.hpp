@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The web view's files: the page, its script and style, and the
 // plotting library (Chart.js, from Debian's libjs-chart.js), compiled into
 // lbpkit at build time (embed_assets.cmake), so `lbpkit sim` serves them

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Protocol decoding: what a host said to a HostMot2 card over LBP16, and
 // what it said to a smart-serial remote over LBP, in words (`lbpkit decode`).
 // The caller brings the packets (lbpkit decode reads pcap files

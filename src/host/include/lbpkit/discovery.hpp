@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Process data discovery (manual: PROCESS DATA DISCOVERY): what a remote's
 // PTOC and GTOC describe, read with as few remote reads as possible, and
 // the engineering-unit scaling of numeric process data.

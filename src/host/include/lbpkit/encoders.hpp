@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The card's muxed quadrature counters as a driver uses them: 16-bit counts
 // extended to 64 bits, position with a scale, velocity from the count
 // timestamps, and index enable (latch on the next index, just once).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lbpkit's one exception type: what failed, and where to look.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Names for SSLBP's CS bits and a remote's fault byte (manual: CS REGISTER
 // AFTER START, CS REGISTER AFTER DOIT).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // What a HostMot2 card says about itself: its IDROM, modules and pins,
 // read and checked the way LinuxCNC's hostmot2 driver does.
 #pragma once

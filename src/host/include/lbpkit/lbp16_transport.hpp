@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A HostMot2 card on the network: LBP16 over UDP (Mesa 7I92 and kin). A
 // flush sends everything queued as one datagram (more only past 1400 bytes,
 // the limit hm2_eth keeps to) and waits for the one reply holding every

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Parameters by name, like Mesa's RPD and WPD (manual: RPD, WPD, AND
 // UFLBP): read and write any GTOC or PTOC element of a remote, the
 // non-volatile ones through the remote's EEPROM access (local 0xEC = 1, the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Updating a smart-serial remote's firmware over LBP, as Mesa's UFLBP and
 // LinuxCNC's setsserial do it (manual: RPD, WPD, AND UFLBP; the accesses in
 // docs/protocol-facts.md#the-program-flash), with what they lack: each

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // LBP straight to one remote over a serial line (a USB-RS422 adapter, or the
 // pseudo-terminal of `lbpkit remote --pty`), as Mesa's RPD/WPD do: setup
 // mode, 115200 baud, every command with its CRC (manual: LBP; RPD, WPD).

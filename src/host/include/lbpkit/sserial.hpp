@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The smart-serial (SSLBP) driver: start channels, discover their remotes,
 // and run the real-time cycle (manual: SSLBP, NORMAL MODE OPERATION, SETUP
 // MODE OPERATION, DISCOVERY SEQUENCE).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // How the host library reaches a HostMot2 card's 32-bit registers.
 //
 // Accesses are queued and sent by flush() or tryFlush(), in order, in as few

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The Mesa Ethernet cards a 7I77 is connected to, and the firmwares lbpkit
 // mirrors on them (docs/cards.md): what hm2_eth and mesaflash identify each
 // card by (its LBP16 board name), its IDROM header and connectors, and per

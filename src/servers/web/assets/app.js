@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The page's life: the event stream (GET /api/events, server-sent events
 // read with fetch so a token can go with it), the board and machine built
 // from the first frame and updated from each, the plots (Chart.js), and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The 7I77 as the manual draws and names it (7I77 manual: CONNECTORS,
 // STATUS LEDs, HARDWARE CONFIGURATION), built once per connector and then
 // updated from each frame's state. Every control calls lbpkit.post(), an

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The 7I76 on the 7I77+7I76 firmwares: its field I/O processor
 // on its SSerial channel, as GET /api/state lists it among the daughtercards
 // ("type": "7I76"): 32 inputs, 16 sourcing outputs, field power and the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lbpkit's capture files (pcap), shared by what writes them (`lbpkit sim
 // --trace`, `lbpkit remote --pty --trace`) and what reads them (`lbpkit
 // decode`): the link types and the one header lbpkit adds of its own.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // LBP CRC-8: the Dallas/Maxim 1-Wire CRC (x^8 + x^5 + x^4 + 1), reflected
 // form 0x8C, initial value 0 (docs/protocol-facts.md#crc-8; manual: LBP, CRC).
 #pragma once

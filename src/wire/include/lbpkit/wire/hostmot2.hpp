@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // HostMot2: the identification area, the IDROM and its module and pin
 // descriptors (docs/protocol-facts.md#hostmot2; firmware: idrom.vhd,
 // IDROMConst.vhd; LinuxCNC: hostmot2.h). The modules and their registers:

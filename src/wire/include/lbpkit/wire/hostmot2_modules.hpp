@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The HostMot2 module map: every module kind lbpkit knows, as data. Each
 // kind's tag, its names (the IDROM's and mesaflash's, and the word LinuxCNC's
 // hostmot2 puts in pin names), its clock, where the firmwares here put it,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // LBP, the remote processors' byte protocol: command headers, local
 // commands, status bits and the special RPCs (docs/protocol-facts.md#lbp;
 // manual: REFERENCE INFORMATION, LBP; local addresses the manual leaves out

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // LBP16: the register protocol of Mesa's Ethernet cards (7I92 and kin) over
 // UDP port 27181 (docs/protocol-facts.md#lbp16; LinuxCNC's lbp16.h and
 // mesaflash agree).

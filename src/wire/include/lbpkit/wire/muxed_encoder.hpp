@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // HostMot2's muxed quadrature counter (MuxedQCount): its CCR bits
 // (docs/protocol-facts.md#muxed-encoders; firmware: qcounterate.vhd,
 // qcounter.vhd; LinuxCNC: hostmot2/encoder.c). The registers:

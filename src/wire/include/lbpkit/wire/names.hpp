@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // How names compare, on both sides. Names on the wire (a remote's PTOC and
 // GTOC records, the IDROM's module and pin names, HTTP's header names) are

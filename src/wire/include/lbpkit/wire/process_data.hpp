@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Process data discovery records, data types and bit packing (manual:
 // PROCESS DATA DISCOVERY; docs/protocol-facts.md#process-data-discovery).
 #pragma once

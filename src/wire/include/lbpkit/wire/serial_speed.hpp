@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The baud rates a serial line to an LBP remote can be set to on Linux: the
 // rates the 7I77's processors talk at in setup mode (115200) and operate
 // mode (2.5 Mbaud by default; manual: SERIAL INTERFACE, and the SSLBP

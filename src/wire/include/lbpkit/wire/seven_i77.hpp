@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The 7I77's two LBP remotes as a host sees them: unit number types, the
 // remote fault byte and the operate-mode baud rates (manual: CS REGISTER
 // AFTER DOIT, NON-VOLATILE FIELD I/O PARAMETERS; docs/protocol-facts.md#7i77).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // SSLBP, the SSerial module's firmware for LBP remotes: its COMMAND values,
 // CS bits and local parameter map (docs/protocol-facts.md#sslbp; manual:
 // REFERENCE INFORMATION, SSLBP; firmware: the SSLBP source).
