@@ -25,10 +25,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                                 static_cast<std::uint32_t>(data[i + 4]) << 16 |
                                 static_cast<std::uint32_t>(data[i + 5]) << 24;
     const unsigned reg = (op >> 5) & 3U, ch = (op >> 2) & 7U, n = op & 3U;
-    std::uint16_t address = hm2::SmartSerial::kCommand;
-    if (reg == 1) address = hm2::SmartSerial::kData;
-    if (reg == 2) address = static_cast<std::uint16_t>(hm2::SmartSerial::kCs + 4 * ch);
-    if (reg == 3) address = static_cast<std::uint16_t>(hm2::SmartSerial::kInterface0 + 0x100 * (n % 3) + 4 * ch);
+    std::uint16_t address = hm2::Sslbp::kCommand;
+    if (reg == 1) address = hm2::Sslbp::kData;
+    if (reg == 2) address = static_cast<std::uint16_t>(hm2::Sslbp::kCs + 4 * ch);
+    if (reg == 3) address = static_cast<std::uint16_t>(hm2::Sslbp::kInterface0 + 0x100 * (n % 3) + 4 * ch);
     if (op & 0x80)
       card.write32(address, value, now);
     else
@@ -38,9 +38,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   // the command that releases it) ends whatever was running.
   for (int k = 0; k < 2; ++k) {
     now += 1ms;
-    card.write32(hm2::SmartSerial::kCommand, hm2::command::kStop, now);
+    card.write32(hm2::Sslbp::kCommand, hm2::command::kStop, now);
   }
   now += 10ms;
-  if (card.read32(hm2::SmartSerial::kCommand, now) != 0) std::abort();
+  if (card.read32(hm2::Sslbp::kCommand, now) != 0) std::abort();
   return 0;
 }

@@ -275,7 +275,7 @@ bool VirtualBoard::watchdogBitten() {
 
 void VirtualBoard::setCable(unsigned channel, bool connected) {
   auto l = card_->lock();
-  auto& ss = card_->board().part<hm2::SmartSerial>();
+  auto& ss = card_->board().part<hm2::Sslbp>();
   if (channel >= ss.channels())
     throw std::out_of_range(fmt::format("channel {}: the card has smart-serial channels 0..{}", channel, ss.channels() - 1));
   ss.link(channel).setConnected(connected);

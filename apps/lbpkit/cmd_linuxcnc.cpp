@@ -116,6 +116,24 @@ int stop(pid_t pid, std::chrono::milliseconds grace) {
   return status >= 128 ? -1 : status;
 }
 
+// What a run made, removed when it goes out of scope: `remove` runs once,
+// whatever ended the scope, and nothing it throws leaves the destructor.
+class RemovedAtEnd {
+ public:
+  explicit RemovedAtEnd(std::function<void()> remove) : remove_(std::move(remove)) {}
+  ~RemovedAtEnd() {
+    try {
+      remove_();
+    } catch (...) {  // a destructor that throws while an error unwinds ends the program
+    }
+  }
+  RemovedAtEnd(const RemovedAtEnd&) = delete;
+  RemovedAtEnd& operator=(const RemovedAtEnd&) = delete;
+
+ private:
+  std::function<void()> remove_;
+};
+
 // The PID namespace a process is in (an inode number), or 0.
 unsigned long pidNamespace(const std::string& pid) {
   struct stat st {};
@@ -738,7 +756,11 @@ int runLinuxCnc(const LinuxCncOptions& o) {
     ::close(simReady);
     ns.remove();
   };
-  try {
+  {
+    // Whichever way the run ends (LinuxCNC or the sim ended, Ctrl-C, an
+    // error), its destructor stops both, closes their pipes and removes the
+    // namespace, once.
+    const RemovedAtEnd removed(cleanUp);
     // Up when it greets (its card, control API and web view serving); its
     // output, its banner among it, goes to the user meanwhile.
     const auto deadline = std::chrono::steady_clock::now() + 15s;
@@ -833,11 +855,7 @@ int runLinuxCnc(const LinuxCncOptions& o) {
       readSim(100);
       log.poll();
     }
-  } catch (...) {
-    cleanUp();
-    throw;
   }
-  cleanUp();
   fmt::print("lbpkit linuxcnc: stopped; the network namespace is removed\n");
   return exitCode;
 }

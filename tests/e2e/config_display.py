@@ -14,11 +14,12 @@ tests/e2e/public_config_test.cpp to assert on; then it exits, and LinuxCNC with
 it.
 
 The machine is the one `lbpkit machine --from-config` derived (no control API
-here: LinuxCNC's namespace reaches only the card). The operations are
-mill_display.py's (the example mill's display), for N joints.
+here: LinuxCNC's namespace reaches only the card). The operations are the
+general display's (display.py), for N joints.
 """
 import argparse
 import os
+import subprocess
 import sys
 import tempfile
 import time
@@ -27,43 +28,16 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import linuxcnc  # noqa: E402
 
-import mill_display  # noqa: E402
+import display  # noqa: E402
 
 
-class ConfigDisplay(mill_display.Display):
+class ConfigDisplay(display.Display):
     def __init__(self, args):  # noqa: D107 - no control API, N joints
-        self.out = open(args.out, "a", buffering=1)
-        self.args = args
-        self.ini = linuxcnc.ini(args.ini)
-        self.joints = int(float(self.ini.find("KINS", "JOINTS") or self.ini.find("TRAJ", "AXES") or 3))
-        self.unit = []
-        for j in range(self.joints):
-            scale = None
-            for section in ("JOINT_%d" % j, "AXIS_%d" % j):
-                scale = self.ini.find(section, "ENCODER_SCALE") or self.ini.find(section, "SCALE")
-                if scale:
-                    break
-            self.unit.append(1.0 / abs(float(scale or 1.0)))
+        super().__init__(args, "config-display")
         kins = self.ini.find("KINS", "KINEMATICS") or ""
         coordinates = next((w.split("=", 1)[1] for w in kins.split() if w.startswith("coordinates=")),
                            self.ini.find("TRAJ", "COORDINATES") or "XYZ")
         self.letters = [c for c in coordinates.upper() if c.isalpha()]
-        self.s = linuxcnc.stat()
-        self.c = linuxcnc.command()
-        self.e = linuxcnc.error_channel()
-        self.messages = []
-        self.t0 = time.monotonic()
-        self.halcomp = mill_display.hal.component("config-display")
-        self.halcomp.ready()
-
-    def report(self, step, **fields):
-        fields = {"step": step, "t": round(time.monotonic() - self.t0, 3), **fields}
-        self.out.write(mill_display.json.dumps(fields) + "\n")
-        print("config_display: " + mill_display.json.dumps(fields), flush=True)
-
-    def commanded(self):
-        self.poll()
-        return list(self.s.joint_position[:self.joints])
 
     def settle_and_compare(self, timeout=10.0):
         """Each joint's feedback against LinuxCNC's command, in counts, once
@@ -104,11 +78,11 @@ class ConfigDisplay(mill_display.Display):
         # (docs/linuxcnc.md#on-a-pc-without-a-real-time-kernel): hm2_eth's
         # wait for a reply and the HostMot2 watchdog. Read, never changed:
         # the test runs what a user runs.
-        params = mill_display.subprocess.run(["halcmd", "list", "param"], capture_output=True, text=True).stdout.split()
+        params = subprocess.run(["halcmd", "list", "param"], capture_output=True, text=True).stdout.split()
         values = {}
         for n in params:
             if n.endswith(".packet-read-timeout") or n.endswith(".watchdog.timeout_ns"):
-                got = mill_display.subprocess.run(["halcmd", "getp", n], capture_output=True, text=True)
+                got = subprocess.run(["halcmd", "getp", n], capture_output=True, text=True)
                 values[n] = got.stdout.strip()
         self.report("timing", values=values, ok=bool(values))
 
@@ -202,7 +176,7 @@ def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("-ini", required=True)
     p.add_argument("--out", required=True, help="results, one JSON object a line")
-    mill_display.run_reporting(ConfigDisplay(p.parse_args()))
+    display.run_reporting(ConfigDisplay(p.parse_args()))
 
 
 if __name__ == "__main__":

@@ -23,15 +23,19 @@ Runs under Debian's /usr/bin/python3, where linuxcnc-uspace puts the module.
 """
 import argparse
 import json
+import os
 import subprocess
 import sys
 import threading
 import time
-import traceback
 import urllib.request
 
 import hal
 import linuxcnc
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+import display  # noqa: E402  (the general display, beside this file)
 
 AXES = "xyz"
 
@@ -61,81 +65,14 @@ class Machine:
         return [self.axis(m, a)["position"] for a in AXES]
 
 
-class Display:
+class Display(display.Display):
     def __init__(self, args):
-        self.out = open(args.out, "a", buffering=1)
+        super().__init__(args, "mill-display")
         self.machine = Machine(args.api)
         self.program = args.program
-        self.args = args
-        self.ini = linuxcnc.ini(args.ini)
-        # One count of each joint's feedback (mm): an encoder count on a
-        # servo joint (ENCODER_SCALE), a step on a stepper joint (SCALE).
-        self.unit = [1.0 / abs(float(self.ini.find("JOINT_%d" % j, "ENCODER_SCALE")
-                                     or self.ini.find("JOINT_%d" % j, "SCALE"))) for j in range(3)]
-        self.s = linuxcnc.stat()
-        self.c = linuxcnc.command()
-        self.e = linuxcnc.error_channel()
-        self.messages = []  # every error/message LinuxCNC sent, in order
-        self.t0 = time.monotonic()
-        # A HAL component of its own, so that hal.get_value can read pins.
-        self.halcomp = hal.component("mill-display")
-        self.halcomp.ready()
 
-    # -- reporting -------------------------------------------------------
-    def report(self, step, **fields):
-        fields = {"step": step, "t": round(time.monotonic() - self.t0, 3), **fields, "hm2": hm2_health()}
-        self.out.write(json.dumps(fields) + "\n")
-        print("mill_display: " + json.dumps(fields), flush=True)
-
-    # -- LinuxCNC --------------------------------------------------------
-    def poll(self):
-        self.s.poll()
-        while True:
-            m = self.e.poll()
-            if not m:
-                break
-            self.messages.append(m[1].strip())
-
-    def wait(self, predicate, timeout, period=0.005):
-        """Polls LinuxCNC until predicate() holds; False after timeout s."""
-        end = time.monotonic() + timeout
-        while True:
-            self.poll()
-            if predicate():
-                return True
-            if time.monotonic() > end:
-                return False
-            time.sleep(period)
-
-    def messages_since(self, n):
-        return self.messages[n:]
-
-    def set_mode(self, mode):
-        self.poll()
-        if self.s.task_mode != mode:
-            self.c.mode(mode)
-            self.c.wait_complete(5)
-        return self.wait(lambda: self.s.task_mode == mode, 5)
-
-    def set_state(self, state, timeout=5):
-        self.c.state(state)
-        self.c.wait_complete(timeout)
-        return self.wait(lambda: self.s.task_state == state, timeout)
-
-    def idle(self):
-        return (self.s.interp_state == linuxcnc.INTERP_IDLE and self.s.inpos and self.s.queue == 0
-                and self.s.state != linuxcnc.RCS_EXEC)
-
-    def mdi(self, command, timeout=30):
-        if not self.set_mode(linuxcnc.MODE_MDI):
-            return False
-        self.c.mdi(command)
-        self.c.wait_complete(timeout)
-        return self.wait(self.idle, timeout)
-
-    def commanded(self):
-        self.poll()
-        return list(self.s.joint_position[:3])
+    def extra_report(self):
+        return {"hm2": hm2_health()}
 
     # -- positions at rest -----------------------------------------------
     def settle_and_compare(self, timeout=5.0):
@@ -195,18 +132,6 @@ class Display:
             fields.update(packet_read_timeout_ns=20000000, boards=names,
                           ok=bool(names) and all(r.returncode == 0 for r in results))
         self.report("clock", **fields)
-
-    def postgui(self):
-        # As AXIS does once its window is up: the POSTGUI_HALFILEs.
-        files = self.ini.findall("HAL", "POSTGUI_HALFILE") or []
-        results = []
-        for f in files:
-            r = subprocess.run(["halcmd", "-i", self.ini_path(), "-f", f], capture_output=True, text=True)
-            results.append({"file": f, "exit": r.returncode, "output": (r.stdout + r.stderr)[-500:]})
-        self.report("postgui", files=results, ok=all(r["exit"] == 0 for r in results))
-
-    def ini_path(self):
-        return sys.argv[sys.argv.index("-ini") + 1]
 
     def drives(self, m):
         return {a["name"]: [d["ena"] for d in a["drives"]] for a in m["axes"]}
@@ -595,16 +520,7 @@ def main():
     p.add_argument("--scenario", choices=["mill", "stepper-z"], default="mill",
                    help="mill: every step; stepper-z: up to the program, then Z's steps (mill-7i76)")
     p.add_argument("--ferror-dump", help="write every servo period of the program (HAL sampler lines) here")
-    run_reporting(Display(p.parse_args()))
-
-
-def run_reporting(d):
-    """Runs display `d`'s scenario; an exception is its last step, reported."""
-    try:
-        d.run()
-    except Exception:
-        d.report("exception", ok=False, traceback=traceback.format_exc(), messages=d.messages)
-        sys.exit(1)
+    display.run_reporting(Display(p.parse_args()))
 
 
 if __name__ == "__main__":

@@ -100,7 +100,7 @@ TEST_P(PublicConfigRun, HomesMovesAndRunsAProgram) {
   fs::copy(source(c), config, fs::copy_options::recursive);
   for (const auto& l : c.leftOut) leaveOut(config, l);
   fs::create_directories(dir.path() / "e2e");
-  for (const char* script : {"config_display.py", "mill_display.py"}) {
+  for (const char* script : {"config_display.py", "display.py"}) {
     fs::copy_file(fs::path(LBPKIT_SOURCE_DIR) / "tests/e2e" / script, dir.path() / "e2e" / script);
     fs::permissions(dir.path() / "e2e" / script, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
                                                      fs::perms::others_read | fs::perms::others_exec);

@@ -45,7 +45,7 @@ TEST(HostFaultLimit, DefaultsAreLinuxCncs) {
 // and recover() clears both.
 TEST(HostFaultLimit, ACutCableClimbsToTheLimitAndRecoverClearsIt) {
   RunningCard rc;
-  auto& link = rc.t.card().part<hm2::SmartSerial>().link(kFieldIo);
+  auto& link = rc.t.card().part<hm2::Sslbp>().link(kFieldIo);
   const auto input = rc.ss.find(kFieldIo, "input");
   auto& io = rc.t.card().daughtercard(0).fieldIo;
   io.setInputVoltage(7, 24.0);
@@ -110,7 +110,7 @@ TEST(HostFaultLimit, TheRuleTakesTheCallersFigures) {
   lbpkit::SmartSerial ss(t, info, o);
   ss.discover(0x03);
   ss.startNormal();
-  auto& link = t.card().part<hm2::SmartSerial>().link(kAnalog);
+  auto& link = t.card().part<hm2::Sslbp>().link(kAnalog);
   ASSERT_TRUE(ss.cycle().ok);
   link.setConnected(false);
   EXPECT_EQ(ss.cycle().overLimitMask, 0U);
@@ -158,7 +158,7 @@ TEST(HostFaultLimit, AutoRecoverRestartsTheChannelFromTheCycle) {
   ASSERT_EQ(ss.raw(input) & 0xFF, 0x04U);
   ASSERT_EQ(io.outputs(), 0x0101U);
 
-  auto& link = t.card().part<hm2::SmartSerial>().link(kFieldIo);
+  auto& link = t.card().part<hm2::Sslbp>().link(kFieldIo);
   link.setConnected(false);
   io.setInputVoltage(2, 0.0);
   int recoveredAt = 0;

@@ -202,7 +202,7 @@ TEST(Cards, The7I92TRunsThe7I77And7I76FirmwareWithTheDpll) {
   EXPECT_EQ(r.find(kMqc)->instances, 8);
   EXPECT_EQ(r.find(kSg)->instances, 5);
   EXPECT_EQ(r.find(kSg)->version, 2);
-  EXPECT_EQ(card.part<hm2::SmartSerial>().channels(), 5U);
+  EXPECT_EQ(card.part<hm2::Sslbp>().channels(), 5U);
   EXPECT_EQ(card.part<hm2::MuxedEncoder>().counters(), 8U);
   EXPECT_EQ(r.fn(0), 0x00C193U);   // the 7I77 on P2 (IO0): SS2TXEN
   EXPECT_EQ(r.fn(7), 0x000D81U);   // ENCMUX
@@ -250,12 +250,12 @@ TEST(Cards, The7I96SHasThe7I77OnP1AndItsOwnStepGensOnTb1Tb2) {
   EXPECT_EQ(r.fn(50), 0x020C03U);  // QCMUXI45
   // The 7I77 answers on channels 0 and 1; channels 2 (TB6) and 3 (TB2) have nobody.
   CardHost h{card};
-  EXPECT_EQ(card.part<hm2::SmartSerial>().channels(), 4U);
+  EXPECT_EQ(card.part<hm2::Sslbp>().channels(), 4U);
   h.command(cmd::kStop);
   for (unsigned ch = 0; ch < 4; ++ch) h.write(CardHost::cs(ch), 0);
   EXPECT_EQ(h.command(cmd::kStart | 0x0F), 0x0C);
-  EXPECT_TRUE(card.part<hm2::SmartSerial>().channelRunning(0));
-  EXPECT_TRUE(card.part<hm2::SmartSerial>().channelRunning(1));
+  EXPECT_TRUE(card.part<hm2::Sslbp>().channelRunning(0));
+  EXPECT_TRUE(card.part<hm2::Sslbp>().channelRunning(1));
   EXPECT_EQ(card.daughtercard(0).fieldIo.unitNumber() >> 24, 0x12U);
 }
 
@@ -263,7 +263,7 @@ TEST(Cards, The7I80HDHasThe7I77OnIo0To16OfThreeTwentyFourPinPorts) {
   auto card = make("7I80HD-25");
   Idrom r(card);
   EXPECT_EQ(r.tags(), (std::vector<std::uint8_t>{kWd, kIo, kMqc, kMqs, kSs, kLed}));
-  EXPECT_EQ(card.part<hm2::SmartSerial>().channels(), 3U);
+  EXPECT_EQ(card.part<hm2::Sslbp>().channels(), 3U);
   EXPECT_EQ(r.fn(0), 0x00C193U);
   EXPECT_EQ(r.fn(16), 0x020C03U);
   for (unsigned io = 17; io < 72; ++io) EXPECT_EQ(r.fn(io), 0U) << io;

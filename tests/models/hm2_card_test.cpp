@@ -134,14 +134,14 @@ TEST(Card, TheTwo7I77FirmwareWithOne7I77HasSixChannelsAndTwelveCounters) {
   hm2::HostMot2Card card;
   CardHost h{card};
   ASSERT_EQ(card.daughtercards(), 1U);
-  EXPECT_EQ(card.part<hm2::SmartSerial>().channels(), 6U);
+  EXPECT_EQ(card.part<hm2::Sslbp>().channels(), 6U);
   EXPECT_EQ(card.part<hm2::MuxedEncoder>().counters(), 12U);
   h.command(cmd::kStop);
   for (unsigned ch = 0; ch < 6; ++ch) h.write(CardHost::cs(ch), 0);
   EXPECT_EQ(h.command(cmd::kStart | 0x3F), 0x3C);  // no remote on 2..5
-  EXPECT_TRUE(card.part<hm2::SmartSerial>().channelRunning(0));
-  EXPECT_TRUE(card.part<hm2::SmartSerial>().channelRunning(1));
-  for (unsigned ch = 2; ch < 6; ++ch) EXPECT_FALSE(card.part<hm2::SmartSerial>().channelRunning(ch)) << ch;
+  EXPECT_TRUE(card.part<hm2::Sslbp>().channelRunning(0));
+  EXPECT_TRUE(card.part<hm2::Sslbp>().channelRunning(1));
+  for (unsigned ch = 2; ch < 6; ++ch) EXPECT_FALSE(card.part<hm2::Sslbp>().channelRunning(ch)) << ch;
   EXPECT_EQ(h.read(CardHost::iface(1, 3)), 0U);  // no unit number on channel 3
   EXPECT_EQ(h.read(CardHost::iface(2, 3)), 0U);  // no discovery
   card.part<hm2::MuxedEncoder>().setVelocity(11, -1000, h.now);
@@ -156,7 +156,7 @@ TEST(Card, TheGpioPinoutHasNoSecond7I77) {
   EXPECT_THROW(hm2::HostMot2Card{o}, std::invalid_argument);
   o.second.reset();
   hm2::HostMot2Card card(o);
-  EXPECT_EQ(card.part<hm2::SmartSerial>().channels(), 3U);
+  EXPECT_EQ(card.part<hm2::Sslbp>().channels(), 3U);
   EXPECT_EQ(card.part<hm2::MuxedEncoder>().counters(), 6U);
 }
 
@@ -396,15 +396,15 @@ TEST(Card, PowerCycleLeavesEveryRegisterAsAFreshCardHasIt) {
   h.wait(100us);
   ASSERT_EQ(h.read(CardHost::iface(0, 0)), 0U);
   const std::uint16_t baud0 = hm2::local::kChannelBlock + hm2::local::kBaudOffset;
-  h.write(hm2::SmartSerial::kData, 0x42);
+  h.write(hm2::Sslbp::kData, 0x42);
   h.command(cmd::kWrite | cmd::kRequest | baud0);
   ASSERT_EQ(h.command(cmd::kStart | 0x02), 0);
-  h.write(hm2::SmartSerial::kCommand, cmd::kStart | 0x04);
+  h.write(hm2::Sslbp::kCommand, cmd::kStart | 0x04);
   h.wait(1ms);
 
   hm2::HostMot2Card fresh;
   ASSERT_GT(registerDifferences(card, fresh, h.now, false), 20U);  // the test has something to find
-  ASSERT_NE(h.read(hm2::SmartSerial::kCommand), 0U);
+  ASSERT_NE(h.read(hm2::Sslbp::kCommand), 0U);
   card.powerCycle(h.now);
   EXPECT_EQ(registerDifferences(card, fresh, h.now, true), 0U);
   EXPECT_EQ(card.part<hm2::Led>().leds(), 0U);  // write only: not seen by reads
@@ -448,7 +448,7 @@ TEST(Card, CountsUnmappedAndReadOnlyAccessesAndKeepsTheLastFew) {
   h.read(hm2::IoPort::kData);
   h.write(hm2::IoPort::kDdr, 1);
   h.write(hm2::Led::kLeds, 0);
-  h.write(hm2::SmartSerial::kData, 0);
+  h.write(hm2::Sslbp::kData, 0);
   EXPECT_TRUE(seen.empty());
 
   h.write(0x1234, 0x5A04);  // past IOPort's two ports: nothing decodes it

@@ -28,7 +28,7 @@ namespace {
 using namespace testing_hm2;
 namespace cmd = hm2::command;
 using hm2::SerialLink;
-using hm2::SmartSerial;
+using hm2::Sslbp;
 
 std::uint64_t envOr(const char* name, std::uint64_t fallback) {
   const char* v = std::getenv(name);
@@ -62,26 +62,26 @@ class Soak {
 
   // Clear every fault, then STOP ALL and START: both channels must come back.
   void checkRecovers(std::uint64_t at) {
-    for (unsigned ch = 0; ch < 2; ++ch) card_.part<hm2::SmartSerial>().link(ch).setConnected(true);
+    for (unsigned ch = 0; ch < 2; ++ch) card_.part<hm2::Sslbp>().link(ch).setConnected(true);
     auto& io = card_.daughtercard(0).fieldIo;
     io.setFieldVoltage(24.0, h_.now);
     for (unsigned o = 0; o < 16; ++o) io.setOutputLoad(o, 1e6);
-    if (h_.read(SmartSerial::kCommand) & cmd::kReset) write(0);  // release the reset bit
+    if (h_.read(Sslbp::kCommand) & cmd::kReset) write(0);  // release the reset bit
     // Let whatever runs finish (a START on a dead line takes tens of ms).
     ASSERT_GE(h_.waitCommand(std::chrono::seconds(2)).count(), 0) << "COMMAND never cleared" << history();
-    h_.write(SmartSerial::kCommand, cmd::kStop);
+    h_.write(Sslbp::kCommand, cmd::kStop);
     ASSERT_GE(h_.waitCommand(std::chrono::seconds(2)).count(), 0) << "STOP ALL never completed" << history();
     h_.write(CardHost::cs(0), 0);
     h_.write(CardHost::cs(1), 0);
-    h_.write(SmartSerial::kCommand, cmd::kStart | 0x03);
+    h_.write(Sslbp::kCommand, cmd::kStart | 0x03);
     ASSERT_GE(h_.waitCommand(std::chrono::seconds(2)).count(), 0) << "START never completed" << history();
-    const auto data = h_.read(SmartSerial::kData);
+    const auto data = h_.read(Sslbp::kData);
     ASSERT_EQ(data, 0U) << "after step " << at << " STOP ALL + START left channels 0x" << std::hex << data
                         << " failed; CS0 0x" << h_.read(CardHost::cs(0)) << " CS1 0x" << h_.read(CardHost::cs(1))
-                        << " lost commands " << std::dec << card_.part<hm2::SmartSerial>().counters().lostCommands << history();
-    h_.write(SmartSerial::kCommand, cmd::kDoit | 0x03);
+                        << " lost commands " << std::dec << card_.part<hm2::Sslbp>().counters().lostCommands << history();
+    h_.write(Sslbp::kCommand, cmd::kDoit | 0x03);
     ASSERT_GE(h_.waitCommand().count(), 0) << history();
-    ASSERT_EQ(h_.read(SmartSerial::kData), 0U) << "the first DOIT after START failed" << history();
+    ASSERT_EQ(h_.read(Sslbp::kData), 0U) << "the first DOIT after START failed" << history();
     history_.clear();
   }
 
@@ -97,7 +97,7 @@ class Soak {
     for (const auto& s : history_) o << "\n  " << s;
     return o.str();
   }
-  void write(std::uint32_t v) { h_.write(SmartSerial::kCommand, v); }
+  void write(std::uint32_t v) { h_.write(Sslbp::kCommand, v); }
   // Most of the time the host waits for a command; sometimes it does not.
   void waitSome() {
     if (pick(4) == 0) return;
@@ -154,7 +154,7 @@ class Soak {
     h_.wait(std::chrono::milliseconds(ms));
   }
   void linkFault() {
-    auto& link = card_.part<hm2::SmartSerial>().link(pick(2));
+    auto& link = card_.part<hm2::Sslbp>().link(pick(2));
     const auto dir = pick(2) ? SerialLink::Direction::FromRemote : SerialLink::Direction::ToRemote;
     switch (pick(4)) {
       case 0: note("corrupt"), link.corruptNext(dir, 1 + pick(3)); break;
@@ -167,7 +167,7 @@ class Soak {
     const unsigned ch = pick(2);
     const bool on = pick(2) != 0;
     note(std::string(on ? "plug" : "unplug") + " channel " + std::to_string(ch));
-    card_.part<hm2::SmartSerial>().link(ch).setConnected(on);
+    card_.part<hm2::Sslbp>().link(ch).setConnected(on);
   }
   void fieldPower() {
     const double v = pick(2) ? 24.0 : 3.0 + pick(15);

@@ -16,7 +16,7 @@ namespace {
 using namespace testing_hm2;
 namespace cmd = hm2::command;
 namespace cs = hm2::cs;
-using hm2::SmartSerial;
+using hm2::Sslbp;
 
 constexpr unsigned kFieldIo = 0;
 constexpr unsigned kAnalog = 1;
@@ -35,8 +35,8 @@ TEST(Sslbp, LocalParameters) {
   CardHost h{card};
   EXPECT_EQ(localRead(h, hm2::local::kInterfaceType), 0x12);
   EXPECT_EQ(localRead(h, hm2::local::kInterfaceWidth), 8);
-  EXPECT_EQ(localRead(h, hm2::local::kMajorRev), SmartSerial::kMajorRevision);
-  EXPECT_EQ(localRead(h, hm2::local::kMinorRev), SmartSerial::kMinorRevision);
+  EXPECT_EQ(localRead(h, hm2::local::kMajorRev), Sslbp::kMajorRevision);
+  EXPECT_EQ(localRead(h, hm2::local::kMinorRev), Sslbp::kMinorRevision);
   // The manual calls 4 and 5 GP_INPUTS/GP_OUTPUTS (0); the firmware keeps the
   // per-channel block start and stride there, and LinuxCNC and mesaflash use
   // them so (local[4] + channel * local[5] + 42 is a channel's baud rate).
@@ -44,12 +44,12 @@ TEST(Sslbp, LocalParameters) {
   EXPECT_EQ(localRead(h, hm2::local::kChannelStride), hm2::local::kChannelBlockStride);
   EXPECT_EQ(localRead(h, hm2::local::kProcessorType), 0xD8);
   // Copied from the hardware channel count: 6 with two 7I77 connectors.
-  EXPECT_EQ(localRead(h, hm2::local::kChannels), card.part<hm2::SmartSerial>().channels());
-  EXPECT_EQ(card.part<hm2::SmartSerial>().channels(), 6U);
+  EXPECT_EQ(localRead(h, hm2::local::kChannels), card.part<hm2::Sslbp>().channels());
+  EXPECT_EQ(card.part<hm2::Sslbp>().channels(), 6U);
   // Local write then read back (the channel 0 baud rate, LSB).
   const std::uint16_t baud0 = hm2::local::kChannelBlock + hm2::local::kBaudOffset;
   EXPECT_EQ(localRead(h, baud0), 2500000 & 0xFF);
-  h.write(SmartSerial::kData, 0x42);
+  h.write(Sslbp::kData, 0x42);
   h.command(cmd::kWrite | cmd::kRequest | baud0);
   EXPECT_EQ(localRead(h, baud0), 0x42);
 }
@@ -71,11 +71,11 @@ TEST(Sslbp, NormalModeOperationAt1kHzFor10Seconds) {
   h.command(cmd::kStop);
   h.write(CardHost::cs(kFieldIo), 0);  // remote mode 0 in the CS top byte
   h.write(CardHost::cs(kAnalog), 0);
-  h.write(SmartSerial::kCommand, cmd::kStart | 0x03);
+  h.write(Sslbp::kCommand, cmd::kStart | 0x03);
   const SimTime startTime = h.waitCommand();
   ASSERT_GT(startTime.count(), 0);
   EXPECT_GT(startTime, 400us);  // the silent start timeout, then the setup exchange
-  EXPECT_EQ(h.read(SmartSerial::kData) & 0x03, 0U);
+  EXPECT_EQ(h.read(Sslbp::kData) & 0x03, 0U);
   // 5. Unit number, name, table pointers: only before the first DOIT.
   EXPECT_EQ(h.read(CardHost::iface(0, kFieldIo)), io.unitNumber());
   EXPECT_EQ(h.read(CardHost::iface(0, kAnalog)), analog.unitNumber());
@@ -93,9 +93,9 @@ TEST(Sslbp, NormalModeOperationAt1kHzFor10Seconds) {
   int checked = 0;
   for (int cycle = 0; cycle < 10000; ++cycle) {
     // 6. COMMAND clear?  7. DATA: previous DOIT ok?
-    ASSERT_EQ(h.read(SmartSerial::kCommand), 0U) << "cycle " << cycle;
+    ASSERT_EQ(h.read(Sslbp::kCommand), 0U) << "cycle " << cycle;
     if (cycle > 0) {
-      ASSERT_EQ(h.read(SmartSerial::kData), 0U) << "cycle " << cycle;
+      ASSERT_EQ(h.read(Sslbp::kData), 0U) << "cycle " << cycle;
       // 8. Inputs.
       lastInputs = h.read(CardHost::iface(0, kFieldIo));
       const auto csr = h.read(CardHost::cs(kFieldIo));
@@ -121,7 +121,7 @@ TEST(Sslbp, NormalModeOperationAt1kHzFor10Seconds) {
                                                (std::uint32_t{ao[4 * r + 2]} << 16) |
                                                (std::uint32_t{ao[4 * r + 3]} << 24));
     // 10. DOIT.
-    h.write(SmartSerial::kCommand, cmd::kDoit | 0x03);
+    h.write(Sslbp::kCommand, cmd::kDoit | 0x03);
     // The manual: at most 100 us from DOIT to COMMAND clear. The very first
     // DOIT is picked up by the chatter loop at its next reply: a bit longer.
     const SimTime doit = h.waitCommand(1ms);
@@ -276,11 +276,11 @@ TEST(Sslbp, NoRemoteFailsTheStartWithTimeouts) {
   hm2::HostMot2Card card;
   CardHost h{card};
   h.command(cmd::kStop);
-  h.write(SmartSerial::kCommand, cmd::kStart | 0x04);  // channel 2: TB6, nothing attached
+  h.write(Sslbp::kCommand, cmd::kStart | 0x04);  // channel 2: TB6, nothing attached
   const SimTime t = h.waitCommand();
   ASSERT_GT(t.count(), 0);
   EXPECT_GT(t, 10ms);  // 21 timeouts of 400 us plus the waits
-  EXPECT_EQ(h.read(SmartSerial::kData), 0x04U);
+  EXPECT_EQ(h.read(Sslbp::kData), 0x04U);
   const auto csr = h.read(CardHost::cs(2));
   EXPECT_EQ(csr & 0xFF, cs::kTimeout | cs::kTooManyErrors);
   EXPECT_TRUE(csr & (cs::kStatusNotReady << 8));
@@ -297,15 +297,15 @@ TEST(Sslbp, DoitTimingFollowsTheCharactersOnTheWire) {
     h.accessTime = SimTime{100};
     h.command(cmd::kStop);
     ASSERT_EQ(h.command(cmd::kStart | 0x01), 0);
-    h.write(SmartSerial::kCommand, cmd::kDoit | 0x01);
+    h.write(Sslbp::kCommand, cmd::kDoit | 0x01);
     const SimTime first = h.waitCommand();  // the first DOIT waits for a chatter reply
-    h.write(SmartSerial::kCommand, cmd::kDoit | 0x01);
+    h.write(Sslbp::kCommand, cmd::kDoit | 0x01);
     const SimTime t = h.waitCommand();
     const SimTime wire = lbp::characterTime(2500000) * 10;  // 4 out + 6 back
     EXPECT_GE(t, wire);
     EXPECT_LT(t, wire + 15us);
     EXPECT_GE(first, t);
-    h.write(SmartSerial::kCommand, cmd::kDoit | 0x02);  // analog: not started, trivially done
+    h.write(Sslbp::kCommand, cmd::kDoit | 0x02);  // analog: not started, trivially done
     EXPECT_LT(h.waitCommand(), 10us);
   }
   // 115.2 kBaud: the remote jumpered for setup mode, the channel's baud rate
@@ -317,20 +317,20 @@ TEST(Sslbp, DoitTimingFollowsTheCharactersOnTheWire) {
     CardHost h{card};
     const std::uint16_t baud0 = hm2::local::kChannelBlock + hm2::local::kBaudOffset;
     for (unsigned i = 0; i < 4; ++i) {
-      h.write(SmartSerial::kData, (115200U >> (8 * i)) & 0xFF);
+      h.write(Sslbp::kData, (115200U >> (8 * i)) & 0xFF);
       h.command(cmd::kWrite | cmd::kRequest | (baud0 + i));
     }
     h.command(cmd::kStop);  // STOP ALL reloads the baud rates
-    EXPECT_EQ(card.part<hm2::SmartSerial>().channelBaud(0), 115200U);
+    EXPECT_EQ(card.part<hm2::Sslbp>().channelBaud(0), 115200U);
     ASSERT_EQ(h.command(cmd::kSetupStart | 0x01), 0);
     auto& io = card.daughtercard(0).fieldIo;
     h.write(CardHost::cs(0), 0x45000000U | io.address(io.standard(remote::Standard::NvBaudRate)));
-    h.write(SmartSerial::kCommand, cmd::kDoit | 0x01);
+    h.write(Sslbp::kCommand, cmd::kDoit | 0x01);
     const SimTime t = h.waitCommand();
     const SimTime wire = lbp::characterTime(115200) * 7;  // 45 lo hi CRC, then 2 + CRC
     EXPECT_GE(t, wire);
     EXPECT_LT(t, wire + 20us);
-    EXPECT_EQ(h.read(SmartSerial::kData), 0U);
+    EXPECT_EQ(h.read(Sslbp::kData), 0U);
     EXPECT_EQ(h.read(CardHost::iface(0, 0)) & 0xFFFF, 9U);  // NVBaudRate: 2.5 MBaud index
   }
 }
@@ -339,22 +339,22 @@ TEST(Sslbp, CommandWrittenWhileBusyIsLostAndReported) {
   hm2::HostMot2Card card;
   CardHost h{card};
   h.command(cmd::kStop);
-  h.write(SmartSerial::kCommand, cmd::kStart | 0x01);
-  h.write(SmartSerial::kCommand, cmd::kDoit | 0x01);  // busy: lost
-  EXPECT_EQ(h.read(SmartSerial::kCommand), cmd::kDoit | 0x01U);
+  h.write(Sslbp::kCommand, cmd::kStart | 0x01);
+  h.write(Sslbp::kCommand, cmd::kDoit | 0x01);  // busy: lost
+  EXPECT_EQ(h.read(Sslbp::kCommand), cmd::kDoit | 0x01U);
   ASSERT_GE(h.waitCommand().count(), 0);
-  EXPECT_EQ(h.read(SmartSerial::kData), 0xFFU);
-  EXPECT_EQ(card.part<hm2::SmartSerial>().counters().lostCommands, 1U);
+  EXPECT_EQ(h.read(Sslbp::kData), 0xFFU);
+  EXPECT_EQ(card.part<hm2::Sslbp>().counters().lostCommands, 1U);
   // Writes with bit 31 set are ignored, even while busy.
-  h.write(SmartSerial::kCommand, cmd::kDoit | 0x01);
-  h.write(SmartSerial::kCommand, 0x80000000U | cmd::kStart | 0x02);
+  h.write(Sslbp::kCommand, cmd::kDoit | 0x01);
+  h.write(Sslbp::kCommand, 0x80000000U | cmd::kStart | 0x02);
   ASSERT_GE(h.waitCommand().count(), 0);
-  EXPECT_EQ(h.read(SmartSerial::kData), 0U);
+  EXPECT_EQ(h.read(Sslbp::kData), 0U);
   // STOP ALL always works, even mid-START.
-  h.write(SmartSerial::kCommand, cmd::kStart | 0x02);
-  h.write(SmartSerial::kCommand, cmd::kStop);
+  h.write(Sslbp::kCommand, cmd::kStart | 0x02);
+  h.write(Sslbp::kCommand, cmd::kStop);
   ASSERT_GE(h.waitCommand().count(), 0);
-  EXPECT_EQ(h.read(SmartSerial::kData), 0xAAU);
+  EXPECT_EQ(h.read(Sslbp::kData), 0xAAU);
   // Unknown commands complete with DATA = 0xFF.
   EXPECT_EQ(h.command(0x0123), 0xFF);
 }
@@ -362,10 +362,10 @@ TEST(Sslbp, CommandWrittenWhileBusyIsLostAndReported) {
 TEST(Sslbp, ResetBitHoldsTheProcessorUntilReleased) {
   hm2::HostMot2Card card;
   CardHost h{card};
-  h.write(SmartSerial::kCommand, cmd::kReset);  // LinuxCNC: 0x4000, then 0x0001
+  h.write(Sslbp::kCommand, cmd::kReset);  // LinuxCNC: 0x4000, then 0x0001
   h.wait(1ms);
-  EXPECT_EQ(h.read(SmartSerial::kCommand), cmd::kReset);
-  h.write(SmartSerial::kCommand, 0x0001);
+  EXPECT_EQ(h.read(Sslbp::kCommand), cmd::kReset);
+  h.write(Sslbp::kCommand, 0x0001);
   EXPECT_GE(h.waitCommand().count(), 0);
   EXPECT_NE(localRead(h, hm2::local::kMinorRev), 0xAA);
 }
@@ -373,7 +373,7 @@ TEST(Sslbp, ResetBitHoldsTheProcessorUntilReleased) {
 TEST(Sslbp, LinkFaultsShowAsCsBits) {
   hm2::HostMot2Card card;
   CardHost h{card};
-  auto& link = card.part<hm2::SmartSerial>().link(kFieldIo);
+  auto& link = card.part<hm2::Sslbp>().link(kFieldIo);
   h.command(cmd::kStop);
   ASSERT_EQ(h.command(cmd::kStart | 0x01), 0);
   ASSERT_EQ(h.command(cmd::kDoit | 0x01), 0);
@@ -413,28 +413,28 @@ TEST(Sslbp, TheCardCountsRefusedCommandsByKind) {
   hm2::HostMot2Card card;
   CardHost h{card};
   h.command(cmd::kStop);
-  h.write(SmartSerial::kCommand, cmd::kStart | 0x01);
-  h.write(SmartSerial::kCommand, 0x80000000U | cmd::kDoit | 0x01);  // ignored
-  h.write(SmartSerial::kCommand, cmd::kDoit | 0x01);                // busy: lost
+  h.write(Sslbp::kCommand, cmd::kStart | 0x01);
+  h.write(Sslbp::kCommand, 0x80000000U | cmd::kDoit | 0x01);  // ignored
+  h.write(Sslbp::kCommand, cmd::kDoit | 0x01);                // busy: lost
   ASSERT_GE(h.waitCommand().count(), 0);
-  EXPECT_EQ(h.read(SmartSerial::kData), 0xFFU);
+  EXPECT_EQ(h.read(Sslbp::kData), 0xFFU);
   EXPECT_EQ(card.accessCounters().ignoredCommands, 1U);
   EXPECT_EQ(card.accessCounters().lostCommands, 1U);
-  EXPECT_EQ(card.part<hm2::SmartSerial>().counters().lostCommands, 1U);
+  EXPECT_EQ(card.part<hm2::Sslbp>().counters().lostCommands, 1U);
   auto recent = card.recentAccesses();
   ASSERT_EQ(recent.size, 2U);
   EXPECT_EQ(recent.events[0].kind, hm2::AccessKind::IgnoredCommand);
   EXPECT_EQ(recent.events[0].value, 0x80000000U | cmd::kDoit | 0x01);
   EXPECT_EQ(recent.events[1].kind, hm2::AccessKind::LostCommand);
-  EXPECT_EQ(recent.events[1].address, SmartSerial::kCommand);
+  EXPECT_EQ(recent.events[1].address, Sslbp::kCommand);
   EXPECT_EQ(recent.events[1].value, cmd::kDoit | 0x01U);
   // STOP ALL is taken while busy, not lost.
-  h.write(SmartSerial::kCommand, cmd::kStart | 0x04);
-  h.write(SmartSerial::kCommand, cmd::kStop);
+  h.write(Sslbp::kCommand, cmd::kStart | 0x04);
+  h.write(Sslbp::kCommand, cmd::kStop);
   ASSERT_GE(h.waitCommand().count(), 0);
   EXPECT_EQ(card.accessCounters().lostCommands, 1U);
   // The registers of a channel the instance lacks are not there.
-  const unsigned missing = card.part<hm2::SmartSerial>().channels();
+  const unsigned missing = card.part<hm2::Sslbp>().channels();
   h.write(CardHost::cs(missing - 1), 0);
   EXPECT_EQ(card.accessCounters().unmappedWrites, 0U);
   h.write(CardHost::cs(missing), 0x12345678);
@@ -459,19 +459,19 @@ TEST(Sslbp, ResetIsThePowerUpState) {
   ASSERT_NE(h.read(CardHost::iface(0, kFieldIo)) & 0x00FF0000U, 0U);
   const std::uint16_t baud1 =
       hm2::local::kChannelBlock + hm2::local::kChannelBlockStride + hm2::local::kBaudOffset;
-  h.write(SmartSerial::kData, 0x42);
+  h.write(Sslbp::kData, 0x42);
   h.command(cmd::kWrite | cmd::kRequest | baud1);
   ASSERT_EQ(localRead(h, baud1), 0x42);
-  card.part<hm2::SmartSerial>().reset();
-  EXPECT_EQ(h.read(SmartSerial::kCommand), 0U);
-  EXPECT_EQ(h.read(SmartSerial::kData), 0xAAU);
+  card.part<hm2::Sslbp>().reset();
+  EXPECT_EQ(h.read(Sslbp::kCommand), 0U);
+  EXPECT_EQ(h.read(Sslbp::kData), 0xAAU);
   for (unsigned ch = 0; ch < 3; ++ch) {
     EXPECT_EQ(h.read(CardHost::cs(ch)), 0x0000C100U) << ch;
     for (unsigned n = 0; n < 3; ++n) EXPECT_EQ(h.read(CardHost::iface(n, ch)), 0U) << ch << " " << n;
-    EXPECT_FALSE(card.part<hm2::SmartSerial>().channelRunning(ch));
+    EXPECT_FALSE(card.part<hm2::Sslbp>().channelRunning(ch));
   }
   EXPECT_EQ(localRead(h, baud1), 2500000 & 0xFF);
-  EXPECT_EQ(card.part<hm2::SmartSerial>().channelBaud(1), SmartSerial::kDefaultBaud);
+  EXPECT_EQ(card.part<hm2::Sslbp>().channelBaud(1), Sslbp::kDefaultBaud);
   // The remotes are still on their channels.
   ASSERT_EQ(h.command(cmd::kStart | 0x03), 0);
   EXPECT_EQ(h.read(CardHost::iface(1, kFieldIo)), 0x37374937U);  // "7I77", LSB first
@@ -488,7 +488,7 @@ double us(SimTime t) { return std::chrono::duration<double, std::micro>(t).count
 
 SimTime waitPolled(CardHost& h) {
   const SimTime start = h.now;
-  while (h.read(SmartSerial::kCommand) != 0) {
+  while (h.read(Sslbp::kCommand) != 0) {
     if (h.now - start > 10s) return SimTime{-1};
     h.wait(SimTime{200});
   }
@@ -534,10 +534,10 @@ TEST(Sslbp, StopAllTakesAsLongAsFirmware43) {
     hm2::HostMot2Card card(options);
     CardHost h{card};
     h.accessTime = SimTime{20};
-    h.write(SmartSerial::kCommand, cmd::kStop);
+    h.write(Sslbp::kCommand, cmd::kStop);
     const SimTime t = waitPolled(h);
     EXPECT_NEAR(us(t), firmware, 1.5) << "us";
-    EXPECT_EQ(h.read(SmartSerial::kData), 0xAAU);
+    EXPECT_EQ(h.read(Sslbp::kData), 0xAAU);
   }
 }
 
@@ -550,21 +550,21 @@ TEST(Sslbp, NoRemoteSetupStartMatchesFirmware43) {
   // Nothing on channel 2: the cookie request 21 times, 2.6 ms apart (the first 1.42 ms after
   // the command), then the 21st timeout: done after 54.62 ms, the channel back at its start
   // timer (COM_STATE 1), status 0xE1, error log 0x88 (timeout, too many errors).
-  h.write(SmartSerial::kCommand, cmd::kSetupStart | 0x04);
+  h.write(Sslbp::kCommand, cmd::kSetupStart | 0x04);
   const SimTime setup = waitPolled(h);
   EXPECT_NEAR(ms(setup), 54.62, 0.05) << "ms";
-  EXPECT_EQ(h.read(SmartSerial::kData), 0x04U);
+  EXPECT_EQ(h.read(Sslbp::kData), 0x04U);
   EXPECT_EQ(h.read(CardHost::cs(2)), 0x0001E188U);
   // Normal START next: 2 us timer ticks, cookie requests ~806 us apart, the first one 402 us
   // plus the rest of the 200 us setup tick after the command (firmware: 553 us in our run,
   // 17.07 ms in all); CS 0x0001E188 again.
   h.command(cmd::kStop);
   h.write(CardHost::cs(2), 0);
-  h.write(SmartSerial::kCommand, cmd::kStart | 0x04);
+  h.write(Sslbp::kCommand, cmd::kStart | 0x04);
   const SimTime normal = waitPolled(h);
   EXPECT_GT(ms(normal), 16.85) << "ms";
   EXPECT_LT(ms(normal), 17.25) << "ms";
-  EXPECT_EQ(h.read(SmartSerial::kData), 0x04U);
+  EXPECT_EQ(h.read(Sslbp::kData), 0x04U);
   EXPECT_EQ(h.read(CardHost::cs(2)), 0x0001E188U);
 }
 
@@ -575,10 +575,10 @@ TEST(Sslbp, BothProcessorsStartAndRunAsWithFirmware43) {
   h.command(cmd::kStop);
   h.write(CardHost::cs(kFieldIo), 0);
   h.write(CardHost::cs(kAnalog), 0);
-  h.write(SmartSerial::kCommand, cmd::kSetupStart | 0x03);
+  h.write(Sslbp::kCommand, cmd::kSetupStart | 0x03);
   const SimTime setup = waitPolled(h);
   EXPECT_NEAR(ms(setup), 1.704, 0.05) << "ms";  // firmware 1.704 ms
-  EXPECT_EQ(h.read(SmartSerial::kData), 0U);
+  EXPECT_EQ(h.read(Sslbp::kData), 0U);
   const std::uint32_t expected[2][4] = {{0x00400000, 0x12000AEE, 0x37374937, 0x0666065C},
                                         {0x00400000, 0x11000AEE, 0x37374937, 0x05DC05C6}};
   for (unsigned ch = 0; ch < 2; ++ch) {
@@ -587,38 +587,38 @@ TEST(Sslbp, BothProcessorsStartAndRunAsWithFirmware43) {
   }
   // A LinuxCNC-style discovery read (one byte per DOIT): firmware 30.7 us each.
   h.write(CardHost::cs(kFieldIo), 0x4C000000U | 0x0694U);
-  h.write(SmartSerial::kCommand, cmd::kDoit | 0x01);
+  h.write(Sslbp::kCommand, cmd::kDoit | 0x01);
   const SimTime read = waitPolled(h);
   EXPECT_NEAR(us(read), 30.7, 2.0) << "us";
-  EXPECT_EQ(h.read(SmartSerial::kData), 0U);
+  EXPECT_EQ(h.read(Sslbp::kData), 0U);
   h.command(cmd::kStop);
   h.write(CardHost::cs(kFieldIo), 0);
   h.write(CardHost::cs(kAnalog), 0);
-  h.write(SmartSerial::kCommand, cmd::kStart | 0x03);
+  h.write(Sslbp::kCommand, cmd::kStart | 0x03);
   ASSERT_GE(waitPolled(h).count(), 0);
-  EXPECT_EQ(h.read(SmartSerial::kData), 0U);
+  EXPECT_EQ(h.read(Sslbp::kData), 0U);
   // 1000 process data DOITs of both channels: firmware 63.87 us on average, none failed,
   // CS 0x00420000 (COM_STATE 0x42: normal run).
   SimTime total{};
   for (int k = 0; k < 1000; ++k) {
     h.write(CardHost::iface(0, kFieldIo), static_cast<std::uint32_t>(k * 7) & 0xFFFF);
     h.write(CardHost::iface(0, kAnalog), static_cast<std::uint32_t>(k * 13) & 0xFFFF);
-    h.write(SmartSerial::kCommand, cmd::kDoit | 0x03);
+    h.write(Sslbp::kCommand, cmd::kDoit | 0x03);
     const SimTime t = waitPolled(h);
     ASSERT_GE(t.count(), 0);
     if (k > 0) total += t;
-    ASSERT_EQ(h.read(SmartSerial::kData), 0U) << "DOIT " << k;
+    ASSERT_EQ(h.read(Sslbp::kData), 0U) << "DOIT " << k;
   }
   EXPECT_NEAR(us(total) / 999.0, 63.87, 1.0) << "us";
   EXPECT_EQ(h.read(CardHost::cs(kFieldIo)), 0x00420000U);
   EXPECT_EQ(h.read(CardHost::cs(kAnalog)), 0x00420000U);
   // The field I/O cable pulled: the next DOIT fails channel 0 after 87-89 us, CS 0x00422008
   // (timeout in the error log, communication error in the status).
-  card.part<hm2::SmartSerial>().link(kFieldIo).setConnected(false);
-  h.write(SmartSerial::kCommand, cmd::kDoit | 0x03);
+  card.part<hm2::Sslbp>().link(kFieldIo).setConnected(false);
+  h.write(Sslbp::kCommand, cmd::kDoit | 0x03);
   const SimTime pulled = waitPolled(h);
   EXPECT_NEAR(us(pulled), 88.0, 2.0) << "us";
-  EXPECT_EQ(h.read(SmartSerial::kData), 0x01U);
+  EXPECT_EQ(h.read(Sslbp::kData), 0x01U);
   EXPECT_EQ(h.read(CardHost::cs(kFieldIo)), 0x00422008U);
   EXPECT_EQ(h.read(CardHost::cs(kAnalog)), 0x00420000U);
 }
@@ -660,8 +660,8 @@ TEST(Sslbp, RemoteFaultByteSurvivesStopAndStartAsInFirmware43) {
   h.wait(100us);
   EXPECT_EQ(h.read(CardHost::cs(kFieldIo)), 0x2000C100U);
   // mesaflash's reset (0x4800, then STOP ALL) clears it: SETUP START of channel 0, CS 0x00400000.
-  h.write(SmartSerial::kCommand, cmd::kReset | cmd::kStop);
-  h.write(SmartSerial::kCommand, cmd::kStop);
+  h.write(Sslbp::kCommand, cmd::kReset | cmd::kStop);
+  h.write(Sslbp::kCommand, cmd::kStop);
   ASSERT_GE(waitPolled(h).count(), 0);
   h.write(CardHost::cs(kFieldIo), 0);
   ASSERT_EQ(h.command(cmd::kSetupStart | 0x01), 0);
@@ -678,10 +678,10 @@ TEST(Sslbp, StartOfAMissingChannelTakesAsLongAsFirmware43) {
   h.command(cmd::kStop);
   for (unsigned ch = 3; ch < 8; ++ch) {
     for (const auto start : {cmd::kSetupStart, cmd::kStart}) {
-      h.write(SmartSerial::kCommand, start | (1U << ch));
+      h.write(Sslbp::kCommand, start | (1U << ch));
       const SimTime t = waitPolled(h);
       EXPECT_NEAR(us(t), 18.4, 0.15) << "us, channel " << ch;
-      EXPECT_EQ(h.read(SmartSerial::kData), 1U << ch);
+      EXPECT_EQ(h.read(Sslbp::kData), 1U << ch);
     }
   }
 }
@@ -760,7 +760,7 @@ TEST(Sslbp, MBitGivesTheHostTheRomAndBootsOnReleaseAsFirmware43) {
   CardHost h{card};
   h.accessTime = SimTime{20};
   auto& io = card.daughtercard(0).fieldIo;
-  auto& sserial = card.part<hm2::SmartSerial>();
+  auto& sserial = card.part<hm2::Sslbp>();
   // A remote fault byte in CS (driver over-temperature) and channel 0's baud rate changed.
   startBoth(h);
   io.setDriverOverTemperature(0, true);
@@ -769,49 +769,49 @@ TEST(Sslbp, MBitGivesTheHostTheRomAndBootsOnReleaseAsFirmware43) {
   h.command(cmd::kStop);
   const std::uint16_t baud0 = hm2::local::kChannelBlock + hm2::local::kBaudOffset;
   for (unsigned k = 0; k < 4; ++k) {
-    h.write(SmartSerial::kData, (115200U >> (8 * k)) & 0xFF);
+    h.write(Sslbp::kData, (115200U >> (8 * k)) & 0xFF);
     h.command(cmd::kWrite | cmd::kRequest | (baud0 + k));
   }
   ASSERT_EQ(localRead(h, static_cast<std::uint16_t>(baud0 + 1)), (115200 >> 8) & 0xFF);
 
   // M set: the ROM. Firmware: word 0x7FF reads 0xABCD (SSLBP.ASM's ROM cookie), COMMAND reads
   // back as written, CS keeps the fault byte (0x0400C100).
-  h.write(SmartSerial::kCommand, cmd::kReset | 0x7FF);
+  h.write(Sslbp::kCommand, cmd::kReset | 0x7FF);
   EXPECT_TRUE(sserial.processorInReset());
-  EXPECT_EQ(h.read(SmartSerial::kData), 0xABCDU);
-  EXPECT_EQ(h.read(SmartSerial::kCommand), 0x47FFU);
+  EXPECT_EQ(h.read(Sslbp::kData), 0xABCDU);
+  EXPECT_EQ(h.read(Sslbp::kCommand), 0x47FFU);
   EXPECT_EQ(h.read(CardHost::cs(kFieldIo)), 0x0400C100U);
   h.wait(1ms);  // held: nothing runs
-  EXPECT_EQ(h.read(SmartSerial::kCommand), 0x47FFU);
+  EXPECT_EQ(h.read(Sslbp::kCommand), 0x47FFU);
   // A word written through DATA (16 bits kept) lands a few clocks later. Firmware: a read 20 ns
   // after the write returns the old word, 100 ns after it the new one.
-  h.write(SmartSerial::kCommand, cmd::kReset | 0x123);
-  const auto old = h.read(SmartSerial::kData);
-  h.write(SmartSerial::kData, 0xFFFFC3A5U);
-  EXPECT_EQ(h.read(SmartSerial::kData), old);
+  h.write(Sslbp::kCommand, cmd::kReset | 0x123);
+  const auto old = h.read(Sslbp::kData);
+  h.write(Sslbp::kData, 0xFFFFC3A5U);
+  EXPECT_EQ(h.read(Sslbp::kData), old);
   h.wait(SimTime{100});
-  EXPECT_EQ(h.read(SmartSerial::kData), 0xC3A5U);
-  h.write(SmartSerial::kCommand, cmd::kReset | 0x124);
-  EXPECT_NE(h.read(SmartSerial::kData), 0xC3A5U);
+  EXPECT_EQ(h.read(Sslbp::kData), 0xC3A5U);
+  h.write(Sslbp::kCommand, cmd::kReset | 0x124);
+  EXPECT_NE(h.read(Sslbp::kData), 0xC3A5U);
   EXPECT_EQ(sserial.romWord(0x123), 0xC3A5U);
 
   // Released by a local read of the version: firmware COMMAND reads 0x2003 until it clears
   // 21.6 us later; DATA is then 0xAA, and still 200 us later (the read was not run).
-  h.write(SmartSerial::kCommand, cmd::kRequest | hm2::local::kMinorRev);
+  h.write(Sslbp::kCommand, cmd::kRequest | hm2::local::kMinorRev);
   EXPECT_FALSE(sserial.processorInReset());
-  EXPECT_EQ(h.read(SmartSerial::kCommand), 0x2003U);
+  EXPECT_EQ(h.read(Sslbp::kCommand), 0x2003U);
   const SimTime boot = waitPolled(h);
   EXPECT_NEAR(us(boot), 21.6, 0.3);
-  EXPECT_EQ(h.read(SmartSerial::kData), 0xAAU);
+  EXPECT_EQ(h.read(Sslbp::kData), 0xAAU);
   h.wait(200us);
-  EXPECT_EQ(h.read(SmartSerial::kData), 0xAAU);
+  EXPECT_EQ(h.read(Sslbp::kData), 0xAAU);
   // Booted: firmware version 43, channel 0 at the default 2.5 MBaud again, CS 0x0000C100.
   EXPECT_EQ(localRead(h, hm2::local::kMinorRev), 43);
   for (std::uint16_t k = 0; k < 4; ++k) {
     EXPECT_EQ(localRead(h, static_cast<std::uint16_t>(baud0 + k)), (2500000U >> (8 * k)) & 0xFF) << k;
   }
   EXPECT_EQ(h.read(CardHost::cs(kFieldIo)), 0x0000C100U);
-  EXPECT_EQ(h.read(SmartSerial::kData) & 0xFFFF0000U, 0U);
+  EXPECT_EQ(h.read(Sslbp::kData) & 0xFFFF0000U, 0U);
   io.setDriverOverTemperature(0, false);
   h.write(CardHost::cs(kFieldIo), 0);
   h.write(CardHost::cs(kAnalog), 0);
@@ -821,7 +821,7 @@ TEST(Sslbp, MBitGivesTheHostTheRomAndBootsOnReleaseAsFirmware43) {
   EXPECT_EQ(sserial.romWord(0x123), 0xC3A5U);
   sserial.reset();
   EXPECT_EQ(sserial.romWord(0x123), 0U);
-  EXPECT_EQ(sserial.romWord(SmartSerial::kRomCookieAddress), SmartSerial::kRomCookie);
+  EXPECT_EQ(sserial.romWord(Sslbp::kRomCookieAddress), Sslbp::kRomCookie);
 }
 
 // A command written while the processor boots (after M is released, before COMMAND clears) is
@@ -830,13 +830,13 @@ TEST(Sslbp, CommandWrittenWhileBootingIsLost) {
   hm2::HostMot2Card card(threeChannels());
   CardHost h{card};
   h.accessTime = SimTime{20};
-  h.write(SmartSerial::kCommand, cmd::kReset);
-  h.write(SmartSerial::kCommand, 0x0001);
+  h.write(Sslbp::kCommand, cmd::kReset);
+  h.write(Sslbp::kCommand, 0x0001);
   h.wait(5us);
-  h.write(SmartSerial::kCommand, cmd::kRequest | hm2::local::kMinorRev);
-  EXPECT_EQ(card.part<hm2::SmartSerial>().counters().lostCommands, 1U);
+  h.write(Sslbp::kCommand, cmd::kRequest | hm2::local::kMinorRev);
+  EXPECT_EQ(card.part<hm2::Sslbp>().counters().lostCommands, 1U);
   ASSERT_GE(waitPolled(h).count(), 0);
-  EXPECT_EQ(h.read(SmartSerial::kData), 0xAAU);
+  EXPECT_EQ(h.read(Sslbp::kData), 0xAAU);
   EXPECT_EQ(localRead(h, hm2::local::kMinorRev), 43);
 }
 
@@ -847,7 +847,7 @@ TEST(Sslbp, CommandWrittenWhileBootingIsLost) {
 // 0: 0x0000C100 after the release.
 TEST(Sslbp, BootAfterMKeepsTheFaultByteOfChannelsAbove2AsFirmware43) {
   for (const unsigned ch : {0U, 3U, 5U}) {
-    hm2::SmartSerial ss(6);
+    hm2::Sslbp ss(6);
     remote::FieldIoProcessor::Options o;
     o.vinFromField = false;
     o.vin = 24;
@@ -867,12 +867,12 @@ TEST(Sslbp, BootAfterMKeepsTheFaultByteOfChannelsAbove2AsFirmware43) {
       return ss.read(a, now);
     };
     const auto command = [&](std::uint32_t c) {
-      write(SmartSerial::kCommand, c);
-      for (int k = 0; k < 1'000'000 && read(SmartSerial::kCommand) != 0; ++k) at(SimTime{200});
-      EXPECT_EQ(read(SmartSerial::kCommand), 0U) << std::hex << c;
-      return read(SmartSerial::kData) & 0xFF;
+      write(Sslbp::kCommand, c);
+      for (int k = 0; k < 1'000'000 && read(Sslbp::kCommand) != 0; ++k) at(SimTime{200});
+      EXPECT_EQ(read(Sslbp::kCommand), 0U) << std::hex << c;
+      return read(Sslbp::kData) & 0xFF;
     };
-    const auto csAddress = static_cast<std::uint16_t>(SmartSerial::kCs + 4 * ch);
+    const auto csAddress = static_cast<std::uint16_t>(Sslbp::kCs + 4 * ch);
     command(cmd::kStop);
     write(csAddress, 0);
     ASSERT_EQ(command(cmd::kStart | (1U << ch)), 0U) << ch;
@@ -883,9 +883,9 @@ TEST(Sslbp, BootAfterMKeepsTheFaultByteOfChannelsAbove2AsFirmware43) {
     command(cmd::kStop);
     at(100us);
     EXPECT_EQ(read(csAddress), 0x2000C100U) << ch;
-    write(SmartSerial::kCommand, cmd::kReset);
+    write(Sslbp::kCommand, cmd::kReset);
     EXPECT_EQ(read(csAddress), 0x2000C100U) << ch;
-    write(SmartSerial::kCommand, 0x0001);
+    write(Sslbp::kCommand, 0x0001);
     at(200us);
     const std::uint32_t fault = ch < 3 ? 0 : 0x20000000U;
     EXPECT_EQ(read(csAddress), fault | 0x0000C100U) << ch;

@@ -89,7 +89,7 @@ TEST(SerialLinkRates, DropsAndExtrasComeAtTheirRatesInTheirDirectionOnly) {
 // normal mode, at 1 kHz.
 struct Running {
   testing_host::RunningCard rc;
-  hm2::SmartSerial& sserial = rc.t.card().part<hm2::SmartSerial>();
+  hm2::Sslbp& sserial = rc.t.card().part<hm2::Sslbp>();
   // Cycles; returns how many failed on `channel`.
   unsigned cycles(unsigned n, unsigned channel = 0) {
     unsigned failed = 0;
@@ -100,7 +100,7 @@ struct Running {
     }
     return failed;
   }
-  hm2::SmartSerial::State::Channel channel(unsigned ch) { return sserial.state().channel[ch]; }
+  hm2::Sslbp::State::Channel channel(unsigned ch) { return sserial.state().channel[ch]; }
   unsigned remoteCrcErrors(unsigned ch) { return sserial.link(ch).remote()->crcErrorCount(); }
 };
 
@@ -264,7 +264,7 @@ TEST(LinkFaultScript, ALinkEntryTakesForAndEndsAsItWasBefore) {
                             "f.toml:7:1"}},
                           hm2::HostMot2Card::Options{}, std::nullopt);
   auto log = [](const std::string&) {};
-  auto& link0 = card.part<hm2::SmartSerial>().link(0);
+  auto& link0 = card.part<hm2::Sslbp>().link(0);
   script.runDue(lbp::SimTime{10ms}, t, log);
   EXPECT_EQ(link0.rates().toRemote.bitErrorRate, 1e-3);
   EXPECT_EQ(link0.rates().fromRemote.bitErrorRate, 1e-3);
@@ -273,10 +273,10 @@ TEST(LinkFaultScript, ALinkEntryTakesForAndEndsAsItWasBefore) {
   EXPECT_EQ(link0.rates(), SerialLink::RateSettings{}) << "a clean cable again after its 5 ms";
   card.advance(lbp::SimTime{20ms});
   script.runDue(lbp::SimTime{20ms}, t, log);
-  EXPECT_FALSE(card.part<hm2::SmartSerial>().link(1).connectedAt(card.now()));
+  EXPECT_FALSE(card.part<hm2::Sslbp>().link(1).connectedAt(card.now()));
   card.advance(lbp::SimTime{21ms});
   script.runDue(lbp::SimTime{21ms}, t, log);
-  EXPECT_TRUE(card.part<hm2::SmartSerial>().link(1).connectedAt(card.now())) << "plugged back when the entry ended";
+  EXPECT_TRUE(card.part<hm2::Sslbp>().link(1).connectedAt(card.now())) << "plugged back when the entry ended";
 
   // A mistake in an entry is an error before the sim starts.
   EXPECT_THROW(servers::FaultScript({{lbp::SimTime{1ms}, "link", json{{"channel", 0}, {"bit_error_rate", -1}},
@@ -294,7 +294,7 @@ TEST(LinkFaultScript, OverlappingLinkEntriesEachUndoOnlyTheirOwnChange) {
       {{lbp::SimTime{0ms}, "link", json{{"channel", 0}, {"bit_error_rate", 1e-3}}, lbp::SimTime{300ms}, "f.toml:1:1"},
        {lbp::SimTime{100ms}, "link", json{{"channel", 0}, {"drop_rate", 1e-2}}, lbp::SimTime{1000ms}, "f.toml:6:1"}},
       hm2::HostMot2Card::Options{}, std::nullopt);
-  auto& link0 = card.part<hm2::SmartSerial>().link(0);
+  auto& link0 = card.part<hm2::Sslbp>().link(0);
   script.runDue(lbp::SimTime{100ms}, t, log);
   EXPECT_EQ(link0.rates().fromRemote.bitErrorRate, 1e-3);
   EXPECT_EQ(link0.rates().fromRemote.dropRate, 1e-2);

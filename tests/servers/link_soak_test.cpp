@@ -121,7 +121,7 @@ class LinkSoak {
   hm2::HostMot2Card& card() { return rc_.t.card(); }
   remote::FieldIoProcessor& field() { return card().daughtercard(0).fieldIo; }
   remote::AnalogProcessor& analog() { return card().daughtercard(0).analog; }
-  SerialLink& link(unsigned ch) { return card().part<hm2::SmartSerial>().link(ch); }
+  SerialLink& link(unsigned ch) { return card().part<hm2::Sslbp>().link(ch); }
   remote::RemoteDevice& remoteOf(unsigned ch) {
     return ch == kFieldIo ? static_cast<remote::RemoteDevice&>(field()) : analog();
   }
@@ -337,7 +337,7 @@ class LinkSoak {
     frame[bytes + 1] = lbp::crc8({frame.data(), bytes + 1});
     SerialLink copy = probe_[ch];
     copy.setExternal(true);
-    (void)copy.exchange({frame.data(), bytes + 2}, hm2::SimTime{0}, card().part<hm2::SmartSerial>().channelBaud(ch));
+    (void)copy.exchange({frame.data(), bytes + 2}, hm2::SimTime{0}, card().part<hm2::Sslbp>().channelBaud(ch));
     std::string out = "sent";
     for (unsigned i = 0; i < bytes + 2; ++i) out += fmt(" %02X", frame[i]);
     out += ", the remote got";
@@ -428,8 +428,8 @@ void soak(const char* name, SerialLink::Rates rates, double breakRate, std::uint
 
   const auto& f = s.figures();
   SerialLink::Counters link{};
-  hm2::SmartSerial::ErrorTotals sslbp{};
-  const auto state = s.card().part<hm2::SmartSerial>().state();
+  hm2::Sslbp::ErrorTotals sslbp{};
+  const auto state = s.card().part<hm2::Sslbp>().state();
   for (unsigned ch = 0; ch < 2; ++ch) {
     const auto& c = s.link(ch).counters();
     link.corrupted += c.corrupted;

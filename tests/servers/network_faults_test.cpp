@@ -452,7 +452,7 @@ TEST(FaultScript, EntriesAndTheirEndsHappenAtTheirSimulatedTimes) {
                           hm2::HostMot2Card::Options{}, std::nullopt);
   std::vector<std::string> said;
   auto log = [&](const std::string& s) { said.push_back(s); };
-  auto& link = card.part<hm2::SmartSerial>().link(1);
+  auto& link = card.part<hm2::Sslbp>().link(1);
   script.runDue(lbp::SimTime{9ms}, t, log);
   EXPECT_TRUE(link.connected());
   script.runDue(lbp::SimTime{10ms}, t, log);

@@ -28,7 +28,7 @@ namespace {
 using namespace testing_hm2;
 namespace cmd = hm2::command;
 namespace cs = hm2::cs;
-using hm2::SmartSerial;
+using hm2::Sslbp;
 
 constexpr unsigned kExpansion = 2;  // TB6: nothing on it in the default card
 
@@ -36,11 +36,11 @@ constexpr unsigned kExpansion = 2;  // TB6: nothing on it in the default card
 // remote's side of the line); returns DATA, and in `took` how long it ran.
 std::uint8_t commandServed(CardHost& h, std::uint32_t command, const std::function<void()>& serve, SimTime& took,
                            SimTime step = SimTime{1000}) {
-  h.write(SmartSerial::kCommand, command);
+  h.write(Sslbp::kCommand, command);
   const SimTime start = h.now;
   for (;;) {
     serve();
-    if (h.read(SmartSerial::kCommand) == 0) break;
+    if (h.read(Sslbp::kCommand) == 0) break;
     if (h.now - start > 10s) {
       ADD_FAILURE() << "command " << std::hex << command << " never completed";
       break;
@@ -48,7 +48,7 @@ std::uint8_t commandServed(CardHost& h, std::uint32_t command, const std::functi
     h.wait(step);
   }
   took = h.now - start;
-  return static_cast<std::uint8_t>(h.read(SmartSerial::kData));
+  return static_cast<std::uint8_t>(h.read(Sslbp::kData));
 }
 
 // The remote's side fed by hand: the outbox to the processor, its replies
@@ -59,12 +59,12 @@ struct HandFed {
   CardHost& h;
   bool answering = true;
   void operator()() {
-    auto& link = card.part<hm2::SmartSerial>().link(kExpansion);
+    auto& link = card.part<hm2::Sslbp>().link(kExpansion);
     std::vector<std::uint8_t> reply;
     for (std::uint8_t b : link.outbox())
       for (std::uint8_t r : io.receive(b, h.now)) reply.push_back(r);
     link.consumeOutbox(link.outbox().size());
-    if (answering && !reply.empty()) card.part<hm2::SmartSerial>().remoteBytes(kExpansion, reply, h.now);
+    if (answering && !reply.empty()) card.part<hm2::Sslbp>().remoteBytes(kExpansion, reply, h.now);
   }
 };
 
@@ -72,7 +72,7 @@ struct HandFed {
 class SslbpExternal : public ::testing::Test {
  protected:
   void SetUp() override {
-    card.part<hm2::SmartSerial>().link(kExpansion).setExternal(true);
+    card.part<hm2::Sslbp>().link(kExpansion).setExternal(true);
     h.command(cmd::kStop);
     h.write(CardHost::cs(kExpansion), 0);
   }
@@ -102,7 +102,7 @@ TEST_F(SslbpExternal, RelaxedTimeoutAndLateAndDamagedReplies) {
   serve.answering = false;
   EXPECT_EQ(commandServed(h, cmd::kSetupStart | (1U << kExpansion), std::ref(serve), took, SimTime{100'000}),
             1U << kExpansion);
-  const SimTime oneWait = SimTime{1'200'000} * SmartSerial::kExternalTimeoutFactor;
+  const SimTime oneWait = SimTime{1'200'000} * Sslbp::kExternalTimeoutFactor;
   EXPECT_GT(took, oneWait * 21);
   EXPECT_LT(took, oneWait * 22);
   EXPECT_NE(h.read(CardHost::cs(kExpansion)) & cs::kTooManyErrors, 0U);
@@ -116,9 +116,9 @@ TEST_F(SslbpExternal, RelaxedTimeoutAndLateAndDamagedReplies) {
   // A reply with a damaged character: a CRC error, and the read times out.
   const auto wd = io.address(io.standard(remote::Standard::WatchdogTime));
   h.write(CardHost::cs(kExpansion), (0x45U << 24) | wd);
-  h.write(SmartSerial::kCommand, cmd::kDoit | (1U << kExpansion));
+  h.write(Sslbp::kCommand, cmd::kDoit | (1U << kExpansion));
   h.wait(SimTime{10'000});
-  auto& link = card.part<hm2::SmartSerial>().link(kExpansion);
+  auto& link = card.part<hm2::Sslbp>().link(kExpansion);
   std::vector<std::uint8_t> reply;
   for (std::uint8_t b : link.outbox())
     for (std::uint8_t r : io.receive(b, h.now)) reply.push_back(r);
@@ -126,19 +126,19 @@ TEST_F(SslbpExternal, RelaxedTimeoutAndLateAndDamagedReplies) {
   ASSERT_EQ(reply.size(), 3U);  // two data bytes and the CRC
   const auto good = reply;
   reply[0] ^= 0x5A;
-  card.part<hm2::SmartSerial>().remoteBytes(kExpansion, reply, h.now);
+  card.part<hm2::Sslbp>().remoteBytes(kExpansion, reply, h.now);
   EXPECT_NE(h.read(CardHost::cs(kExpansion)) & cs::kCrcError, 0U);
   // Discarded: the channel waits out setup mode's 50 ms timeout, relaxed.
-  h.wait(SimTime{50ms} * SmartSerial::kExternalTimeoutFactor - SimTime{1ms});
-  EXPECT_NE(h.read(SmartSerial::kCommand), 0U);
+  h.wait(SimTime{50ms} * Sslbp::kExternalTimeoutFactor - SimTime{1ms});
+  EXPECT_NE(h.read(Sslbp::kCommand), 0U);
   h.wait(SimTime{2ms});
-  EXPECT_EQ(h.read(SmartSerial::kCommand), 0U);
+  EXPECT_EQ(h.read(Sslbp::kCommand), 0U);
   // Since SSLBP 40 a setup-mode timeout shows in CS, not in DATA.
-  EXPECT_EQ(h.read(SmartSerial::kData), 0U);
+  EXPECT_EQ(h.read(Sslbp::kData), 0U);
   EXPECT_NE(h.read(CardHost::cs(kExpansion)) & cs::kTimeout, 0U);
   // The good reply after the timeout: too late, it lands in the receive
   // FIFO; the next transmit finds it there (an extra character).
-  card.part<hm2::SmartSerial>().remoteBytes(kExpansion, good, h.now);
+  card.part<hm2::Sslbp>().remoteBytes(kExpansion, good, h.now);
   EXPECT_EQ(h.read(CardHost::cs(kExpansion)) & cs::kExtraCharacter, 0U);
   EXPECT_EQ(commandServed(h, cmd::kDoit | (1U << kExpansion), std::ref(serve), took), 0);
   EXPECT_EQ(h.read(CardHost::iface(0, kExpansion)) & 0xFFFF, 50U);
@@ -186,7 +186,7 @@ TEST(PtyChannel, RemoteOnThePtyAnswersSetupStartAndCommands) {
   hm2::HostMot2Card card;
   CardHost h{card};
   servers::PtyChannel channel(card, kExpansion);
-  EXPECT_TRUE(card.part<hm2::SmartSerial>().link(kExpansion).external());
+  EXPECT_TRUE(card.part<hm2::Sslbp>().link(kExpansion).external());
   const int fd = ::open(channel.path().c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
   ASSERT_GE(fd, 0) << channel.path();
   remote::FieldIoProcessor io;
@@ -224,7 +224,7 @@ TEST(PtyChannel, NobodyOnThePtyStartFailsAfterTheRelaxedTimeout) {
                           SimTime{100'000}),
             1U << kExpansion);
   // Normal START: 21 cookie requests, each waiting 200 ticks (400 us) times the factor.
-  EXPECT_GT(took, SimTime{400'000} * SmartSerial::kExternalTimeoutFactor * 21);
+  EXPECT_GT(took, SimTime{400'000} * Sslbp::kExternalTimeoutFactor * 21);
   EXPECT_NE(h.read(CardHost::cs(kExpansion)) & cs::kTimeout, 0U);
   EXPECT_GT(channel.bytesToRemote(), 0U);  // the requests went out on the pty
 }
@@ -244,7 +244,7 @@ TEST(PtyChannel, RefusesAChannelWithA7I77ProcessorOrNone) {
     EXPECT_STREQ(e.what(), "channel 1 carries the 7I77's analog processor");
   }
   EXPECT_THROW(servers::PtyChannel(card, 6), std::invalid_argument);
-  EXPECT_FALSE(card.part<hm2::SmartSerial>().link(0).external());
+  EXPECT_FALSE(card.part<hm2::Sslbp>().link(0).external());
 }
 
 // `lbpkit sim --remote`: a 7I77's channel, or a bad value, is refused before anything starts.

@@ -32,19 +32,19 @@ struct CardHost {
   // negative time when `limit` passed first.
   SimTime waitCommand(SimTime limit = 10s) {
     const SimTime start = now;
-    while (read(hm2::SmartSerial::kCommand) != 0) {
+    while (read(hm2::Sslbp::kCommand) != 0) {
       if (now - start > limit) return SimTime{-1};
     }
     return now - start;
   }
   std::uint8_t command(std::uint32_t cmd) {
-    write(hm2::SmartSerial::kCommand, cmd);
+    write(hm2::Sslbp::kCommand, cmd);
     EXPECT_GE(waitCommand().count(), 0) << "command " << std::hex << cmd << " never completed";
-    return static_cast<std::uint8_t>(read(hm2::SmartSerial::kData));
+    return static_cast<std::uint8_t>(read(hm2::Sslbp::kData));
   }
-  static std::uint16_t cs(unsigned ch) { return static_cast<std::uint16_t>(hm2::SmartSerial::kCs + 4 * ch); }
+  static std::uint16_t cs(unsigned ch) { return static_cast<std::uint16_t>(hm2::Sslbp::kCs + 4 * ch); }
   static std::uint16_t iface(unsigned n, unsigned ch) {
-    return static_cast<std::uint16_t>(hm2::SmartSerial::kInterface0 + n * 0x100 + 4 * ch);
+    return static_cast<std::uint16_t>(hm2::Sslbp::kInterface0 + n * 0x100 + 4 * ch);
   }
   // SETUP MODE OPERATION: one remote command through CS and DOIT.
   std::uint64_t remote(unsigned ch, std::uint8_t lbpCommand, std::uint16_t address, std::uint64_t data = 0) {

@@ -59,9 +59,9 @@ HostMot2Card::HostMot2Card(Options options)
   // attached) and six muxed counters.
   for (const auto& entry : firmware_->modules) build(entry);
   if (module<Watchdog>() == nullptr || module<IoPort>() == nullptr || module<MuxedEncoder>() == nullptr ||
-      module<SmartSerial>() == nullptr || module<Led>() == nullptr)
+      module<Sslbp>() == nullptr || module<Led>() == nullptr)
     throw std::logic_error("a firmware in the catalogue lacks a module every card here has");
-  auto& sserial = part<SmartSerial>();
+  auto& sserial = part<Sslbp>();
   // A 7I77 slot without a 7I77 leaves its channels unattached: START finds
   // no remote there.
   for (unsigned i = 0; i < sevenI77s_.size(); ++i) {
@@ -124,7 +124,7 @@ void HostMot2Card::build(const cards::ModuleEntry& entry) {
       break;
     }
     case Part::MuxedQCountSel: m = std::make_unique<MuxedEncoderSelect>(); break;
-    case Part::SSerial: m = std::make_unique<SmartSerial>(entry.count); break;
+    case Part::SSerial: m = std::make_unique<Sslbp>(entry.count); break;
     case Part::Led: m = std::make_unique<Led>(entry.count); break;
     case Part::Dpll: m = std::make_unique<Dpll>(Dpll::kKind.base, entry.count, b.clockLow); break;
     case Part::StepGen: {

@@ -160,7 +160,7 @@ class HostMot2Card {
     return nullptr;
   }
   // One every firmware here has (Watchdog, IoPort, MuxedEncoder,
-  // SmartSerial, Led): the card will not build without them.
+  // Sslbp, Led): the card will not build without them.
   template <typename T>
   [[nodiscard]] T& part() const {
     T* m = module<T>();

@@ -92,7 +92,7 @@ SerialLink::Reply SerialLink::exchange(std::span<const std::uint8_t> frame, SimT
   const SimTime ch = lbp::characterTime(baud);
   SimTime t = start;
   if (external_) {
-    // The other process's reply comes later (SmartSerial::remoteBytes); the
+    // The other process's reply comes later (Sslbp::remoteBytes); the
     // frame leaves now, through the same faults as to a model.
     auto post = [&](std::uint8_t b) {
       t += ch;

@@ -46,7 +46,7 @@ class SerialLink {
   // --- External remote (lbpkit sim --remote CH=pty) ------------------------
   // The remote is another process: frames the channel sends wait in a fixed
   // outbox (no allocation per frame) until whoever serves the process takes
-  // them; its reply comes back through SmartSerial::remoteBytes. Fault
+  // them; its reply comes back through Sslbp::remoteBytes. Fault
   // injection applies to the frames sent; replies arrive as they are.
   static constexpr std::size_t kOutboxSize = 1024;
   void setExternal(bool external) {

@@ -42,7 +42,7 @@ constexpr SimTime kBoot = SimTime{21'500};
 // synchronised write request). SSLBP 43: a DATA read 20 ns after the write
 // still returns the old word, 100 ns after it the new one.
 constexpr SimTime kRomWriteDelay = SimTime{50};
-constexpr std::uint16_t kRomAddressMask = SmartSerial::kRomWords - 1;  // COMMAND bits 10..0
+constexpr std::uint16_t kRomAddressMask = Sslbp::kRomWords - 1;  // COMMAND bits 10..0
 // initmem clears the RAM up to here only (SSLBP.MAC: until X's high byte is 1).
 constexpr std::uint16_t kInitMemEnd = 0x100;
 // STOP ALL: the global init's time, per channel and fixed (measured on SSLBP 43).
@@ -86,12 +86,12 @@ enum State : std::uint8_t {
 
 }  // namespace
 
-SmartSerial::SmartSerial(unsigned channels, unsigned instance)
+Sslbp::Sslbp(unsigned channels, unsigned instance)
     : Module(kKind, kKind.base, 1, kKind.version), instance_(instance), channelCount_(std::min<unsigned>(channels, kMaxChannels)) {
-  SmartSerial::reset();
+  Sslbp::reset();
 }
 
-void SmartSerial::reset() {
+void Sslbp::reset() {
   // A freshly configured FPGA: every channel variable (the host-written
   // halves of CS and the interface registers too, and the remote fault byte
   // that STOP and, for channels 3.., the boot leave alone), the command state
@@ -126,7 +126,7 @@ void SmartSerial::reset() {
   wake_ = nextEvent();
 }
 
-void SmartSerial::initMem() {
+void Sslbp::initMem() {
   std::fill(ram_.begin(), ram_.begin() + kInitMemEnd, std::uint8_t{0});
   // The channels' remote fault bytes live in that RAM (chanremfault, block
   // offset 0x25): cleared for the channels whose block starts below 0x100
@@ -152,9 +152,9 @@ void SmartSerial::initMem() {
 
 // The map's descriptor (version 0, 6 registers, instance stride select 1:
 // 0x40, registers 2..5 per channel) is what LinuxCNC's driver checks for
-// SmartSerial. Each instance answers in its 0x40 window: COMMAND and DATA
+// Sslbp. Each instance answers in its 0x40 window: COMMAND and DATA
 // at every word of it, CS and the interfaces for its channels.
-bool SmartSerial::decodes(std::uint16_t address) const {
+bool Sslbp::decodes(std::uint16_t address) const {
   if (address < kCommand || address >= kInterface0 + 3 * kRegisterStride) return false;
   if (((address & 0xFFU) / kInstanceStride1) != instance_) return false;
   // CS and interface registers exist only for the channels the instance has
@@ -164,13 +164,13 @@ bool SmartSerial::decodes(std::uint16_t address) const {
 
 // --- Registers -------------------------------------------------------------------
 
-std::uint32_t SmartSerial::csRegister(unsigned channel) const {
+std::uint32_t Sslbp::csRegister(unsigned channel) const {
   const auto& c = channels_.at(channel);
   return static_cast<std::uint32_t>(c.errorLog) | (static_cast<std::uint32_t>(c.status) << 8) |
          (static_cast<std::uint32_t>(c.state) << 16) | (static_cast<std::uint32_t>(c.remoteFault) << 24);
 }
 
-SmartSerial::State SmartSerial::state() const {
+Sslbp::State Sslbp::state() const {
   State s;
   s.command = command_;
   s.data = dataOut_;
@@ -185,7 +185,7 @@ SmartSerial::State SmartSerial::state() const {
   return s;
 }
 
-std::uint32_t SmartSerial::readRegister(std::uint16_t address, SimTime now) {
+std::uint32_t Sslbp::readRegister(std::uint16_t address, SimTime now) {
   advance(now);
   const std::uint16_t block = address & 0xFF00U;
   const unsigned ch = (address & 0x3FU) / 4;
@@ -198,13 +198,13 @@ std::uint32_t SmartSerial::readRegister(std::uint16_t address, SimTime now) {
   return channels_[ch].ifIn[static_cast<unsigned>(block - kInterface0) / kRegisterStride];
 }
 
-WriteResult SmartSerial::writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) {
+WriteResult Sslbp::writeRegister(std::uint16_t address, std::uint32_t value, SimTime now) {
   const WriteResult r = store(address, value, now);
   wake_ = nextEvent();  // a command may have started something
   return r;
 }
 
-WriteResult SmartSerial::store(std::uint16_t address, std::uint32_t value, SimTime now) {
+WriteResult Sslbp::store(std::uint16_t address, std::uint32_t value, SimTime now) {
   advance(now);
   const std::uint16_t block = address & 0xFF00U;
   const unsigned ch = (address & 0x3FU) / 4;
@@ -283,7 +283,7 @@ WriteResult SmartSerial::store(std::uint16_t address, std::uint32_t value, SimTi
 
 // --- Commands ----------------------------------------------------------------------
 
-void SmartSerial::execute(std::uint16_t cmd, SimTime now) {
+void Sslbp::execute(std::uint16_t cmd, SimTime now) {
   const auto high = static_cast<std::uint8_t>(cmd >> 8);
   const auto existing = static_cast<std::uint8_t>((1U << channelCount_) - 1);
   const auto mask = static_cast<std::uint8_t>(cmd & 0xFFU);
@@ -325,14 +325,14 @@ void SmartSerial::execute(std::uint16_t cmd, SimTime now) {
   }
 }
 
-void SmartSerial::complete(std::uint8_t data, SimTime) {
+void Sslbp::complete(std::uint8_t data, SimTime) {
   command_ = 0;
   dataOut_ = lost_ ? 0xFF : data;
   lost_ = false;
   busy_ = Busy::Idle;
 }
 
-void SmartSerial::finishBoot() {
+void Sslbp::finishBoot() {
   // initmem (the RAM, the remote fault bytes, the default baud rates), the
   // command cleared, then the global init (every channel stopped, DATA 0xAA).
   // lbpkit runs the global init at once: a command written right after
@@ -345,7 +345,7 @@ void SmartSerial::finishBoot() {
   globalInit();
 }
 
-void SmartSerial::globalInit() {
+void Sslbp::globalInit() {
   for (unsigned i = 0; i < channelCount_; ++i) {
     auto& c = channels_[i];
     initChannel(c);
@@ -357,7 +357,7 @@ void SmartSerial::globalInit() {
   dataOut_ = 0xAA;
 }
 
-void SmartSerial::initChannel(Channel& c) {
+void Sslbp::initChannel(Channel& c) {
   c.mode = Mode::Stopped;
   c.status = 0xC1;
   c.errorLog = 0;
@@ -383,7 +383,7 @@ void SmartSerial::initChannel(Channel& c) {
   c.ifIn[2] = 0;
 }
 
-void SmartSerial::startChannels(std::uint8_t mask, Mode mode, SimTime now) {
+void Sslbp::startChannels(std::uint8_t mask, Mode mode, SimTime now) {
   busy_ = Busy::Start;
   commandMask_ = mask;
   // The timer divisor is loaded; the tick running then still ends at its old rate.
@@ -407,7 +407,7 @@ void SmartSerial::startChannels(std::uint8_t mask, Mode mode, SimTime now) {
   if (busy_ == Busy::Immediate) immediateDone_ = now + kNoChannelStart;
 }
 
-void SmartSerial::doit(std::uint8_t mask, SimTime now) {
+void Sslbp::doit(std::uint8_t mask, SimTime now) {
   busy_ = Busy::Doit;
   commandMask_ = 0;
   for (unsigned i = 0; i < channelCount_; ++i) {
@@ -423,7 +423,7 @@ void SmartSerial::doit(std::uint8_t mask, SimTime now) {
   checkCommandDone(now);
 }
 
-void SmartSerial::checkCommandDone(SimTime now) {
+void Sslbp::checkCommandDone(SimTime now) {
   // Channels the instance does not have never start.
   auto bits = static_cast<std::uint8_t>(busy_ == Busy::Start ? ~((1U << channelCount_) - 1) : 0);
   for (unsigned i = 0; i < channelCount_; ++i) {
@@ -444,16 +444,16 @@ void SmartSerial::checkCommandDone(SimTime now) {
 
 // --- Time ---------------------------------------------------------------------------
 
-void SmartSerial::schedule(Channel& c, SimTime at) {
+void Sslbp::schedule(Channel& c, SimTime at) {
   scheduled_ = static_cast<std::uint8_t>(scheduled_ | (1U << (&c - channels_.data())));
   c.due = at;
 }
 
-void SmartSerial::unschedule(Channel& c) {
+void Sslbp::unschedule(Channel& c) {
   scheduled_ = static_cast<std::uint8_t>(scheduled_ & ~(1U << (&c - channels_.data())));
 }
 
-SimTime SmartSerial::nextEvent() const {
+SimTime Sslbp::nextEvent() const {
   SimTime t = busy_ == Busy::Immediate || busy_ == Busy::Boot ? immediateDone_ : SimTime::max();
   if (romWrite_.pending && romWrite_.at < t) t = romWrite_.at;
   for (unsigned m = scheduled_; m != 0; m &= m - 1) {
@@ -463,7 +463,7 @@ SimTime SmartSerial::nextEvent() const {
   return t;
 }
 
-void SmartSerial::runEvents(SimTime now) {
+void Sslbp::runEvents(SimTime now) {
   // Events in time order; at equal times a finishing command goes first.
   for (;;) {
     SimTime at = now;
@@ -503,21 +503,21 @@ void SmartSerial::runEvents(SimTime now) {
   wake_ = nextEvent();
 }
 
-SimTime SmartSerial::tickAfter(SimTime t, unsigned n) const {
+SimTime Sslbp::tickAfter(SimTime t, unsigned n) const {
   if (tickPeriod_ <= SimTime{}) return t + kNormalTick * n;
   if (t < tickOrigin_) return tickOrigin_ + tickPeriod_ * (n - 1);
   return tickOrigin_ + tickPeriod_ * ((t - tickOrigin_) / tickPeriod_ + n);
 }
 
-SimTime SmartSerial::startTimeout(const Channel& c, SimTime now) const {
+SimTime Sslbp::startTimeout(const Channel& c, SimTime now) const {
   return tickAfter(now, c.mode == Mode::Setup ? kSetupStartTicks : kNormalStartTicks) - now;
 }
 
-SimTime SmartSerial::startQuiet(const Channel& c, SimTime now) const {
+SimTime Sslbp::startQuiet(const Channel& c, SimTime now) const {
   return tickAfter(now, (c.mode == Mode::Setup ? kSetupStartTicks : kNormalStartTicks) + 1) - now;
 }
 
-void SmartSerial::setError(Channel& c, std::uint8_t bit, unsigned counter) {
+void Sslbp::setError(Channel& c, std::uint8_t bit, unsigned counter) {
   c.errorLog = static_cast<std::uint8_t>(c.errorLog | bit);
   c.status = static_cast<std::uint8_t>(c.status | cs::kStatusCommunicationError);
   auto& t = c.errorTotals;
@@ -530,7 +530,7 @@ void SmartSerial::setError(Channel& c, std::uint8_t bit, unsigned counter) {
     c.errorLog = static_cast<std::uint8_t>(c.errorLog | cs::kTooManyErrors);
 }
 
-void SmartSerial::restart(Channel& c, SimTime now) {
+void Sslbp::restart(Channel& c, SimTime now) {
   c.state = kStartTimer;
   if (c.errorLog & cs::kTooManyErrors) {
     // The channel has failed: START completes without it (COM_STATE 1 then,
@@ -543,7 +543,7 @@ void SmartSerial::restart(Channel& c, SimTime now) {
   schedule(c, now + kPass);
 }
 
-void SmartSerial::transact(Channel& c, std::span<const std::uint8_t> body, unsigned expect, SimTime timeout,
+void Sslbp::transact(Channel& c, std::span<const std::uint8_t> body, unsigned expect, SimTime timeout,
                            std::uint8_t waitState, SimTime now) {
   if (c.leftover) {  // characters still in the receive FIFO before a transmit
     setError(c, cs::kExtraCharacter, kExtra);
@@ -575,7 +575,7 @@ void SmartSerial::transact(Channel& c, std::span<const std::uint8_t> body, unsig
   judge(c, {reply.bytes.data(), reply.size}, reply.breakSeen, arrival, expect, now + timeout);
 }
 
-void SmartSerial::judge(Channel& c, std::span<const std::uint8_t> reply, bool breakSeen, SimTime arrival,
+void Sslbp::judge(Channel& c, std::span<const std::uint8_t> reply, bool breakSeen, SimTime arrival,
                         unsigned expect, SimTime deadline) {
   const std::size_t need = expect + 1;
   c.outcome = Outcome::Timeout;
@@ -601,7 +601,7 @@ void SmartSerial::judge(Channel& c, std::span<const std::uint8_t> reply, bool br
   schedule(c, due);
 }
 
-void SmartSerial::remoteBytes(unsigned channel, std::span<const std::uint8_t> bytes, SimTime now) {
+void Sslbp::remoteBytes(unsigned channel, std::span<const std::uint8_t> bytes, SimTime now) {
   // A timeout due by now happens first: bytes after it came too late.
   advance(now);
   Channel& c = channels_.at(channel);
@@ -732,7 +732,7 @@ std::uint32_t littleEndian32(const std::array<std::uint8_t, 16>& b, unsigned at)
 
 }  // namespace
 
-void SmartSerial::step(unsigned index, SimTime now) {
+void Sslbp::step(unsigned index, SimTime now) {
   Channel& c = channels_[index];
   switch (c.state) {
     case kBlather:
@@ -745,14 +745,14 @@ void SmartSerial::step(unsigned index, SimTime now) {
   }
 }
 
-bool SmartSerial::timedOut(Channel& c) {
+bool Sslbp::timedOut(Channel& c) {
   // A damaged reply (CRC, break) was discarded: the channel saw no reply.
   if (c.outcome == Outcome::Ok) return false;
   setError(c, cs::kTimeout, kTimeoutCount);
   return true;
 }
 
-void SmartSerial::sendProcessData(Channel& c, bool zeros, std::uint8_t waitState, SimTime timeout, SimTime now) {
+void Sslbp::sendProcessData(Channel& c, bool zeros, std::uint8_t waitState, SimTime timeout, SimTime now) {
   std::array<std::uint8_t, 13> f{};
   f[0] = lbp::special_rpc::kProcessData;
   for (unsigned i = 0; i < c.txSize && i < 12; ++i)
@@ -760,7 +760,7 @@ void SmartSerial::sendProcessData(Channel& c, bool zeros, std::uint8_t waitState
   transact(c, {f.data(), 1U + std::min<unsigned>(c.txSize, 12)}, c.rxSize, timeout, waitState, now);
 }
 
-void SmartSerial::sendStartRow(Channel& c, unsigned row, SimTime now) {
+void Sslbp::sendStartRow(Channel& c, unsigned row, SimTime now) {
   const StartRow& r = kStartRows[row];
   switch (r.payload) {
     case Payload::Fixed: transact(c, {r.bytes.data(), r.length}, r.expect, startTimeout(c, now), r.wait, now); return;
@@ -778,7 +778,7 @@ void SmartSerial::sendStartRow(Channel& c, unsigned row, SimTime now) {
 // quiet start timeout so the remote's parser resets, then the rows of
 // kStartRows in order. Normal START ends in chatter; SETUP START ends after
 // discovery with the channel serving setup requests.
-void SmartSerial::startSequence(unsigned index, SimTime now) {
+void Sslbp::startSequence(unsigned index, SimTime now) {
   Channel& c = channels_[index];
   // A channel that failed its START stops trying once the command is over.
   if (!c.startPending && busy_ != Busy::Start) return;
@@ -875,7 +875,7 @@ void SmartSerial::startSequence(unsigned index, SimTime now) {
 // zero outputs back to back, keeping the remote's watchdog fed, until the
 // first DOIT. The first good reply completes the START; its round trip sets
 // the DOIT timeout (docs/protocol-facts.md#sslbp-start-and-timeouts).
-void SmartSerial::chatter(Channel& c, SimTime now) {
+void Sslbp::chatter(Channel& c, SimTime now) {
   if (c.state == kBlather) {
     sendProcessData(c, true, kBlatherWait, kNormalStartTimeout, now);
     return;
@@ -910,7 +910,7 @@ void SmartSerial::chatter(Channel& c, SimTime now) {
 // The normal run (manual: DOIT, CS REGISTER AFTER DOIT, HOST READS INCOMING
 // INTERFACE REGISTERS AFTER DOIT): one process data exchange per DOIT
 // request, outputs from interface 0..2, the remote's fault byte to CS byte 3.
-void SmartSerial::runNormal(Channel& c, SimTime now) {
+void Sslbp::runNormal(Channel& c, SimTime now) {
   if (c.state == kRun) {
     if (!c.requested) return;
     sendProcessData(c, false, kRunWait, c.measuredRpc + kTimeoutFudge, now);
@@ -947,7 +947,7 @@ void SmartSerial::runNormal(Channel& c, SimTime now) {
 // The setup-mode run (manual: SETUP MODE OPERATION, REMOTE READ/WRITE
 // EXAMPLE; docs/protocol-facts.md#sslbp-setup-mode): each DOIT passes the
 // LBP command the host wrote to CS through to the remote.
-void SmartSerial::runSetup(Channel& c, SimTime now) {
+void Sslbp::runSetup(Channel& c, SimTime now) {
   if (c.state == kSetupRun) {
     if (!c.requested) return;
     // The LBP command the host wrote to CS: header in byte 3, address in

@@ -45,7 +45,7 @@ inline constexpr std::uint16_t kInterfaceClock = 0x230;
 inline constexpr std::uint16_t kHardwareChannels = 0x234;
 }  // namespace local
 
-class SmartSerial final : public Module {
+class Sslbp final : public Module {
  public:
   static constexpr unsigned kMaxChannels = 8;
   static constexpr const ModuleKind& kKind = map::kSSerial;
@@ -65,7 +65,7 @@ class SmartSerial final : public Module {
   static constexpr std::uint16_t kRomCookieAddress = 0x7FF;
   static constexpr std::uint16_t kRomCookie = 0xABCD;
 
-  explicit SmartSerial(unsigned channels, unsigned instance = 0);
+  explicit Sslbp(unsigned channels, unsigned instance = 0);
 
   [[nodiscard]] bool decodes(std::uint16_t address) const override;
   std::uint32_t readRegister(std::uint16_t address, SimTime now) override;

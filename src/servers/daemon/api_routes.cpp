@@ -224,7 +224,7 @@ std::string traceJson(const TraceRing& trace, const httplib::Request& req) {
 
 using Action = void (*)(const ApiTarget&, const json&);
 
-void linkAction(const ApiTarget& t, const json& j) { applyLink(t.card.part<hm2::SmartSerial>(), j, t.card.now()); }
+void linkAction(const ApiTarget& t, const json& j) { applyLink(t.card.part<hm2::Sslbp>(), j, t.card.now()); }
 
 void networkAction(const ApiTarget& t, const json& j) {
   if (t.udp == nullptr) throw std::invalid_argument("this sim has no network to disturb");
@@ -288,8 +288,8 @@ void encoderAction(const ApiTarget& t, const json& j) {
 
 void cableAction(const ApiTarget& t, const json& j) {
   fields::onlyKnown(j, {"channel", "connected"});
-  const auto ch = index(j, "channel", t.card.part<hm2::SmartSerial>().channels());
-  t.card.part<hm2::SmartSerial>().link(ch).setConnected(flag(j, "connected"));
+  const auto ch = index(j, "channel", t.card.part<hm2::Sslbp>().channels());
+  t.card.part<hm2::Sslbp>().link(ch).setConnected(flag(j, "connected"));
 }
 
 void outputAction(const ApiTarget& t, const json& j) {
@@ -435,7 +435,7 @@ void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner
             }));
   // The RS-422 links: GET and POST answer what GET /api/link shows.
   auto link = [t] {
-    const auto s = takeLinkSnapshots(t.card.part<hm2::SmartSerial>(), t.card.now());
+    const auto s = takeLinkSnapshots(t.card.part<hm2::Sslbp>(), t.card.now());
     return Answer{[s] { return toJson(s).dump(); }};
   };
   http.Get("/api/link", handle([link](const json&) { return link(); }));

@@ -88,10 +88,10 @@ std::vector<Touched> touchedBy(const ScriptedFault& f, const ApiTarget& t) {
   if (f.fault == "link") {
     const json& channel = b.contains("channel") ? b.at("channel") : json();
     if (!channel.is_number_integer() || channel.get<std::int64_t>() < 0 ||
-        channel.get<std::int64_t>() >= static_cast<std::int64_t>(t.card.part<hm2::SmartSerial>().channels()))
+        channel.get<std::int64_t>() >= static_cast<std::int64_t>(t.card.part<hm2::Sslbp>().channels()))
       return out;
     const auto ch = channel.get<unsigned>();
-    auto link = [ch](const ApiTarget& target) -> hm2::SerialLink& { return target.card.part<hm2::SmartSerial>().link(ch); };
+    auto link = [ch](const ApiTarget& target) -> hm2::SerialLink& { return target.card.part<hm2::Sslbp>().link(ch); };
     const std::string direction = b.value("direction", std::string("both"));
     for (const char* dir : {"to_remote", "from_remote"}) {
       if (direction != "both" && direction != dir) continue;

@@ -25,7 +25,7 @@ json ratesJson(const hm2::SerialLink::Rates& r) {
 
 }  // namespace
 
-LinkSnapshots takeLinkSnapshots(hm2::SmartSerial& sserial, lbp::SimTime now) {
+LinkSnapshots takeLinkSnapshots(hm2::Sslbp& sserial, lbp::SimTime now) {
   LinkSnapshots out;
   const auto state = sserial.state();
   out.channels = state.channels;
@@ -43,7 +43,7 @@ LinkSnapshots takeLinkSnapshots(hm2::SmartSerial& sserial, lbp::SimTime now) {
   return out;
 }
 
-void applyLink(hm2::SmartSerial& sserial, const json& j, lbp::SimTime now) {
+void applyLink(hm2::Sslbp& sserial, const json& j, lbp::SimTime now) {
   fields::onlyKnown(j, {"channel", "clear", "direction", "bit_error_rate", "drop_rate", "extra_rate", "break_rate",
                         "break", "cut_ms", "connected", "seed"});
   if (!j.contains("channel")) throw std::invalid_argument("missing \"channel\" (the smart-serial channel, from 0)");

@@ -225,7 +225,7 @@ SimState SimDaemon::state() {
     s.server.atLeast[i] = latency_.countAtLeastUs(SimState::Server::kAtLeastUs[i]);
   s.watchdog = card_.part<hm2::Watchdog>().state(now);
   s.cardLeds = card_.part<hm2::Led>().state();
-  s.sserial = card_.part<hm2::SmartSerial>().state();
+  s.sserial = card_.part<hm2::Sslbp>().state();
   s.accessCounters = card_.accessCounters();
   const auto encoders = card_.part<hm2::MuxedEncoder>().state();
   for (unsigned d = 0; d < card_.daughtercards(); ++d) {
@@ -263,7 +263,7 @@ std::vector<std::pair<unsigned, std::string>> SimDaemon::externalRemotes() const
 std::string SimDaemon::banner() const {
   const auto& id = lbp16_->identity();
   std::string s = fmt::format("lbpkit sim: virtual {} (HostMot2, SSLBP {}.{}) on UDP {}:{}\n", id.name,
-                              hm2::SmartSerial::kMajorRevision, hm2::SmartSerial::kMinorRevision,
+                              hm2::Sslbp::kMajorRevision, hm2::Sslbp::kMinorRevision,
                               options_.bindAddress, udp_->port());
   s += fmt::format("  MAC {:02x}:{:02x}:{:02x}:{:02x}:{:02x}:{:02x}{}\n", id.mac[0], id.mac[1], id.mac[2], id.mac[3],
                    id.mac[4], id.mac[5],
@@ -283,7 +283,7 @@ std::string SimDaemon::banner() const {
                      i76->fieldVoltage());
   for (const auto& p : ptyChannels_)
     s += fmt::format("  channel {}: external remote on {} (LBP at {} baud; reply timeouts x{})\n", p->channel(),
-                     p->path(), p->baud(), hm2::SmartSerial::kExternalTimeoutFactor);
+                     p->path(), p->baud(), hm2::Sslbp::kExternalTimeoutFactor);
   s += fmt::format("  configuration: {}\n", options_.configDescription);
   if (script_) s += fmt::format("  fault script: {} entries, from {}\n", script_->size(), options_.configDescription);
   if (machine_) {
@@ -505,10 +505,10 @@ void SimDaemon::serve(std::chrono::milliseconds wait) {
   const auto until = NetworkFaults::Clock::now() + wait;
   const bool served = udp_->serveOnce(wait,
                                       [&](std::span<const std::uint8_t> req, std::span<std::uint8_t> reply) {
-                                        const auto before = card_.part<hm2::SmartSerial>().counters();
+                                        const auto before = card_.part<hm2::Sslbp>().counters();
                                         const std::size_t n = lbp16_->handle(
                                             req, reply, catchUpTo(clock_.ago(udp_->sinceReceived()), budget()));
-                                        const auto& after = card_.part<hm2::SmartSerial>().counters();
+                                        const auto& after = card_.part<hm2::Sslbp>().counters();
                                         if (after.doits != before.doits)
                                           clock_.hostCycle(udp_->sinceReceived());
                                         else if (after.commands != before.commands)

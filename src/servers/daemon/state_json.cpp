@@ -30,7 +30,7 @@ json faultNames(std::uint8_t faults) {
 
 json toJson(const hm2::Watchdog::State& s) { return {{"bitten", s.bitten}, {"timer", s.timer}}; }
 
-json toJson(const hm2::SmartSerial::State& s) {
+json toJson(const hm2::Sslbp::State& s) {
   json chans = json::array();
   for (unsigned ch = 0; ch < s.channels; ++ch) {
     const auto& c = s.channel[ch];

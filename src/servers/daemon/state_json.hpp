@@ -86,7 +86,7 @@ struct SimState {
   } server;
   hm2::Watchdog::State watchdog;
   hm2::Led::State cardLeds;
-  hm2::SmartSerial::State sserial;
+  hm2::Sslbp::State sserial;
   // Register accesses the card did not carry out, per kind.
   hm2::AccessCounters accessCounters;
   // One 7I77 and the card's muxed encoder counters for its connector
@@ -116,7 +116,7 @@ struct SimState {
 
 // Each part as it appears under its key in GET /api/state.
 nlohmann::json toJson(const hm2::Watchdog::State& s);
-nlohmann::json toJson(const hm2::SmartSerial::State& s);
+nlohmann::json toJson(const hm2::Sslbp::State& s);
 nlohmann::json toJson(const hm2::MuxedEncoder::State::Counter& s);
 nlohmann::json toJson(const remote::FieldIoProcessor::State& s);
 nlohmann::json toJson(const remote::AnalogProcessor::State& s);

@@ -13,7 +13,7 @@ namespace {
 
 // Refuses what cannot be an external remote's channel, before any pty is made.
 unsigned checked(hm2::HostMot2Card& card, unsigned channel) {
-  auto& sserial = card.part<hm2::SmartSerial>();
+  auto& sserial = card.part<hm2::Sslbp>();
   if (channel >= sserial.channels())
     throw std::invalid_argument("channel " + std::to_string(channel) + " does not exist: the card has channels 0.." +
                                 std::to_string(sserial.channels() - 1));
@@ -27,12 +27,12 @@ unsigned checked(hm2::HostMot2Card& card, unsigned channel) {
 }  // namespace
 
 PtyChannel::PtyChannel(hm2::HostMot2Card& card, unsigned channel)
-    : channel_(checked(card, channel)), baud_(card.part<hm2::SmartSerial>().channelBaud(channel)), pty_(baud_) {
-  card.part<hm2::SmartSerial>().link(channel_).setExternal(true);
+    : channel_(checked(card, channel)), baud_(card.part<hm2::Sslbp>().channelBaud(channel)), pty_(baud_) {
+  card.part<hm2::Sslbp>().link(channel_).setExternal(true);
 }
 
 void PtyChannel::pump(hm2::HostMot2Card& card, lbp::SimTime now) {
-  auto& sserial = card.part<hm2::SmartSerial>();
+  auto& sserial = card.part<hm2::Sslbp>();
   card.advance(now);
   // The remote's bytes first: a reply judged now frees the channel for its
   // next frame, which then goes out below.

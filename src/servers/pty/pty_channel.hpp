@@ -5,7 +5,7 @@
 // the other end (manual: SSLBP; LBP). The channel's frames go out on the
 // pty; what comes back is the remote's reply, judged by SSLBP as a reply on
 // the cable would be, with the reply timeouts relaxed
-// (SmartSerial::kExternalTimeoutFactor).
+// (Sslbp::kExternalTimeoutFactor).
 //
 // pump() never blocks and allocates nothing: the daemon's card thread calls
 // it between datagrams. Frames nobody reads wait in the pty (a few kB), then
