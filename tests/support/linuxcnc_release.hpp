@@ -12,10 +12,11 @@
 
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
+
+#include "process/process.hpp"
 
 namespace test_support {
 
@@ -74,10 +75,11 @@ inline Release linuxCncRelease() { return releaseOf("linuxcnc-uspace"); }
 // for that release.
 inline bool haveClientProgram(const std::string& name) {
   const auto root = linuxCncRoot();
-  for (const char* folder : {"/usr/bin/", "/usr/sbin/", "/bin/", "/sbin/"})
-    if (std::filesystem::exists(root + folder + name)) return true;
-  if (!root.empty()) ADD_FAILURE() << "LBPKIT_LINUXCNC_ROOT=" << root << " has no " << name
-                                   << " (scripts/linuxcnc-releases makes the releases' roots)";
+  if (lbpkit::process::systemProgram(name, root)) return true;
+  // Fatal, so that the test's body does not run after its fixture skips.
+  if (!root.empty())
+    [&] { FAIL() << "LBPKIT_LINUXCNC_ROOT=" << root << " has no " << name
+                 << " (scripts/linuxcnc-releases makes the releases' roots)"; }();
   return false;
 }
 
