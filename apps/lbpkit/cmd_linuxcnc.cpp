@@ -679,7 +679,10 @@ int runLinuxCnc(const LinuxCncOptions& o) {
   std::string machine = p.machine;
   if (p.machineText) machine = folder.writeFile("machine.toml", p.machine).string();
 
-  // The card's address, checked against this PC's before anything is built.
+  // The card's address, checked against this PC's before anything is built,
+  // and both addresses claimed (the namespace's link and routes made) before
+  // another run may choose.
+  std::optional<lbpkit::linuxcnc::AddressClaim> claim(std::in_place);
   const auto board = lbpkit::linuxcnc::parseIpv4(p.boardIp);
   if (!board) throw lbpkit::Error(fmt::format("board_ip {}: not an IPv4 address", p.boardIp));
   if (const auto problem = run::hostAddressProblem(*board)) throw lbpkit::Error(fmt::format("board_ip: {}", *problem));
@@ -692,6 +695,7 @@ int runLinuxCnc(const LinuxCncOptions& o) {
 
   app::installSignalHandlers();
   lbpkit::linuxcnc::NetworkNamespace ns(nsName, {{link, p.boardIp + "/32", peerIp + "/24", peerIp + "/32"}});
+  claim.reset();
 
   // The sim on the configuration's board_ip, hm2_eth's port, its API and web
   // view on this PC's loopback.

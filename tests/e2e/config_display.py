@@ -6,7 +6,7 @@
 makes, with `-ini FILE`. Through LinuxCNC's `linuxcnc` Python module, as a
 user would through AXIS: the POSTGUI_HALFILEs, E-stop reset and machine on,
 home all joints, G53 MDI moves across each axis' travel (a tenth in from
-each soft limit, then the middle), a short program of its own about the
+each soft limit, the nearer first, then the middle), a short program of its own about the
 middle, each ended by comparing every joint's feedback with LinuxCNC's
 command, within one count of its ENCODER_SCALE (a step of its SCALE). It
 judges nothing: every step is one JSON line in --out, for
@@ -61,15 +61,21 @@ class ConfigDisplay(display.Display):
                 return float(lo), float(hi)
         return None
 
-    def points(self, fractions=(0.1, 0.9, 0.5)):
-        """G53 targets: a tenth in from each soft limit, then the middle."""
+    def points(self, fractions=(0.1, 0.9, 0.5), nearer_end_first=False):
+        """G53 targets at these fractions of each axis' travel. With
+        nearer_end_first, the first two (a tenth in from each soft limit) are
+        swapped for an axis that stands nearer its upper limit, so that no
+        axis crosses its travel once more than it must."""
         axes = [a for i, a in enumerate(self.letters) if a not in self.letters[:i] and self.limits(a)]
+        self.poll()
         targets = []
-        for fraction in fractions:
+        for n, fraction in enumerate(fractions):
             words = []
             for a in axes:
                 lo, hi = self.limits(a)
-                words.append("%s%.4f" % (a, lo + fraction * (hi - lo)))
+                here = self.s.position["XYZABCUVW".index(a)]
+                f = fractions[1 - n] if nearer_end_first and n < 2 and abs(hi - here) < abs(here - lo) else fraction
+                words.append("%s%.4f" % (a, lo + f * (hi - lo)))
             targets.append(" ".join(words))
         return targets
 
@@ -92,7 +98,7 @@ class ConfigDisplay(display.Display):
         self.postgui()
         self.start_up()
         self.home()
-        for target in self.points():
+        for target in self.points(nearer_end_first=True):
             n = len(self.messages)
             command = "G53 G0 " + target
             ok = self.mdi(command, timeout=120)

@@ -82,15 +82,18 @@ int shell(const std::string& command) {
 bool installed(const char* tool) { return lbpkit::process::systemProgram(tool).has_value(); }
 
 // The network: a namespace for LinuxCNC, the card's link (10.10.10.0/24, the
-// card at `card` on our side, LinuxCNC at `host` inside) and the API's link.
-// Removed with the object. Two mills side by side (scripts/test: ctest -j)
-// take different addresses for both: the card's is where its sim answers on
-// this PC, and LinuxCNC's has a route of its own here.
+// card at `card` on our side, LinuxCNC at `host` inside) and the API's link
+// (10.214.N.0/30, N the card address's last number). Removed with the
+// object. Runs side by side (ctest -j 2: the two mills, a public
+// configuration beside them) take different addresses for all three: the
+// card's is where its sim answers on this PC (tests/CMakeLists.txt locks
+// each), LinuxCNC's has a route of its own here, from the top of the /24
+// down, since `lbpkit linuxcnc` beside it takes its LinuxCNC's from .2 up.
 class Network {
  public:
   Network(const std::string& card, const std::string& host) {
-    const auto id = std::to_string(::getpid() % 100000);
-    const auto api = "10.214." + std::to_string(::getpid() % 250) + ".";
+    const auto id = std::to_string(::getpid());
+    const auto api = "10.214." + card.substr(card.rfind('.') + 1) + ".";
     apiAddress_ = api + "1";
     try {
       ns_ = std::make_unique<lbpkit::linuxcnc::NetworkNamespace>(
@@ -476,7 +479,7 @@ struct Scenario {
   const char* last;
   std::function<void(LinuxCncRun&, test_support::SimChild&)> atLast;
   std::string cardAddress = "10.10.10.10";  // the INI's; tests/CMakeLists.txt locks each mill's
-  std::string hostAddress = "10.10.10.2";   // LinuxCNC's side of the link
+  std::string hostAddress = "10.10.10.250";  // LinuxCNC's side of the link (Network)
 };
 struct Outcome {
   std::map<std::string, json> reports;  // by step
@@ -679,7 +682,7 @@ TEST(LinuxCncMill, StepperZOnADpllTimedStepGenHomesAndRunsGcode) {
                    "finished",
                    {},
                    "10.10.10.11",
-                   "10.10.10.3"});
+                   "10.10.10.251"});
   ASSERT_TRUE(o.setUp);
   auto r = o.reports;
   const std::string context =

@@ -1,9 +1,14 @@
 // SPDX-License-Identifier: MIT
 #include "linuxcnc/network_namespace.hpp"
 
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
+#include <unistd.h>
 #include <sys/wait.h>
 
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <utility>
 
@@ -26,6 +31,25 @@ std::string joined(const std::vector<std::string>& words) {
   return text;
 }
 }  // namespace
+
+AddressClaim::AddressClaim(const std::string& lockFile) {
+  fd_ = ::open(lockFile.c_str(), O_RDWR | O_CREAT | O_NOFOLLOW | O_CLOEXEC, 0600);
+  const int opened = errno;
+  struct stat st {};
+  if (fd_ < 0) throw Error("cannot claim the run's addresses: " + lockFile + ": " + std::strerror(opened));
+  if (::fstat(fd_, &st) != 0 || !S_ISREG(st.st_mode) || st.st_uid != 0) {
+    ::close(fd_);
+    throw Error("cannot claim the run's addresses: " + lockFile + " is not a file of root's");
+  }
+  while (::flock(fd_, LOCK_EX) != 0)
+    if (errno != EINTR) {
+      const int error = errno;
+      ::close(fd_);
+      throw Error("cannot claim the run's addresses: flock " + lockFile + ": " + std::strerror(error));
+    }
+}
+
+AddressClaim::~AddressClaim() { ::close(fd_); }  // and the lock with it
 
 NetworkNamespace::NetworkNamespace(std::string name, std::vector<VethLink> links)
     : name_(std::move(name)), links_(std::move(links)) {

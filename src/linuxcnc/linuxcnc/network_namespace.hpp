@@ -24,6 +24,26 @@ struct VethLink {
   std::optional<std::string> routeTo;
 };
 
+// Held while a run chooses its addresses and claims them (the card's /32,
+// LinuxCNC's address beside it, their routes and links): two runs started
+// at once would otherwise both find the same address free, and the second's
+// `ip route add` fail ("File exists"). An exclusive flock on `lockFile`
+// (root's /run by default: no user can plant it), taken by the constructor
+// (waiting for another run's) and released by the destructor. Throws
+// lbpkit::Error naming the file when it is not root's own regular file or
+// cannot be locked.
+class AddressClaim {
+ public:
+  static constexpr const char* kLockFile = "/run/lbpkit-linuxcnc.lock";
+  explicit AddressClaim(const std::string& lockFile = kLockFile);
+  ~AddressClaim();
+  AddressClaim(const AddressClaim&) = delete;
+  AddressClaim& operator=(const AddressClaim&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
 class NetworkNamespace {
  public:
   // Makes namespace `name` with its loopback up and `links`; throws
