@@ -18,6 +18,10 @@
 #include "machine/servo_motion.hpp"
 #include "support/fixed_step_plant.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace machine = lbpkit::model::machine;
+
 namespace {
 
 using namespace std::chrono_literals;

@@ -8,6 +8,10 @@
 #include "hostmot2/card.hpp"
 #include "lbp16/lbp16_card.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace server = lbpkit::server;
+
 namespace {
 
 void put(std::vector<std::uint8_t>& d, std::uint16_t cmd, std::uint16_t addr) {
@@ -41,9 +45,9 @@ std::vector<std::uint8_t> readRequest() {
 
 void BM_Lbp16ReadRequest(benchmark::State& state) {
   hm2::HostMot2Card card;
-  servers::Lbp16Card lbp16(card, {});
+  server::Lbp16Card lbp16(card, {});
   const auto request = readRequest();
-  std::uint8_t reply[servers::Lbp16Card::kMaxDatagram];
+  std::uint8_t reply[server::Lbp16Card::kMaxDatagram];
   hm2::SimTime now{0};
   for (auto _ : state) {
     now += hm2::SimTime{1'000'000};  // one servo period per datagram

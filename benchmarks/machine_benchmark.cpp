@@ -14,6 +14,10 @@
 #include "machine/machine.hpp"
 #include "sim_card/mill_closed_loop.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace machine = lbpkit::model::machine;
+
 namespace {
 
 using namespace std::chrono_literals;

@@ -24,6 +24,9 @@
 #include "linuxcnc/hal_config.hpp"
 #include "linuxcnc/machine_from_config.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace config = lbpkit::config;
+
 namespace {
 
 // A folder of this process's own, in memory where the machine has one,

@@ -9,10 +9,14 @@
 #include "hostmot2/card.hpp"
 #include "lbp16/lbp16_card.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace server = lbpkit::server;
+
 namespace {
 struct World {
   hm2::HostMot2Card card;
-  servers::Lbp16Card lbp16{card, servers::Lbp16Card::Identity{}};
+  server::Lbp16Card lbp16{card, server::Lbp16Card::Identity{}};
   hm2::SimTime now{0};
 };
 World& world() {
@@ -23,7 +27,7 @@ World& world() {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   auto& w = world();
-  std::uint8_t reply[servers::Lbp16Card::kMaxDatagram];
+  std::uint8_t reply[server::Lbp16Card::kMaxDatagram];
   w.now += hm2::SimTime{50'000};
   const std::size_t n = w.lbp16.handle(std::span<const std::uint8_t>(data, size), reply, w.now);
   if (n > sizeof reply) std::abort();

@@ -7,6 +7,10 @@
 #include "lbp/protocol.hpp"
 #include "remote/field_io.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace remote = lbpkit::model::remote;
+namespace lbp = lbpkit::model::lbp;
+
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   remote::FieldIoProcessor io;
   lbp::SimTime now{0};

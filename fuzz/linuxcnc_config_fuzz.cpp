@@ -25,6 +25,9 @@
 #include "linuxcnc/config_check.hpp"
 #include "linuxcnc/machine_from_config.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace config = lbpkit::config;
+
 namespace {
 
 // A folder of this process's own, in memory where the machine has one,

@@ -12,6 +12,9 @@
 #include "hostmot2/card.hpp"
 #include "hostmot2/sslbp.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace std::chrono_literals;
   hm2::HostMot2Card card;

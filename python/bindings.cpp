@@ -23,6 +23,10 @@
 #include "lbpkit/wire/seven_i77.hpp"
 #include "virtual_board.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace machine = lbpkit::model::machine;
+namespace config = lbpkit::config;
+
 namespace py = pybind11;
 using pylbpkit::Card;
 using pylbpkit::VirtualBoard;

@@ -17,6 +17,12 @@
 #include "remote/nv_store.hpp"
 #include "remote/remote_device.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace machine = lbpkit::model::machine;
+namespace remote = lbpkit::model::remote;
+namespace config = lbpkit::config;
+
 namespace pylbpkit {
 
 namespace {

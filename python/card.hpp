@@ -126,9 +126,9 @@ class Card {
 
   // --- In process only ------------------------------------------------------------------
   // The virtual card; throws lbpkit::Error on a card on the network.
-  hm2::HostMot2Card& board();
+  lbpkit::model::hm2::HostMot2Card& board();
   // The machine behind it, or nullptr.
-  machine::Machine* machine() { return machine_.get(); }
+  lbpkit::model::machine::Machine* machine() { return machine_.get(); }
   // Let `seconds` of simulated time pass with no host access (the card and
   // the machine in lockstep).
   void step(double seconds);
@@ -170,7 +170,7 @@ class Card {
 
   std::unique_ptr<lbpkit::Transport> transport_;
   lbpkit::SimTransport* sim_ = nullptr;
-  std::unique_ptr<machine::Machine> machine_;
+  std::unique_ptr<lbpkit::model::machine::Machine> machine_;
   lbpkit::CardInfo info_;
   lbpkit::SmartSerial::Options serialOptions_;
   std::unique_ptr<lbpkit::SmartSerial> ss_;

@@ -8,6 +8,11 @@
 
 #include "lbpkit/error.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace machine = lbpkit::model::machine;
+namespace remote = lbpkit::model::remote;
+
 namespace pylbpkit {
 
 namespace {

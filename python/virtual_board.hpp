@@ -58,7 +58,7 @@ class VirtualBoard {
   [[nodiscard]] std::uint16_t encoderCount(unsigned encoder);  // the card's 16-bit count register
 
  private:
-  hm2::SevenI77& daughter(unsigned connector);
+  lbpkit::model::hm2::SevenI77& daughter(unsigned connector);
   void applyInput(unsigned input, double volts, unsigned connector);  // the lock held
   // `read` of the field I/O processor on `connector`, under the card's lock.
   template <typename Read>
@@ -95,7 +95,7 @@ class VirtualSevenI76 {
   [[nodiscard]] bool powered();
 
  private:
-  remote::SevenI76FieldIo& io();  // the lock held
+  lbpkit::model::remote::SevenI76FieldIo& io();  // the lock held
   void checkInput(unsigned input) const;
   void checkOutput(unsigned output) const;
   std::shared_ptr<Card> card_;
@@ -113,9 +113,9 @@ class VirtualMachine {
   [[nodiscard]] double followingError(const std::string& axis);
   [[nodiscard]] bool brakeEngaged(const std::string& axis);
   [[nodiscard]] std::optional<double> spindleRpm();
-  [[nodiscard]] machine::Machine::State state();
+  [[nodiscard]] lbpkit::model::machine::Machine::State state();
   // A stepper axis' StepGen steps, lost steps and stall (None for a servo axis).
-  [[nodiscard]] std::optional<machine::Machine::State::Stepper> stepper(const std::string& axis);
+  [[nodiscard]] std::optional<lbpkit::model::machine::Machine::State::Stepper> stepper(const std::string& axis);
 
   // Faults and the operator (the daemon's POST /api/machine actions).
   void setSwitch(const std::string& name, bool tripped);
@@ -127,7 +127,7 @@ class VirtualMachine {
   void breakEncoder(const std::string& axis, const std::string& channel, bool broken, unsigned drive);
 
  private:
-  machine::Machine& m();
+  lbpkit::model::machine::Machine& m();
   std::size_t axis(const std::string& name);
   std::shared_ptr<Card> card_;
 };

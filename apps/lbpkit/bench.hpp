@@ -3,7 +3,7 @@
 // at hand, each beside what it is compared against in the same run. What the
 // parts share: the options, and the processes they start (sims, LinuxCNC in
 // a network namespace, CPU hogs), each stopped by its owner's destructor on
-// every way out, Ctrl-C included (app::gStop, checked by every wait).
+// every way out, Ctrl-C included (lbpkit::app::gStop, checked by every wait).
 #pragma once
 
 #include <sys/types.h>
@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-namespace bench {
+namespace lbpkit::app::bench {
 
 struct Options {
   double seconds = 10;  // per measured point (the in-process part: simulated seconds)
@@ -137,4 +137,4 @@ void printDiscovery(const nlohmann::json& j);
 void printBoards(const nlohmann::json& j);
 void printReplies(const nlohmann::json& j);
 
-}  // namespace bench
+}  // namespace lbpkit::app::bench

@@ -25,7 +25,10 @@
 #include "lbpkit/error.hpp"
 #include "lbpkit/wire/lbp16.hpp"
 
-namespace bench {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+
+namespace lbpkit::app::bench {
 namespace {
 
 using nlohmann::json;
@@ -215,4 +218,4 @@ void printBoards(const json& j) {
   fmt::print("  goal: {}\n\n", j["goal"].get<std::string>());
 }
 
-}  // namespace bench
+}  // namespace lbpkit::app::bench

@@ -17,7 +17,10 @@
 #include "sim_card/mill_closed_loop.hpp"
 #include "sim_card/sim_transport.hpp"
 
-namespace bench {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+
+namespace lbpkit::app::bench {
 namespace {
 
 using namespace std::chrono_literals;
@@ -126,4 +129,4 @@ void printInProcess(const nlohmann::json& j) {
              j["goal"]["x_real_time"].get<int>(), j["goal"]["cpu_us_per_sim_ms"].get<double>());
 }
 
-}  // namespace bench
+}  // namespace lbpkit::app::bench

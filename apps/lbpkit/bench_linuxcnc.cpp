@@ -31,7 +31,10 @@
 #include "linuxcnc/network_namespace.hpp"
 #include "process/process.hpp"
 
-namespace bench {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+
+namespace lbpkit::app::bench {
 namespace {
 
 using nlohmann::json;
@@ -412,4 +415,4 @@ void printDiscovery(const json& j) {
              j["goal"].get<std::string>());
 }
 
-}  // namespace bench
+}  // namespace lbpkit::app::bench

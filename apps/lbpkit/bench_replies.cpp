@@ -35,7 +35,10 @@
 #include "lbpkit/wire/lbp16.hpp"
 #include "process/process.hpp"
 
-namespace bench {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+
+namespace lbpkit::app::bench {
 namespace {
 
 using nlohmann::json;
@@ -278,4 +281,4 @@ void printReplies(const json& j) {
   fmt::print("  goal: {}\n\n", j["goal"].get<std::string>());
 }
 
-}  // namespace bench
+}  // namespace lbpkit::app::bench

@@ -23,7 +23,10 @@
 #include "lbpkit/error.hpp"
 #include "process/process.hpp"
 
-namespace bench {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+
+namespace lbpkit::app::bench {
 
 using namespace std::chrono_literals;
 
@@ -316,4 +319,4 @@ nlohmann::json machine() {
           {"root", ::geteuid() == 0}};
 }
 
-}  // namespace bench
+}  // namespace lbpkit::app::bench

@@ -11,14 +11,17 @@
 #include "common.hpp"
 #include "lbpkit/error.hpp"
 
-namespace app {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+
+namespace lbpkit::app {
 extern std::function<int()> gRun;
 }
 
 namespace {
 
 struct BenchCommand {
-  bench::Options options;
+  app::bench::Options options;
   std::string only = "inprocess,network,replies,discovery,boards";
   std::string rates = "1000,2000,4000,10000";
   std::string boards = "1,10,50";
@@ -60,7 +63,7 @@ int runBench(BenchCommand& c) {
   app::installSignalHandlers();
 
   nlohmann::json out;
-  out["machine"] = bench::machine();
+  out["machine"] = app::bench::machine();
   out["seconds"] = c.options.seconds;
   if (!c.options.json) {
     const auto& m = out["machine"];
@@ -71,14 +74,14 @@ int runBench(BenchCommand& c) {
   }
   struct Part {
     const char* name;
-    std::function<nlohmann::json(const bench::Options&)> run;
+    std::function<nlohmann::json(const app::bench::Options&)> run;
     std::function<void(const nlohmann::json&)> print;
   };
-  const Part all[] = {{"inprocess", bench::runInProcess, bench::printInProcess},
-                      {"network", bench::runNetwork, bench::printNetwork},
-                      {"replies", bench::runReplies, bench::printReplies},
-                      {"discovery", bench::runDiscovery, bench::printDiscovery},
-                      {"boards", bench::runBoards, bench::printBoards}};
+  const Part all[] = {{"inprocess", app::bench::runInProcess, app::bench::printInProcess},
+                      {"network", app::bench::runNetwork, app::bench::printNetwork},
+                      {"replies", app::bench::runReplies, app::bench::printReplies},
+                      {"discovery", app::bench::runDiscovery, app::bench::printDiscovery},
+                      {"boards", app::bench::runBoards, app::bench::printBoards}};
   for (const auto& part : all) {
     if (parts.count(part.name) == 0) continue;
     out[part.name] = part.run(c.options);
@@ -87,7 +90,7 @@ int runBench(BenchCommand& c) {
       std::fflush(stdout);
     }
   }
-  out["machine"]["load_average_at_end"] = bench::loadAverage();
+  out["machine"]["load_average_at_end"] = app::bench::loadAverage();
   if (c.options.json) fmt::print("{}\n", out.dump(2));
   else fmt::print("load average {:.2f} at end\n", out["machine"]["load_average_at_end"].get<double>());
   return 0;

@@ -13,7 +13,11 @@
 #include "linuxcnc/hal_name.hpp"
 #include "hal_card.hpp"
 
-namespace app {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+namespace hm2 = lbpkit::model::hm2;
+
+namespace lbpkit::app {
 extern std::function<int()> gRun;
 }
 
@@ -43,8 +47,9 @@ lbpkit::linuxcnc::Hm2Config inMode(lbpkit::linuxcnc::Hm2Config c, char digit) {
 // hm2_pci: the 5I25 and 6I25 with Mesa's 7I77x2 firmware (PIN_7I77x2_34, the
 // pinout of the 7I92's 7I77x2 firmware: the same modules on the same 34 IO
 // pins).
-std::vector<lbpkit::linuxcnc::Board> model(const CheckOptions& o, const lbpkit::linuxcnc::Board& loaded,
-                                      const lbpkit::linuxcnc::Hm2Config& config, unsigned sevenI77s, std::string& whyNot) {
+std::vector<lbpkit::linuxcnc::Board> boardsOfCatalogue(const CheckOptions& o, const lbpkit::linuxcnc::Board& loaded,
+                                                       const lbpkit::linuxcnc::Hm2Config& config, unsigned sevenI77s,
+                                                       std::string& whyNot) {
   const auto name = lbpkit::linuxcnc::hal_name::parse(loaded.prefix);
   if (!name) {
     whyNot = "its name has no board number";
@@ -174,10 +179,10 @@ void addCheckConfigCommand(CLI::App& app) {
   });
 }
 
-namespace app {
+namespace lbpkit::app {
 lbpkit::linuxcnc::BoardModel catalogueBoardModel(std::string card, std::string pinout) {
   return [o = CheckOptions{{}, false, std::move(card), std::move(pinout)}](
              const lbpkit::linuxcnc::Board& loaded, const lbpkit::linuxcnc::Hm2Config& config, unsigned sevenI77s,
-             std::string& whyNot) { return model(o, loaded, config, sevenI77s, whyNot); };
+             std::string& whyNot) { return boardsOfCatalogue(o, loaded, config, sevenI77s, whyNot); };
 }
-}  // namespace app
+}  // namespace lbpkit::app

@@ -26,7 +26,10 @@
 #include "lbpkit/wire/lbp16.hpp"
 #include "sim_card/sim_transport.hpp"
 
-namespace app {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+
+namespace lbpkit::app {
 extern std::function<int()> gRun;
 }
 

@@ -16,7 +16,11 @@
 #include "daemon/api_routes.hpp"
 #include "lbpkit/error.hpp"
 
-namespace app {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+namespace server = lbpkit::server;
+
+namespace lbpkit::app {
 extern std::function<int()> gRun;
 }
 
@@ -80,10 +84,10 @@ void addFaultCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "fault",
       "Set a fault on a running `lbpkit sim` (or show it, without fields): the control API's POST /api/KIND");
-  // The kinds are the control API's own POST routes (servers::actionKinds()).
+  // The kinds are the control API's own POST routes (server::actionKinds()).
   cmd->add_option("kind", o->kind, "input, field, encoder, cable, output, overtemp, time, network, link or machine")
       ->required()
-      ->check(CLI::IsMember(servers::actionKinds()));
+      ->check(CLI::IsMember(server::actionKinds()));
   cmd->add_option("fields", o->fields, "KEY=VALUE ... (for example drop=0.01 direction=reply, or silent_ms=200)");
   cmd->add_option("--api", o->api, "[ADDR:]PORT of the sim's control API (127.0.0.1:27182)");
   cmd->add_option("--api-token", o->apiToken, "The sim's API token, when it was started with one");

@@ -7,7 +7,10 @@
 #include "common.hpp"
 #include "lbpkit/wire/hostmot2.hpp"
 
-namespace app {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+
+namespace lbpkit::app {
 extern std::function<int()> gRun;
 }
 

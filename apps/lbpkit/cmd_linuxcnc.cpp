@@ -60,7 +60,11 @@
 #include "linuxcnc/network_namespace.hpp"
 #include "linuxcnc/servo_priority.hpp"
 
-namespace app {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+namespace hm2 = lbpkit::model::hm2;
+
+namespace lbpkit::app {
 extern std::function<int()> gRun;
 }
 

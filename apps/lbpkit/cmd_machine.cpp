@@ -17,7 +17,12 @@
 #include "lbpkit/error.hpp"
 #include "linuxcnc/machine_from_config.hpp"
 
-namespace app {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+namespace server = lbpkit::server;
+namespace config = lbpkit::config;
+
+namespace lbpkit::app {
 extern std::function<int()> gRun;
 
 namespace {
@@ -59,7 +64,7 @@ std::string deriveMachineFile(const std::filesystem::path& ini, const std::files
   // locked: never a running sim's EEPROM, its flash or another binary
   // state file, whatever --force says (daemon/output_file.hpp).
   try {
-    servers::checkReplaceable("-o", out.string(), servers::isText);
+    server::checkReplaceable("-o", out.string(), server::isText);
   } catch (const std::runtime_error& e) {
     throw lbpkit::Error(e.what());
   }
@@ -91,7 +96,7 @@ std::string deriveMachineFile(const std::filesystem::path& ini, const std::files
   return toml;
 }
 
-}  // namespace app
+}  // namespace lbpkit::app
 
 namespace {
 

@@ -22,7 +22,12 @@
 #include "lbpkit/wire/seven_i77.hpp"
 #include "machine_view.hpp"
 
-namespace app {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+namespace hm2 = lbpkit::model::hm2;
+namespace lbp = lbpkit::model::lbp;
+
+namespace lbpkit::app {
 extern std::function<int()> gRun;
 }
 

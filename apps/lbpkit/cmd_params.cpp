@@ -20,7 +20,10 @@
 #include "lbpkit/serial_remote.hpp"
 #include "lbpkit/wire/seven_i77.hpp"
 
-namespace app {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+
+namespace lbpkit::app {
 extern std::function<int()> gRun;
 }
 

@@ -11,7 +11,11 @@
 #include "lbpkit/error.hpp"
 #include "lbpkit/lbp16_transport.hpp"
 
-namespace app {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+namespace hm2 = lbpkit::model::hm2;
+
+namespace lbpkit::app {
 extern std::function<int()> gRun;
 }
 

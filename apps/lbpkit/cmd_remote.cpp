@@ -14,7 +14,12 @@
 #include "remote/analog.hpp"
 #include "remote/field_io.hpp"
 
-namespace app {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+namespace remote = lbpkit::model::remote;
+namespace server = lbpkit::server;
+
+namespace lbpkit::app {
 extern std::function<int()> gRun;
 }
 
@@ -77,12 +82,12 @@ int runRemote(const RemoteOptions& o) {
     f.setupMode = o.setup;
     device = std::make_unique<remote::FieldIoProcessor>(f);
   }
-  servers::PtyRemote pty(*device);
-  std::unique_ptr<servers::PcapRecorder> trace;
+  server::PtyRemote pty(*device);
+  std::unique_ptr<server::PcapRecorder> trace;
   if (!o.trace.empty()) {
-    trace = std::make_unique<servers::PcapRecorder>(o.trace, servers::PcapRecorder::Link::LbpStream, [](const std::string& text) {
-      std::fputs(fmt::format("lbpkit remote: warning: {}\n", text).c_str(), stderr);
-    });
+    trace = std::make_unique<server::PcapRecorder>(
+        o.trace, server::PcapRecorder::Link::LbpStream,
+        [](const std::string& text) { std::fputs(fmt::format("lbpkit remote: warning: {}\n", text).c_str(), stderr); });
     pty.setTrace(trace.get());
   }
   app::installSignalHandlers();

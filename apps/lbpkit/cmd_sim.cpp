@@ -33,7 +33,16 @@
 #include "remote/nv_store.hpp"
 #include "remote/remote_device.hpp"
 
-namespace app {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+namespace hm2 = lbpkit::model::hm2;
+namespace machine = lbpkit::model::machine;
+namespace remote = lbpkit::model::remote;
+namespace lbp = lbpkit::model::lbp;
+namespace server = lbpkit::server;
+namespace config = lbpkit::config;
+
+namespace lbpkit::app {
 extern std::function<int()> gRun;
 }
 
@@ -109,9 +118,9 @@ std::string hm2EthConfig(const hm2::HostMot2Card::Options& o) {
 // --clock wall|host[=PERIOD]: PERIOD as LinuxCNC's SERVO_PERIOD gives it
 // (nanoseconds) or with a unit (1ms, 500us, 1000000ns); without it, the
 // period is learned from the host's first cycles.
-std::optional<servers::HostClock> clockOption(const std::string& text) {
+std::optional<server::HostClock> clockOption(const std::string& text) {
   if (text == "wall") return std::nullopt;
-  servers::HostClock host;
+  server::HostClock host;
   if (text == "host") return host;
   const std::string bad = fmt::format(
       "--clock \"{}\": give wall (the default), host, or host=PERIOD with PERIOD the host's servo period from 100us "
@@ -172,7 +181,7 @@ std::filesystem::path defaultStatePath(const std::string& host, int port,
   const auto file = dir / name;
   // Earlier versions kept every sim's EEPROM in sim-7i77.eeprom: the sim on
   // the default address takes it over, so its saved parameters survive.
-  if (host == "127.0.0.1" && port == servers::lbp16::kPort) {
+  if (host == "127.0.0.1" && port == server::lbp16::kPort) {
     for (const char* suffix : {"", ".analog", ".2", ".analog.2"}) {  // both processors of both connectors
       const auto legacy = (dir / "sim-7i77.eeprom").string() + suffix;
       const auto now = file.string() + suffix;
@@ -188,14 +197,14 @@ std::filesystem::path defaultStatePath(const std::string& host, int port,
 // several cards, on the card's own address: `card` of `cards`), its EEPROM
 // and flash files its own.
 struct CardRun {
-  servers::SimOptions options;
+  server::SimOptions options;
   std::filesystem::path state;
 };
 
 CardRun cardOptions(const SimCommandOptions& o, const std::string& bind, std::size_t card, std::size_t cards,
                     const std::filesystem::path& state) {
-  servers::SimOptions s;
-  const auto [bindHost, bindPort] = hostPort(bind, servers::lbp16::kPort, "--bind");
+  server::SimOptions s;
+  const auto [bindHost, bindPort] = hostPort(bind, server::lbp16::kPort, "--bind");
   s.bindAddress = bindHost;
   s.port = static_cast<std::uint16_t>(bindPort);
   if (o.noApi) {
@@ -213,7 +222,7 @@ CardRun cardOptions(const SimCommandOptions& o, const std::string& bind, std::si
       if (apiPort != 0) {
         std::size_t sameHost = 0;
         for (std::size_t i = 0; i < card; ++i)
-          if (hostPort(o.bind[i], servers::lbp16::kPort, "--bind").first == bindHost) ++sameHost;
+          if (hostPort(o.bind[i], server::lbp16::kPort, "--bind").first == bindHost) ++sameHost;
         apiPort += static_cast<int>(sameHost);
       }
     }
@@ -259,8 +268,10 @@ CardRun cardOptions(const SimCommandOptions& o, const std::string& bind, std::si
   // Simulated time is 64-bit nanoseconds: at 10000x it lasts 10 days.
   if (!(o.speed > 0) || !std::isfinite(o.speed) || o.speed > 10000)
     throw lbpkit::Error("--speed must be above 0 and at most 10000 (simulated seconds per wall-clock second)");
-  static const std::map<std::string, servers::LogLevel> kLevels = {
-      {"error", servers::LogLevel::Error}, {"warn", servers::LogLevel::Warn}, {"info", servers::LogLevel::Info}, {"debug", servers::LogLevel::Debug}};
+  static const std::map<std::string, server::LogLevel> kLevels = {{"error", server::LogLevel::Error},
+                                                                  {"warn", server::LogLevel::Warn},
+                                                                  {"info", server::LogLevel::Info},
+                                                                  {"debug", server::LogLevel::Debug}};
   if (!kLevels.count(o.logLevel)) throw lbpkit::Error("--log-level: error, warn, info or debug");
   s.logLevel = kLevels.at(o.logLevel);
   s.card.first.fieldIo.nvFile = state;
@@ -297,7 +308,7 @@ CardRun cardOptions(const SimCommandOptions& o, const std::string& bind, std::si
   // What the EEPROM files say (models cannot log): every refused write is
   // logged, and so is a file that cannot be used.
   const auto owner = fmt::format("lbpkit sim on {}:{}{}", bindHost, bindPort, bindPort == 0 ? " (any free port)" : "");
-  const bool warn = s.logLevel >= servers::LogLevel::Warn;
+  const bool warn = s.logLevel >= server::LogLevel::Warn;
   std::vector<std::filesystem::path> files;
   // A processor whose program flash holds no valid program is named by its
   // smart-serial channel, where a host misses it (3 per connector).
@@ -338,9 +349,9 @@ CardRun cardOptions(const SimCommandOptions& o, const std::string& bind, std::si
   s.flashFile = state.string() + ".flash";
   {
     std::vector<std::uint8_t> probe(2 * 1024 * 1024);
-    const auto loaded = servers::loadFlashFile(s.flashFile, probe);
-    if (loaded.status == servers::FlashFileLoad::Status::Refused) throw lbpkit::Error(loaded.message);
-    if (loaded.status == servers::FlashFileLoad::Status::Corrupt && warn)
+    const auto loaded = server::loadFlashFile(s.flashFile, probe);
+    if (loaded.status == server::FlashFileLoad::Status::Refused) throw lbpkit::Error(loaded.message);
+    if (loaded.status == server::FlashFileLoad::Status::Corrupt && warn)
       fmt::print(stderr, "lbpkit sim: warning: {}\n", loaded.message);
   }
   return {std::move(s), state};
@@ -361,7 +372,7 @@ std::vector<std::pair<std::string, int>> checkedBinds(const std::vector<std::str
       throw lbpkit::Error(fmt::format("--bind \"{}\": \"{}\" is not an IPv4 address (four numbers 0-255 joined by "
                                       "dots; ADDR[:PORT], e.g. 127.0.0.1 or 127.0.0.1:27181)",
                                       binds[i], address));
-    auto [host, port] = hostPort(binds[i], servers::lbp16::kPort, "--bind");
+    auto [host, port] = hostPort(binds[i], server::lbp16::kPort, "--bind");
     for (std::size_t j = 0; j < out.size(); ++j) {
       const auto& [otherHost, otherPort] = out[j];
       if (port != otherPort) continue;
@@ -436,7 +447,7 @@ std::vector<std::filesystem::path> filesBeside(const std::vector<std::filesystem
 // "api" and "web" are null without a control API (--no-api); "clock" is
 // "wall" or "host"; the token (--api-token) is never written.
 nlohmann::json readyGreeting(const std::vector<CardRun>& runs,
-                             const std::vector<std::unique_ptr<servers::SimDaemon>>& daemons) {
+                             const std::vector<std::unique_ptr<server::SimDaemon>>& daemons) {
   auto cards = nlohmann::json::array();
   for (std::size_t i = 0; i < runs.size(); ++i) {
     const auto& s = runs[i].options;
@@ -504,13 +515,13 @@ int runSim(const SimCommandOptions& o) {
   // bind that fails leaves the folder as it was.
   const auto before = filesBeside(states);
   std::vector<CardRun> runs;
-  std::vector<std::unique_ptr<servers::SimDaemon>> daemons;
+  std::vector<std::unique_ptr<server::SimDaemon>> daemons;
   try {
     std::vector<CardRun> starting;
     for (std::size_t i = 0; i < o.bind.size(); ++i)
       starting.push_back(cardOptions(o, o.bind[i], i, o.bind.size(), states[i]));
-    std::vector<std::unique_ptr<servers::SimDaemon>> started;
-    for (auto& r : starting) started.push_back(std::make_unique<servers::SimDaemon>(r.options));
+    std::vector<std::unique_ptr<server::SimDaemon>> started;
+    for (auto& r : starting) started.push_back(std::make_unique<server::SimDaemon>(r.options));
     runs = std::move(starting);
     daemons = std::move(started);
   } catch (...) {
@@ -530,9 +541,9 @@ int runSim(const SimCommandOptions& o) {
   if (runs.size() > 1) fmt::print("lbpkit sim: {} cards, served by one thread\n", runs.size());
   std::fflush(stdout);
   if (o.readyFd >= 0) greet(o.readyFd, readyGreeting(runs, daemons));
-  std::vector<servers::SimDaemon*> cards;
+  std::vector<server::SimDaemon*> cards;
   for (auto& d : daemons) cards.push_back(d.get());
-  servers::SimDaemon::runAll(cards, app::gStop, app::stopFd());
+  server::SimDaemon::runAll(cards, app::gStop, app::stopFd());
   for (std::size_t i = 0; i < runs.size(); ++i) {
     const auto& s = runs[i].options;
     const auto& daemon = *daemons[i];

@@ -17,7 +17,11 @@
 #include "process/process.hpp"
 #include "sim_card/sim_transport.hpp"
 
-namespace app {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace remote = lbpkit::model::remote;
+
+namespace lbpkit::app {
 
 std::atomic<bool> gStop{false};
 namespace {
@@ -119,9 +123,9 @@ ApiAddress parseApiAddress(const std::string& text, const std::string& host) {
   return a;
 }
 
-}  // namespace app
+}  // namespace lbpkit::app
 
-namespace app {
+namespace lbpkit::app {
 
 std::optional<unsigned> cpuOption(const std::string& text, std::string_view option) {
   try {
@@ -131,4 +135,4 @@ std::optional<unsigned> cpuOption(const std::string& text, std::string_view opti
   }
 }
 
-}  // namespace app
+}  // namespace lbpkit::app

@@ -20,7 +20,7 @@
 #include "lbpkit/sserial.hpp"
 #include "lbpkit/transport.hpp"
 
-namespace app {
+namespace lbpkit::app {
 
 extern std::atomic<bool> gStop;
 void installSignalHandlers();
@@ -74,7 +74,7 @@ std::string deriveMachineFile(const std::filesystem::path& ini, const std::files
 // the CPUs this process may use as lbpkit::Error.
 std::optional<unsigned> cpuOption(const std::string& text, std::string_view option = "--cpu");
 
-}  // namespace app
+}  // namespace lbpkit::app
 
 void addRemoteCommand(CLI::App& app);
 void addInfoCommand(CLI::App& app);

@@ -7,7 +7,10 @@
 #include "lbpkit/sserial.hpp"
 #include "sim_card/sim_transport.hpp"
 
-namespace app {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+
+namespace lbpkit::app {
 
 std::vector<lbpkit::linuxcnc::Remote> discoverRemotes(lbpkit::Transport& t, const lbpkit::CardInfo& card,
                                                  const lbpkit::linuxcnc::Hm2Config& config) {
@@ -60,4 +63,4 @@ std::pair<const hm2::cards::Card*, const hm2::cards::Firmware*> catalogueChoice(
   return {c, f};
 }
 
-}  // namespace app
+}  // namespace lbpkit::app

@@ -11,7 +11,7 @@
 #include "hostmot2/cards/catalogue.hpp"
 #include "lbpkit/transport.hpp"
 
-namespace app {
+namespace lbpkit::app {
 
 // Discovers the remotes on every smart-serial port the configuration uses,
 // each channel in its configured mode ('x' channels are left alone).
@@ -27,13 +27,14 @@ struct VirtualCard {
   std::vector<lbpkit::linuxcnc::Remote> remotes;
   std::string halName;  // hm2_eth's name for it: "7i92"
 };
-VirtualCard virtualCard(const hm2::cards::Card& card, const hm2::cards::Firmware& firmware, unsigned sevenI77s,
+VirtualCard virtualCard(const lbpkit::model::hm2::cards::Card& card,
+                        const lbpkit::model::hm2::cards::Firmware& firmware, unsigned sevenI77s,
                         const lbpkit::linuxcnc::Hm2Config& config);
 
 // --card NAME and --pinout NAME as given (either may be empty): the card
 // (the default when no name) and its firmware (the card's default when no
 // name). Throws lbpkit::Error naming the cards or firmwares there are.
-std::pair<const hm2::cards::Card*, const hm2::cards::Firmware*> catalogueChoice(const std::string& card,
-                                                                               const std::string& pinout);
+std::pair<const lbpkit::model::hm2::cards::Card*, const lbpkit::model::hm2::cards::Firmware*> catalogueChoice(
+    const std::string& card, const std::string& pinout);
 
-}  // namespace app
+}  // namespace lbpkit::app

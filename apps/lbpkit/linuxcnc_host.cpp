@@ -17,7 +17,10 @@
 #include "process/process.hpp"
 #include "linuxcnc_run.hpp"
 
-namespace app::linuxcnc_host {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+
+namespace lbpkit::app::linuxcnc_host {
 
 namespace fs = std::filesystem;
 
@@ -160,4 +163,4 @@ void LinuxCncLog::printEnd(std::size_t lines, const std::string& kind) const {
   }
 }
 
-}  // namespace app::linuxcnc_host
+}  // namespace lbpkit::app::linuxcnc_host

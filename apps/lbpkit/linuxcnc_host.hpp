@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-namespace app::linuxcnc_host {
+namespace lbpkit::app::linuxcnc_host {
 
 // Whether LinuxCNC's uspace rtapi_app runs its threads real-time here, as
 // it decides itself (LinuxCNC: rtapi_is(3)): a kernel that says it is
@@ -79,4 +79,4 @@ class LinuxCncLog {
   std::map<std::string, File> files_;
 };
 
-}  // namespace app::linuxcnc_host
+}  // namespace lbpkit::app::linuxcnc_host

@@ -31,7 +31,10 @@
 #include "lbpkit/error.hpp"
 #include "process/process.hpp"
 
-namespace app::linuxcnc_run {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+
+namespace lbpkit::app::linuxcnc_run {
 
 namespace fs = std::filesystem;
 using lbpkit::linuxcnc::Ipv4;
@@ -456,4 +459,4 @@ std::optional<std::string> readUsersFile(const fs::path& path, uid_t owner, std:
   return text;
 }
 
-}  // namespace app::linuxcnc_run
+}  // namespace lbpkit::app::linuxcnc_run

@@ -17,7 +17,7 @@
 
 #include "linuxcnc/board_address.hpp"
 
-namespace app::linuxcnc_run {
+namespace lbpkit::app::linuxcnc_run {
 
 // Who LinuxCNC runs as: the user who ran sudo (SUDO_UID, SUDO_GID,
 // SUDO_USER, each checked against the account database), or root itself
@@ -113,4 +113,4 @@ int openUsersFile(const std::filesystem::path& path, uid_t owner, struct stat& s
 std::optional<std::string> readUsersFile(const std::filesystem::path& path, uid_t owner,
                                          std::chrono::system_clock::time_point notBefore, std::size_t limit);
 
-}  // namespace app::linuxcnc_run
+}  // namespace lbpkit::app::linuxcnc_run

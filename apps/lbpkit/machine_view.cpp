@@ -8,7 +8,7 @@
 #include <optional>
 #include <utility>
 
-namespace app {
+namespace lbpkit::app {
 
 namespace {
 
@@ -185,4 +185,4 @@ void MachineWatcher::run() {
   }
 }
 
-}  // namespace app
+}  // namespace lbpkit::app

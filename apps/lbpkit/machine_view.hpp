@@ -16,7 +16,7 @@ namespace httplib {
 class Client;
 }
 
-namespace app {
+namespace lbpkit::app {
 
 // The screen text for one GET /api/machine answer. Whatever the answer
 // holds (fields missing or of the wrong type show as "?"), this never
@@ -58,4 +58,4 @@ class MachineWatcher {
   std::thread thread_;
 };
 
-}  // namespace app
+}  // namespace lbpkit::app

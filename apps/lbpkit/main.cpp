@@ -7,7 +7,10 @@
 #include "common.hpp"
 #include "lbpkit/error.hpp"
 
-namespace app {
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+
+namespace lbpkit::app {
 std::function<int()> gRun;
 }
 

@@ -21,6 +21,10 @@
 #include "remote/nv_store.hpp"
 #include "remote/remote_device.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace remote = lbpkit::model::remote;
+namespace config = lbpkit::config;
+
 namespace {
 
 using test_support::Daemon;

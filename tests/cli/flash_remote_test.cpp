@@ -27,6 +27,10 @@
 #include "support/sim_child.hpp"
 #include "support/temp_dir.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace remote = lbpkit::model::remote;
+
 namespace {
 
 using namespace std::chrono_literals;

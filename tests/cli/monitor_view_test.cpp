@@ -24,6 +24,9 @@
 #include "support/sim_child.hpp"
 #include "support/temp_dir.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace app = lbpkit::app;
+
 namespace {
 
 using nlohmann::json;

@@ -19,6 +19,9 @@
 #include "support/process.hpp"
 #include "support/temp_dir.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace lbp = lbpkit::model::lbp;
+
 namespace {
 
 using Bytes = std::vector<std::uint8_t>;

@@ -42,6 +42,9 @@
 #include "support/temp_dir.hpp"
 #include "support/wait.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+
 namespace {
 
 using namespace std::chrono_literals;

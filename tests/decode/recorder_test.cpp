@@ -19,6 +19,9 @@
 #include "sim_card/sim_transport.hpp"
 #include "support/allocation_counter.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace server = lbpkit::server;
+
 using testing_alloc::tAllocations;  // this thread's own: the writer thread allocates
 
 namespace {
@@ -30,9 +33,9 @@ std::string tempFile(const std::string& name) {
 TEST(PacketTrace, RecordingDoesNotAllocateAndLibpcapReadsItBack) {
   const auto path = tempFile("lbpkit-recorder");
   {
-    servers::PcapRecorder rec(path, servers::PcapRecorder::Link::Ipv4Udp, {}, 8192);
+    server::PcapRecorder rec(path, server::PcapRecorder::Link::Ipv4Udp, {}, 8192);
     const std::vector<std::uint8_t> request = {0x01, 0x42, 0x00, 0x01};  // read hm2 0x0100, one word
-    const servers::PcapRecorder::Endpoint host{0x7F000001, 40000}, card{0x7F001203, 27181};
+    const server::PcapRecorder::Endpoint host{0x7F000001, 40000}, card{0x7F001203, 27181};
     const auto before = tAllocations;
     for (int i = 0; i < 2000; ++i) {  // 4000 packets: within the ring, whatever the writer does
       rec.udp(1'000'000'000LL + i * 1000, host, card, request);
@@ -69,7 +72,7 @@ TEST(PacketTrace, RecordingDoesNotAllocateAndLibpcapReadsItBack) {
 }
 
 TEST(PacketTrace, AFullRingDropsAndCountsNeverWaits) {
-  servers::PacketRing ring(4);
+  server::PacketRing ring(4);
   for (int i = 0; i < 4; ++i) {
     auto* s = ring.claim();
     ASSERT_NE(s, nullptr);
@@ -79,14 +82,14 @@ TEST(PacketTrace, AFullRingDropsAndCountsNeverWaits) {
   EXPECT_EQ(ring.claim(), nullptr);
   EXPECT_EQ(ring.dropped(), 1U);
   std::vector<std::int64_t> seen;
-  ring.drain([&](const servers::PacketRing::Slot& s) { seen.push_back(s.ns); });
+  ring.drain([&](const server::PacketRing::Slot& s) { seen.push_back(s.ns); });
   EXPECT_EQ(seen, (std::vector<std::int64_t>{0, 1, 2, 3}));
   EXPECT_NE(ring.claim(), nullptr);  // room again
 }
 
 TEST(PacketTrace, AFileThatCannotBeMadeIsNamed) {
   try {
-    servers::PcapRecorder rec("/nonexistent-dir/x.pcap", servers::PcapRecorder::Link::LbpStream, {});
+    server::PcapRecorder rec("/nonexistent-dir/x.pcap", server::PcapRecorder::Link::LbpStream, {});
     FAIL() << "no error";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("--trace /nonexistent-dir/x.pcap"), std::string::npos) << e.what();

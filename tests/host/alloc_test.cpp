@@ -20,6 +20,11 @@
 #include "support/running_card.hpp"
 #include "support/allocation_counter.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace machine = lbpkit::model::machine;
+namespace server = lbpkit::server;
+
 using testing_alloc::gAllocations;
 using testing_alloc::tAllocations;
 
@@ -112,7 +117,7 @@ TEST(RealTime, TheMachineAndItsTraceDoNotAllocate) {
   auto& t = rc.t;
   auto& ss = rc.ss;
   machine::Machine m(machine::mill(), t.card(), hm2::SimTime{t.now()});
-  servers::TraceRing ring(m.traceColumns(), 100);
+  server::TraceRing ring(m.traceColumns(), 100);
   std::vector<double> row(ring.width());
   ss.setRaw(ss.find(1, "analogena"), 1);
   ss.setRaw(ss.find(1, "spinena"), 1);
@@ -139,7 +144,7 @@ TEST(RealTime, TheMachineAndItsTraceDoNotAllocate) {
 
 TEST(RealTime, TheLbp16DatagramPathDoesNotAllocate) {
   hm2::HostMot2Card card;
-  servers::Lbp16Card lbp16(card, {});
+  server::Lbp16Card lbp16(card, {});
   // hm2_eth-like traffic: a write datagram (outputs, DOIT, watchdog pet,
   // counter) and a read request (status, encoders, SSerial, counters).
   const std::uint8_t write[] = {0x81, 0xC2, 0x00, 0x5A, 0x01, 0x09, 0x00, 0x00,  // SSerial START 0x903
@@ -150,7 +155,7 @@ TEST(RealTime, TheLbp16DatagramPathDoesNotAllocate) {
                                0x86, 0x42, 0x00, 0x35, 0x86, 0x42, 0x00, 0x36, 0x81, 0x42, 0x00, 0x5A,
                                0x81, 0x42, 0x00, 0x5B, 0x81, 0x42, 0x00, 0x5C, 0x81, 0x42, 0x00, 0x5D,
                                0x01, 0x59, 0x08, 0x00, 0x84, 0x51, 0x10, 0x00};
-  std::uint8_t reply[servers::Lbp16Card::kMaxDatagram];
+  std::uint8_t reply[server::Lbp16Card::kMaxDatagram];
   hm2::SimTime now{0};
   lbp16.handle(write, reply, now);
   now += 50ms;  // START done, chattering

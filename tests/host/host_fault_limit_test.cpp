@@ -13,6 +13,9 @@
 #include "lbpkit/wire/sslbp.hpp"
 #include "support/running_card.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+
 namespace {
 
 using namespace std::chrono_literals;

@@ -22,6 +22,9 @@
 #include "lbpkit/wire/seven_i77.hpp"
 #include "support/running_card.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+
 namespace {
 
 using namespace std::chrono_literals;

@@ -15,6 +15,9 @@
 #include "lbpkit/sserial.hpp"
 #include "support/running_card.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+
 namespace {
 
 using namespace std::chrono_literals;

@@ -22,6 +22,12 @@
 #include "support/machine_file_fixture.hpp"
 #include "sim_card/sim_transport.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace machine = lbpkit::model::machine;
+namespace remote = lbpkit::model::remote;
+namespace config = lbpkit::config;
+
 namespace {
 
 using namespace std::chrono_literals;

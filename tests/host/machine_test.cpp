@@ -16,6 +16,10 @@
 #include "machine/machine.hpp"
 #include "support/running_card.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace machine = lbpkit::model::machine;
+
 namespace {
 
 using namespace std::chrono_literals;

@@ -13,6 +13,10 @@
 #include "remote/analog.hpp"
 #include "remote/field_io.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace remote = lbpkit::model::remote;
+namespace lbp = lbpkit::model::lbp;
+
 namespace {
 
 using testing_lbp::Bytes;

@@ -12,6 +12,10 @@
 #include "remote/seven_i76.hpp"
 #include "sim_card/sim_transport.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace remote = lbpkit::model::remote;
+
 namespace {
 
 using namespace std::chrono_literals;

@@ -24,6 +24,8 @@
 namespace interop {
 namespace {
 
+using namespace std::chrono_literals;
+
 TEST_F(LinuxCnc, Hm2EthRunsTheVirtual7i77) {
   startSim();
   // The MAC the card reports is its veth's: hm2_eth pins an ARP entry to it.

@@ -24,6 +24,8 @@
 namespace interop {
 namespace {
 
+using namespace std::chrono_literals;
+
 TEST(Mesaflash, ReadsTheVirtualCard) {
   if (!test_support::haveClientProgram("mesaflash")) GTEST_SKIP() << "mesaflash is not installed (scripts/test installs it)";
   Sim sim(loopback());

@@ -26,6 +26,8 @@
 namespace interop {
 namespace {
 
+using namespace std::chrono_literals;
+
 std::set<std::string> halcmdItems(const std::string& pins, const std::string& params,
                                   const std::string& board = "hm2_7i92.0") {
   std::set<std::string> out;

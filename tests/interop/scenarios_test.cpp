@@ -22,6 +22,8 @@
 namespace interop {
 namespace {
 
+using namespace std::chrono_literals;
+
 class Scenario : public LinuxCnc {
  public:
   // What LinuxCNC showed across the scenario's first fault.

@@ -26,6 +26,8 @@
 namespace interop {
 namespace {
 
+using namespace std::chrono_literals;
+
 class Setsserial : public LinuxCnc {
  protected:
   void SetUp() override {

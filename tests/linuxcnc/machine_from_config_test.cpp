@@ -26,6 +26,10 @@
 #include "support/sim_child.hpp"
 #include "support/temp_dir.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace machine = lbpkit::model::machine;
+namespace config = lbpkit::config;
+
 namespace {
 
 namespace fs = std::filesystem;

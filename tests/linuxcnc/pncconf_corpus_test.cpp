@@ -21,6 +21,9 @@
 #include "support/process.hpp"
 #include "support/temp_dir.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace config = lbpkit::config;
+
 namespace {
 
 namespace fs = std::filesystem;

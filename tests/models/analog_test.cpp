@@ -4,6 +4,10 @@
 #include "support/lbp_host.hpp"
 #include "remote/analog.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace remote = lbpkit::model::remote;
+namespace lbp = lbpkit::model::lbp;
+
 namespace {
 
 using remote::AnalogProcessor;

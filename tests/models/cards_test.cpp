@@ -16,6 +16,10 @@
 #include "config/toml_reader.hpp"
 #include "hostmot2/cards/catalogue.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace config = lbpkit::config;
+
 namespace {
 
 using namespace testing_hm2;

@@ -9,6 +9,10 @@
 #include "support/temp_dir.hpp"
 #include "remote/field_io.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace remote = lbpkit::model::remote;
+namespace lbp = lbpkit::model::lbp;
+
 namespace {
 
 using remote::FieldIoProcessor;

@@ -9,7 +9,14 @@
 #include "support/card_host.hpp"
 #include "lbp/protocol.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace remote = lbpkit::model::remote;
+namespace lbp = lbpkit::model::lbp;
+
 namespace {
+
+using namespace std::chrono_literals;
 
 using namespace testing_hm2;
 

@@ -10,6 +10,9 @@
 #include "hostmot2/dpll.hpp"
 #include "support/hm2_module_expect.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+
 namespace {
 
 using hm2::Dpll;

@@ -12,6 +12,9 @@
 #include "hostmot2/dpll.hpp"
 #include "hostmot2/encoder.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+
 namespace {
 
 using hm2::Dpll;

@@ -18,6 +18,9 @@
 #include "hostmot2/cards/catalogue.hpp"
 #include "lbpkit/wire/hostmot2_modules.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+
 namespace {
 
 namespace map = lbpkit::wire::hm2;

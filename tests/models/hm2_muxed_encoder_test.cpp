@@ -11,6 +11,9 @@
 
 #include "hostmot2/muxed_encoder.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+
 namespace {
 
 using namespace std::chrono_literals;

@@ -11,6 +11,9 @@
 #include "hostmot2/stepgen.hpp"
 #include "support/hm2_module_expect.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+
 namespace {
 
 using hm2::SimTime;

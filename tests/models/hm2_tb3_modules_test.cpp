@@ -14,6 +14,9 @@
 #include "hostmot2/outm.hpp"
 #include "hostmot2/ssr.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+
 namespace {
 
 using namespace std::chrono_literals;
@@ -210,7 +213,7 @@ TEST(Tb3, The7I96SCarriesInmSsrAndOutmOnTb3) {
   EXPECT_EQ(card.module(OutM::kKind.tag), card.module<hm2::OutM>());
   EXPECT_EQ(card.module<hm2::InM>()->inputs(), kInputs);
   const auto& words = card.idromWords();
-  const unsigned pins = words[hm2::idrom::kOffsetToPinsField / 4] / 4;
+  const unsigned pins = words[lbpkit::wire::hm2::idrom::kOffsetToPinsField / 4] / 4;
   auto fn = [&](unsigned io) { return words[pins + io] & 0x00FFFFFFU; };
   EXPECT_EQ(fn(0), 0x002301U);   // InM input 0
   EXPECT_EQ(fn(10), 0x00230BU);  // InM input 10

@@ -9,6 +9,9 @@
 #include "lbp/protocol.hpp"
 #include "lbp/parser.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace lbp = lbpkit::model::lbp;
+
 namespace {
 
 using Bytes = std::vector<std::uint8_t>;

@@ -16,6 +16,13 @@
 #include "machine/machine_file.hpp"
 #include "support/machine_file_fixture.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace machine = lbpkit::model::machine;
+namespace remote = lbpkit::model::remote;
+namespace lbp = lbpkit::model::lbp;
+namespace config = lbpkit::config;
+
 namespace {
 
 using machine::MachineDescription;

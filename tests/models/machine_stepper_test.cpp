@@ -25,6 +25,11 @@
 #include "machine/machine.hpp"
 #include "support/machine_file_fixture.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace machine = lbpkit::model::machine;
+namespace config = lbpkit::config;
+
 namespace {
 
 using namespace std::chrono_literals;

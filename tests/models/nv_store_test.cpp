@@ -17,6 +17,9 @@
 
 #include "remote/nv_store.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace remote = lbpkit::model::remote;
+
 namespace {
 
 using Image = std::vector<std::uint8_t>;

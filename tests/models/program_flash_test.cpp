@@ -15,6 +15,10 @@
 #include "support/remote_image.hpp"
 #include "support/temp_dir.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace remote = lbpkit::model::remote;
+namespace lbp = lbpkit::model::lbp;
+
 namespace {
 
 using remote::FieldIoProcessor;

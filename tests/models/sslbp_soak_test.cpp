@@ -23,6 +23,10 @@
 #include "support/card_host.hpp"
 #include "lbp/protocol.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace lbp = lbpkit::model::lbp;
+
 namespace {
 
 using namespace testing_hm2;

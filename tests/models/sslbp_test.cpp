@@ -11,7 +11,14 @@
 #include "lbp/protocol.hpp"
 #include "remote/field_io.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace remote = lbpkit::model::remote;
+namespace lbp = lbpkit::model::lbp;
+
 namespace {
+
+using namespace std::chrono_literals;
 
 using namespace testing_hm2;
 namespace cmd = hm2::command;

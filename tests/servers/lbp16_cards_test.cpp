@@ -11,16 +11,20 @@
 #include "hostmot2/card.hpp"
 #include "lbp16/lbp16_card.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace server = lbpkit::server;
+
 namespace {
 
 using Bytes = std::vector<std::uint8_t>;
-using servers::lbp16::Command;
+using server::lbp16::Command;
 
 struct Face {
   hm2::HostMot2Card card;
-  servers::Lbp16Card lbp16;
+  server::Lbp16Card lbp16;
   hm2::SimTime now{0};
-  explicit Face(const char* name) : card(options(name)), lbp16(card, servers::Lbp16Card::Identity{}) {}
+  explicit Face(const char* name) : card(options(name)), lbp16(card, server::Lbp16Card::Identity{}) {}
   static hm2::HostMot2Card::Options options(const char* name) {
     hm2::HostMot2Card::Options o;
     o.card = hm2::cards::find(name);
@@ -37,7 +41,7 @@ struct Face {
     put16(d, value);
   }
   Bytes send(const Bytes& d) {
-    std::array<std::uint8_t, servers::Lbp16Card::kMaxDatagram> reply{};
+    std::array<std::uint8_t, server::Lbp16Card::kMaxDatagram> reply{};
     now += hm2::SimTime{100'000};
     const auto n = lbp16.handle(d, reply, now);
     return Bytes(reply.begin(), reply.begin() + static_cast<std::ptrdiff_t>(n));

@@ -10,14 +10,18 @@
 #include "hostmot2/card.hpp"
 #include "lbp16/lbp16_card.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace server = lbpkit::server;
+
 namespace {
 
 using Bytes = std::vector<std::uint8_t>;
-using servers::lbp16::Command;
+using server::lbp16::Command;
 
 struct Lbp16Test : ::testing::Test {
   hm2::HostMot2Card card;
-  servers::Lbp16Card lbp16{card, servers::Lbp16Card::Identity{}};
+  server::Lbp16Card lbp16{card, server::Lbp16Card::Identity{}};
   hm2::SimTime now{0};
 
   static void cmd(Bytes& d, Command c, std::optional<std::uint16_t> addr = std::nullopt) {
@@ -31,7 +35,7 @@ struct Lbp16Test : ::testing::Test {
     }
   }
   Bytes send(const Bytes& d) {
-    std::array<std::uint8_t, servers::Lbp16Card::kMaxDatagram> reply{};
+    std::array<std::uint8_t, server::Lbp16Card::kMaxDatagram> reply{};
     now += hm2::SimTime{100'000};
     const auto n = lbp16.handle(d, reply, now);
     return Bytes(reply.begin(), reply.begin() + static_cast<std::ptrdiff_t>(n));
@@ -43,8 +47,8 @@ struct Lbp16Test : ::testing::Test {
 };
 
 TEST_F(Lbp16Test, CommandWordMatchesTheWordsRealClientsSend) {
-  EXPECT_EQ(servers::lbp16::hm2Read(1), 0x4281);                          // read HM2 1x32 auto-inc
-  EXPECT_EQ(servers::lbp16::hm2Write(1), 0xC281);                         // hm2_eth's watchdog pet
+  EXPECT_EQ(server::lbp16::hm2Read(1), 0x4281);                              // read HM2 1x32 auto-inc
+  EXPECT_EQ(server::lbp16::hm2Write(1), 0xC281);                             // hm2_eth's watchdog pet
   EXPECT_EQ((Command{false, true, false, 7, 2, true, 8}.encode()), 0x5D88);  // board name
   EXPECT_EQ((Command{false, true, false, 2, 2, true, 3}.encode()), 0x4983);  // MAC
   EXPECT_EQ((Command{true, true, false, 4, 2, true, 2}.encode()), 0xD182);   // read counter
@@ -225,7 +229,7 @@ TEST_F(Lbp16Test, RepliesNeverExceedOneFrame) {
   Bytes d;
   for (int i = 0; i < 12; ++i) cmd(d, {false, true, false, 0, 4, true, 127}, 0x0400);  // 6096 bytes asked
   const auto r = send(d);
-  EXPECT_LE(r.size(), servers::Lbp16Card::kMaxDatagram);
+  EXPECT_LE(r.size(), server::Lbp16Card::kMaxDatagram);
   EXPECT_EQ(r.size() % 508, 0U);  // whole commands only
   EXPECT_EQ(lbp16.counters().memoryErrors, 1U);  // the send buffer's limit (LBPPARSE.ASM)
 }
@@ -441,17 +445,17 @@ struct FlashFileTest : ::testing::Test {
     for (int i = 0; i < 4; ++i) d.push_back(static_cast<std::uint8_t>(word >> (8 * i)));
     return d;
   }
-  static std::uint32_t readWord(servers::Lbp16Card& c, std::uint32_t address) {
+  static std::uint32_t readWord(server::Lbp16Card& c, std::uint32_t address) {
     Bytes d;
     Lbp16Test::cmd(d, {true, true, false, 3, 4, false, 1}, 0x0);
     for (int i = 0; i < 4; ++i) d.push_back(static_cast<std::uint8_t>(address >> (8 * i)));
     Lbp16Test::cmd(d, {false, true, false, 3, 4, false, 1}, 0x4);
-    std::array<std::uint8_t, servers::Lbp16Card::kMaxDatagram> reply{};
+    std::array<std::uint8_t, server::Lbp16Card::kMaxDatagram> reply{};
     c.handle(d, reply, hm2::SimTime{1});
     return Lbp16Test::u32(Bytes(reply.begin(), reply.begin() + 4), 0);
   }
-  servers::Lbp16Card::Identity identity() const {
-    servers::Lbp16Card::Identity id;
+  server::Lbp16Card::Identity identity() const {
+    server::Lbp16Card::Identity id;
     id.flashFile = file;
     return id;
   }
@@ -460,15 +464,15 @@ struct FlashFileTest : ::testing::Test {
 TEST_F(FlashFileTest, WhatWasProgrammedIsThereAfterARestart) {
   hm2::HostMot2Card card;
   {
-    servers::Lbp16Card lbp16(card, identity());
+    server::Lbp16Card lbp16(card, identity());
     EXPECT_EQ(readWord(lbp16, 0x1000), 0xFFFFFFFFU);  // no file: blank
-    std::array<std::uint8_t, servers::Lbp16Card::kMaxDatagram> reply{};
+    std::array<std::uint8_t, server::Lbp16Card::kMaxDatagram> reply{};
     lbp16.handle(programWord(0x1000, 0xA5A55A5A), reply, hm2::SimTime{1});
     lbp16.handle(programWord(0x1FFFFC, 0x01020304), reply, hm2::SimTime{2});
   }  // the card powers off: what changed is saved
   ASSERT_TRUE(std::filesystem::exists(file));
   EXPECT_FALSE(std::filesystem::exists(file.string() + ".tmp"));
-  servers::Lbp16Card again(card, identity());
+  server::Lbp16Card again(card, identity());
   EXPECT_EQ(readWord(again, 0x1000), 0xA5A55A5AU);
   EXPECT_EQ(readWord(again, 0x1FFFFC), 0x01020304U);
   EXPECT_EQ(readWord(again, 0x1004), 0xFFFFFFFFU);
@@ -477,17 +481,17 @@ TEST_F(FlashFileTest, WhatWasProgrammedIsThereAfterARestart) {
 TEST_F(FlashFileTest, ASaveCutShortLeavesTheOldImage) {
   std::vector<std::uint8_t> image(2 * 1024 * 1024, 0xFF);
   image[0] = 0x11;
-  ASSERT_EQ(servers::saveFlashFile(file, image), "");
+  ASSERT_EQ(server::saveFlashFile(file, image), "");
   // A save that died before its rename leaves FILE.tmp beside the old file.
   std::ofstream(file.string() + ".tmp", std::ios::binary) << "LBFLASH1 torn";
   hm2::HostMot2Card card;
   {
-    servers::Lbp16Card lbp16(card, identity());
+    server::Lbp16Card lbp16(card, identity());
     EXPECT_EQ(readWord(lbp16, 0) & 0xFF, 0x11U);
-    std::array<std::uint8_t, servers::Lbp16Card::kMaxDatagram> reply{};
+    std::array<std::uint8_t, server::Lbp16Card::kMaxDatagram> reply{};
     lbp16.handle(programWord(4, 0x22), reply, hm2::SimTime{1});
   }
-  servers::Lbp16Card again(card, identity());
+  server::Lbp16Card again(card, identity());
   EXPECT_EQ(readWord(again, 0) & 0xFF, 0x11U);
   EXPECT_EQ(readWord(again, 4), 0x22U);
   EXPECT_FALSE(std::filesystem::exists(file.string() + ".tmp"));
@@ -496,10 +500,10 @@ TEST_F(FlashFileTest, ASaveCutShortLeavesTheOldImage) {
 TEST_F(FlashFileTest, AFileThatIsNotAFlashImageIsRefusedAndKept) {
   std::ofstream(file) << "my notes, not a flash image\n";
   hm2::HostMot2Card card;
-  EXPECT_THROW(servers::Lbp16Card(card, identity()), std::runtime_error);
+  EXPECT_THROW(server::Lbp16Card(card, identity()), std::runtime_error);
   std::vector<std::uint8_t> probe(2 * 1024 * 1024);
-  const auto r = servers::loadFlashFile(file, probe);
-  EXPECT_EQ(r.status, servers::FlashFileLoad::Status::Refused);
+  const auto r = server::loadFlashFile(file, probe);
+  EXPECT_EQ(r.status, server::FlashFileLoad::Status::Refused);
   EXPECT_NE(r.message.find(file.string()), std::string::npos);
   std::ifstream in(file);
   std::string text;
@@ -507,14 +511,14 @@ TEST_F(FlashFileTest, AFileThatIsNotAFlashImageIsRefusedAndKept) {
   EXPECT_EQ(text, "my notes, not a flash image");
   // An image with a wrong CRC is reported and starts blank.
   std::vector<std::uint8_t> image(probe.size(), 0);
-  ASSERT_EQ(servers::saveFlashFile(file, image), "");
+  ASSERT_EQ(server::saveFlashFile(file, image), "");
   {
     std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
     f.seekp(100);
     f.put('X');
   }
-  EXPECT_EQ(servers::loadFlashFile(file, probe).status, servers::FlashFileLoad::Status::Corrupt);
-  servers::Lbp16Card blank(card, identity());
+  EXPECT_EQ(server::loadFlashFile(file, probe).status, server::FlashFileLoad::Status::Corrupt);
+  server::Lbp16Card blank(card, identity());
   EXPECT_EQ(readWord(blank, 0), 0xFFFFFFFFU);
 }
 

@@ -25,6 +25,12 @@
 #include "support/sim_child.hpp"
 #include "support/running_card.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace lbp = lbpkit::model::lbp;
+namespace server = lbpkit::server;
+namespace config = lbpkit::config;
+
 namespace {
 
 using namespace std::chrono_literals;
@@ -256,13 +262,13 @@ TEST_F(SimLink, TheCliSetsAndShowsALink) {
 
 TEST(LinkFaultScript, ALinkEntryTakesForAndEndsAsItWasBefore) {
   hm2::HostMot2Card card;
-  servers::SimClock clock(1.0, true);
-  const servers::ApiTarget t{card, clock, {}, nullptr, {}, nullptr, nullptr};
-  servers::FaultScript script({{lbp::SimTime{10ms}, "link", json{{"channel", 0}, {"bit_error_rate", 1e-3}, {"seed", 3}},
-                            lbp::SimTime{5ms}, "f.toml:1:1"},
-                           {lbp::SimTime{20ms}, "link", json{{"channel", 1}, {"cut_ms", 100}}, lbp::SimTime{1ms},
-                            "f.toml:7:1"}},
-                          hm2::HostMot2Card::Options{}, std::nullopt);
+  server::SimClock clock(1.0, true);
+  const server::ApiTarget t{card, clock, {}, nullptr, {}, nullptr, nullptr};
+  server::FaultScript script(
+      {{lbp::SimTime{10ms}, "link", json{{"channel", 0}, {"bit_error_rate", 1e-3}, {"seed", 3}}, lbp::SimTime{5ms},
+        "f.toml:1:1"},
+       {lbp::SimTime{20ms}, "link", json{{"channel", 1}, {"cut_ms", 100}}, lbp::SimTime{1ms}, "f.toml:7:1"}},
+      hm2::HostMot2Card::Options{}, std::nullopt);
   auto log = [](const std::string&) {};
   auto& link0 = card.part<hm2::Sslbp>().link(0);
   script.runDue(lbp::SimTime{10ms}, t, log);
@@ -279,18 +285,18 @@ TEST(LinkFaultScript, ALinkEntryTakesForAndEndsAsItWasBefore) {
   EXPECT_TRUE(card.part<hm2::Sslbp>().link(1).connectedAt(card.now())) << "plugged back when the entry ended";
 
   // A mistake in an entry is an error before the sim starts.
-  EXPECT_THROW(servers::FaultScript({{lbp::SimTime{1ms}, "link", json{{"channel", 0}, {"bit_error_rate", -1}},
-                                  std::nullopt, "f.toml:1:1"}},
-                                hm2::HostMot2Card::Options{}, std::nullopt),
+  EXPECT_THROW(server::FaultScript({{lbp::SimTime{1ms}, "link", json{{"channel", 0}, {"bit_error_rate", -1}},
+                                     std::nullopt, "f.toml:1:1"}},
+                                   hm2::HostMot2Card::Options{}, std::nullopt),
                std::invalid_argument);
 }
 
 TEST(LinkFaultScript, OverlappingLinkEntriesEachUndoOnlyTheirOwnChange) {
   hm2::HostMot2Card card;
-  servers::SimClock clock(1.0, true);
-  const servers::ApiTarget t{card, clock, {}, nullptr, {}, nullptr, nullptr};
+  server::SimClock clock(1.0, true);
+  const server::ApiTarget t{card, clock, {}, nullptr, {}, nullptr, nullptr};
   auto log = [](const std::string&) {};
-  servers::FaultScript script(
+  server::FaultScript script(
       {{lbp::SimTime{0ms}, "link", json{{"channel", 0}, {"bit_error_rate", 1e-3}}, lbp::SimTime{300ms}, "f.toml:1:1"},
        {lbp::SimTime{100ms}, "link", json{{"channel", 0}, {"drop_rate", 1e-2}}, lbp::SimTime{1000ms}, "f.toml:6:1"}},
       hm2::HostMot2Card::Options{}, std::nullopt);

@@ -45,6 +45,11 @@
 #include "lbpkit/wire/sslbp.hpp"
 #include "support/running_card.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace remote = lbpkit::model::remote;
+namespace lbp = lbpkit::model::lbp;
+
 namespace {
 
 using namespace std::chrono_literals;

@@ -30,11 +30,17 @@
 #include "support/sim_child.hpp"
 #include "support/wait.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace lbp = lbpkit::model::lbp;
+namespace server = lbpkit::server;
+namespace config = lbpkit::config;
+
 namespace {
 
 using namespace std::chrono_literals;
 using nlohmann::json;
-using servers::NetworkFaults;
+using server::NetworkFaults;
 using Kind = NetworkFaults::Kind;
 
 TEST(NetworkFaults, AGoodNetworkPassesEverythingUntouched) {
@@ -53,7 +59,7 @@ TEST(NetworkFaults, AGoodNetworkPassesEverythingUntouched) {
 
 TEST(NetworkFaults, DropEveryNthLosesExactlyThoseInThatDirectionOnly) {
   NetworkFaults f;
-  servers::NetworkFaultSettings s;
+  server::NetworkFaultSettings s;
   s.reply.dropEvery = 4;
   f.set(s);
   const auto now = NetworkFaults::Clock::now();
@@ -72,7 +78,7 @@ TEST(NetworkFaults, DropEveryNthLosesExactlyThoseInThatDirectionOnly) {
 
 TEST(NetworkFaults, DropNextLosesThatManyThenPassesEverything) {
   NetworkFaults f;
-  servers::NetworkFaultSettings s;
+  server::NetworkFaultSettings s;
   s.reply.dropNext = 2;
   f.set(s);
   const auto now = NetworkFaults::Clock::now();
@@ -89,7 +95,7 @@ TEST(NetworkFaults, DropNextLosesThatManyThenPassesEverything) {
 
 TEST(NetworkFaults, DelayEveryNthDelaysOnlyThoseASpike) {
   NetworkFaults f;
-  servers::NetworkFaultSettings s;
+  server::NetworkFaultSettings s;
   s.reply.delayUs = 800;
   s.reply.delayEvery = 3;
   f.set(s);
@@ -112,7 +118,7 @@ TEST(NetworkFaults, WritesOnlyLeavesRequestsThatAskForAReplyAlone) {
   EXPECT_FALSE(NetworkFaults::asksForReply({}));
 
   NetworkFaults f;
-  servers::NetworkFaultSettings s;
+  server::NetworkFaultSettings s;
   s.request.dropNext = 1;
   s.request.writesOnly = true;
   f.set(s);
@@ -125,7 +131,7 @@ TEST(NetworkFaults, WritesOnlyLeavesRequestsThatAskForAReplyAlone) {
 }
 
 TEST(NetworkFaults, TheSameSeedLosesTheSameDatagrams) {
-  servers::NetworkFaultSettings s;
+  server::NetworkFaultSettings s;
   s.request.drop = 0.3;
   s.request.corrupt = 0.2;
   s.request.jitterUs = 500;
@@ -148,7 +154,7 @@ TEST(NetworkFaults, TheSameSeedLosesTheSameDatagrams) {
   EXPECT_NEAR(lost, 300, 75);
   s.seed = 43;
   b.set(s);
-  a.set(servers::NetworkFaultSettings{s.request, s.reply, 42});
+  a.set(server::NetworkFaultSettings{s.request, s.reply, 42});
   int differ = 0;
   for (int i = 0; i < 100; ++i) differ += a.decide(Kind::Request, 64, now).lost != b.decide(Kind::Request, 64, now).lost;
   EXPECT_GT(differ, 0);
@@ -173,7 +179,7 @@ TEST(NetworkApi, ABadFieldChangesNothingAndSaysWhich) {
   const auto now = NetworkFaults::Clock::now();
   auto refused = [&](const json& body) {
     try {
-      servers::applyNetwork(f, body, now);
+      server::applyNetwork(f, body, now);
     } catch (const std::invalid_argument& e) {
       return std::string(e.what());
     }
@@ -186,13 +192,13 @@ TEST(NetworkApi, ABadFieldChangesNothingAndSaysWhich) {
   EXPECT_NE(refused({{"delay_ms", 5}}).find("unknown key \"delay_ms\""), std::string::npos);
   EXPECT_NE(refused({{"writes_only", true}, {"drop_next", 1}}).find("\"direction\": \"request\""), std::string::npos);
   EXPECT_EQ(f.settings().request.dropNext, 0U);
-  servers::applyNetwork(f, {{"direction", "reply"}, {"drop", 0.25}, {"delay_us", 900}}, now);
+  server::applyNetwork(f, {{"direction", "reply"}, {"drop", 0.25}, {"delay_us", 900}}, now);
   EXPECT_EQ(f.settings().reply.drop, 0.25);
   EXPECT_EQ(f.settings().reply.delayUs, 900U);
   EXPECT_EQ(f.settings().request.drop, 0.0);
-  servers::applyNetwork(f, {{"silent_ms", 100}}, now);
+  server::applyNetwork(f, {{"silent_ms", 100}}, now);
   EXPECT_EQ(f.silentFor(now), 100ms);
-  servers::applyNetwork(f, {{"clear", true}}, now);
+  server::applyNetwork(f, {{"clear", true}}, now);
   EXPECT_FALSE(f.active(now));
 }
 
@@ -202,7 +208,7 @@ class EchoServer {
  public:
   // The faults are set before the serving thread starts: from then on only
   // that thread touches them (as in the sim, where API jobs run on it).
-  explicit EchoServer(const servers::NetworkFaultSettings& faults) : server_("127.0.0.1", 0) {
+  explicit EchoServer(const server::NetworkFaultSettings& faults) : server_("127.0.0.1", 0) {
     server_.faults().set(faults);
     thread_ = std::thread([this] {
       while (!stop_.load())
@@ -219,7 +225,7 @@ class EchoServer {
   [[nodiscard]] std::uint16_t port() const { return server_.port(); }
 
  private:
-  servers::UdpServer server_;
+  server::UdpServer server_;
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };
@@ -251,7 +257,7 @@ class Client {
 };
 
 TEST(UdpServerFaults, RepliesAreDelayedDuplicatedAndReorderedOnARealSocket) {
-  servers::NetworkFaultSettings s;
+  server::NetworkFaultSettings s;
   s.reply.delayUs = 30'000;
   EchoServer echo(s);
   Client c(echo.port());
@@ -264,7 +270,7 @@ TEST(UdpServerFaults, RepliesAreDelayedDuplicatedAndReorderedOnARealSocket) {
 }
 
 TEST(UdpServerFaults, ADuplicatedReplyArrivesTwiceAndALostOneNever) {
-  servers::NetworkFaultSettings s;
+  server::NetworkFaultSettings s;
   s.reply.duplicate = 1;
   s.request.dropEvery = 2;  // the second request is lost
   EchoServer echo(s);
@@ -279,7 +285,7 @@ TEST(UdpServerFaults, ADuplicatedReplyArrivesTwiceAndALostOneNever) {
 }
 
 TEST(UdpServerFaults, AReorderedReplyComesAfterTheNextOne) {
-  servers::NetworkFaultSettings s;
+  server::NetworkFaultSettings s;
   s.reply.dropEvery = 0;
   s.reply.reorder = 1;  // every reply waits for the next: each overtakes the one before
   EchoServer echo(s);
@@ -293,7 +299,7 @@ TEST(UdpServerFaults, AReorderedReplyComesAfterTheNextOne) {
 }
 
 TEST(UdpServerFaults, ACorruptedReplyDiffersInOneByte) {
-  servers::NetworkFaultSettings s;
+  server::NetworkFaultSettings s;
   s.reply.corrupt = 1;
   EchoServer echo(s);
   Client c(echo.port());
@@ -422,11 +428,11 @@ TEST(FaultScriptFile, AMistakeNamesTheFileTheLineAndTheKey) {
 }
 
 TEST(FaultScript, EveryEntryIsTriedBeforeTheSimStarts) {
-  std::vector<servers::ScriptedFault> entries{
+  std::vector<server::ScriptedFault> entries{
       {lbp::SimTime{1ms}, "cable", json{{"channel", 1}, {"connected", false}}, std::nullopt, "f.toml:1:1"},
       {lbp::SimTime{2ms}, "network", json{{"delay_ms", 5}}, std::nullopt, "f.toml:6:1"}};
   try {
-    servers::FaultScript script(entries, hm2::HostMot2Card::Options{}, std::nullopt);
+    server::FaultScript script(entries, hm2::HostMot2Card::Options{}, std::nullopt);
     ADD_FAILURE() << "a script with an unknown key was taken";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("f.toml:6:1: fault \"network\": unknown key \"delay_ms\""),
@@ -435,21 +441,20 @@ TEST(FaultScript, EveryEntryIsTriedBeforeTheSimStarts) {
   }
   entries[1].body = json{{"delay_us", 5}};
   entries.push_back({lbp::SimTime{3ms}, "machine", json{{"action", "estop"}, {"pressed", true}}, std::nullopt, "f.toml:9:1"});
-  EXPECT_THROW(servers::FaultScript(entries, hm2::HostMot2Card::Options{}, std::nullopt), std::invalid_argument)
+  EXPECT_THROW(server::FaultScript(entries, hm2::HostMot2Card::Options{}, std::nullopt), std::invalid_argument)
       << "no machine to press the E-stop of";
 }
 
 TEST(FaultScript, EntriesAndTheirEndsHappenAtTheirSimulatedTimes) {
   hm2::HostMot2Card card;
-  servers::SimClock clock(1.0, true);
-  servers::UdpServer udp("127.0.0.1", 0);
-  const servers::ApiTarget t{card, clock, {}, nullptr, {}, nullptr, &udp};
-  servers::FaultScript script({{lbp::SimTime{10ms}, "cable", json{{"channel", 1}, {"connected", false}},
-                            lbp::SimTime{5ms}, "f.toml:1:1"},
-                           {lbp::SimTime{12ms}, "network", json{{"drop", 1}}, lbp::SimTime{1ms}, "f.toml:6:1"},
-                           {lbp::SimTime{20ms}, "overtemp", json{{"chip", 1}, {"hot", true}}, std::nullopt,
-                            "f.toml:11:1"}},
-                          hm2::HostMot2Card::Options{}, std::nullopt);
+  server::SimClock clock(1.0, true);
+  server::UdpServer udp("127.0.0.1", 0);
+  const server::ApiTarget t{card, clock, {}, nullptr, {}, nullptr, &udp};
+  server::FaultScript script(
+      {{lbp::SimTime{10ms}, "cable", json{{"channel", 1}, {"connected", false}}, lbp::SimTime{5ms}, "f.toml:1:1"},
+       {lbp::SimTime{12ms}, "network", json{{"drop", 1}}, lbp::SimTime{1ms}, "f.toml:6:1"},
+       {lbp::SimTime{20ms}, "overtemp", json{{"chip", 1}, {"hot", true}}, std::nullopt, "f.toml:11:1"}},
+      hm2::HostMot2Card::Options{}, std::nullopt);
   std::vector<std::string> said;
   auto log = [&](const std::string& s) { said.push_back(s); };
   auto& link = card.part<hm2::Sslbp>().link(1);
@@ -476,16 +481,16 @@ TEST(FaultScript, EntriesAndTheirEndsHappenAtTheirSimulatedTimes) {
 // put the earlier one's fault back when it ends.
 TEST(FaultScript, OverlappingEntriesEachUndoOnlyTheirOwnChange) {
   hm2::HostMot2Card card;
-  servers::SimClock clock(1.0, true);
-  servers::UdpServer udp("127.0.0.1", 0);
-  const servers::ApiTarget t{card, clock, {}, nullptr, {}, nullptr, &udp};
+  server::SimClock clock(1.0, true);
+  server::UdpServer udp("127.0.0.1", 0);
+  const server::ApiTarget t{card, clock, {}, nullptr, {}, nullptr, &udp};
   auto log = [](const std::string&) {};
   // drop 0.5 for 300 ms, then duplicate 0.25 for 1 s from 100 ms: the later
   // one ends last.
-  servers::FaultScript later({{lbp::SimTime{0ms}, "network", json{{"drop", 0.5}}, lbp::SimTime{300ms}, "f.toml:1:1"},
-                              {lbp::SimTime{100ms}, "network", json{{"duplicate", 0.25}}, lbp::SimTime{1000ms},
-                               "f.toml:6:1"}},
-                             hm2::HostMot2Card::Options{}, std::nullopt);
+  server::FaultScript later(
+      {{lbp::SimTime{0ms}, "network", json{{"drop", 0.5}}, lbp::SimTime{300ms}, "f.toml:1:1"},
+       {lbp::SimTime{100ms}, "network", json{{"duplicate", 0.25}}, lbp::SimTime{1000ms}, "f.toml:6:1"}},
+      hm2::HostMot2Card::Options{}, std::nullopt);
   later.runDue(lbp::SimTime{100ms}, t, log);
   EXPECT_EQ(udp.faults().settings().reply.drop, 0.5);
   EXPECT_EQ(udp.faults().settings().reply.duplicate, 0.25);
@@ -493,16 +498,16 @@ TEST(FaultScript, OverlappingEntriesEachUndoOnlyTheirOwnChange) {
   EXPECT_EQ(udp.faults().settings().request.drop, 0.0) << "the drop ended";
   EXPECT_EQ(udp.faults().settings().request.duplicate, 0.25);
   later.runDue(lbp::SimTime{1100ms}, t, log);
-  EXPECT_EQ(udp.faults().settings(), servers::NetworkFaultSettings{}) << "a good network once both ended";
+  EXPECT_EQ(udp.faults().settings(), server::NetworkFaultSettings{}) << "a good network once both ended";
 
   // The same setting twice: drop 0.5 for 300 ms, drop 0.2 from 100 ms for
   // 100 ms (ends first, back to 0.5), then drop 0.9 from 250 ms for 1 s
   // (outlives the first, which then changes nothing).
-  servers::FaultScript same({{lbp::SimTime{0ms}, "network", json{{"drop", 0.5}}, lbp::SimTime{300ms}, "f.toml:1:1"},
-                             {lbp::SimTime{100ms}, "network", json{{"drop", 0.2}}, lbp::SimTime{100ms}, "f.toml:6:1"},
-                             {lbp::SimTime{250ms}, "network", json{{"drop", 0.9}, {"direction", "reply"}},
-                              lbp::SimTime{1000ms}, "f.toml:11:1"}},
-                            hm2::HostMot2Card::Options{}, std::nullopt);
+  server::FaultScript same({{lbp::SimTime{0ms}, "network", json{{"drop", 0.5}}, lbp::SimTime{300ms}, "f.toml:1:1"},
+                            {lbp::SimTime{100ms}, "network", json{{"drop", 0.2}}, lbp::SimTime{100ms}, "f.toml:6:1"},
+                            {lbp::SimTime{250ms}, "network", json{{"drop", 0.9}, {"direction", "reply"}},
+                             lbp::SimTime{1000ms}, "f.toml:11:1"}},
+                           hm2::HostMot2Card::Options{}, std::nullopt);
   same.runDue(lbp::SimTime{100ms}, t, log);
   EXPECT_EQ(udp.faults().settings().request.drop, 0.2);
   same.runDue(lbp::SimTime{200ms}, t, log);
@@ -513,7 +518,7 @@ TEST(FaultScript, OverlappingEntriesEachUndoOnlyTheirOwnChange) {
   EXPECT_EQ(udp.faults().settings().request.drop, 0.0) << "the first one ended: requests as before it";
   EXPECT_EQ(udp.faults().settings().reply.drop, 0.9) << "replies keep the entry still on";
   same.runDue(lbp::SimTime{1250ms}, t, log);
-  EXPECT_EQ(udp.faults().settings(), servers::NetworkFaultSettings{});
+  EXPECT_EQ(udp.faults().settings(), server::NetworkFaultSettings{});
 }
 
 }  // namespace

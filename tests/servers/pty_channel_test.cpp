@@ -23,7 +23,15 @@
 #include "pty/pty_channel.hpp"
 #include "remote/field_io.hpp"
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace remote = lbpkit::model::remote;
+namespace lbp = lbpkit::model::lbp;
+namespace server = lbpkit::server;
+
 namespace {
+
+using namespace std::chrono_literals;
 
 using namespace testing_hm2;
 namespace cmd = hm2::command;
@@ -152,7 +160,7 @@ TEST_F(SslbpExternal, RelaxedTimeoutAndLateAndDamagedReplies) {
 // on how fast the machine is.
 struct PtyServed {
   hm2::HostMot2Card& card;
-  servers::PtyChannel& channel;
+  server::PtyChannel& channel;
   remote::FieldIoProcessor& io;
   CardHost& h;
   int fd;
@@ -185,7 +193,7 @@ struct PtyServed {
 TEST(PtyChannel, RemoteOnThePtyAnswersSetupStartAndCommands) {
   hm2::HostMot2Card card;
   CardHost h{card};
-  servers::PtyChannel channel(card, kExpansion);
+  server::PtyChannel channel(card, kExpansion);
   EXPECT_TRUE(card.part<hm2::Sslbp>().link(kExpansion).external());
   const int fd = ::open(channel.path().c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
   ASSERT_GE(fd, 0) << channel.path();
@@ -216,7 +224,7 @@ TEST(PtyChannel, RemoteOnThePtyAnswersSetupStartAndCommands) {
 TEST(PtyChannel, NobodyOnThePtyStartFailsAfterTheRelaxedTimeout) {
   hm2::HostMot2Card card;
   CardHost h{card};
-  servers::PtyChannel channel(card, kExpansion);
+  server::PtyChannel channel(card, kExpansion);
   h.command(cmd::kStop);
   h.write(CardHost::cs(kExpansion), 0);
   SimTime took{};
@@ -232,18 +240,18 @@ TEST(PtyChannel, NobodyOnThePtyStartFailsAfterTheRelaxedTimeout) {
 TEST(PtyChannel, RefusesAChannelWithA7I77ProcessorOrNone) {
   hm2::HostMot2Card card;
   try {
-    servers::PtyChannel channel(card, 0);
+    server::PtyChannel channel(card, 0);
     ADD_FAILURE() << "channel 0 taken";
   } catch (const std::invalid_argument& e) {
     EXPECT_STREQ(e.what(), "channel 0 carries the 7I77's field I/O processor");
   }
   try {
-    servers::PtyChannel channel(card, 1);
+    server::PtyChannel channel(card, 1);
     ADD_FAILURE() << "channel 1 taken";
   } catch (const std::invalid_argument& e) {
     EXPECT_STREQ(e.what(), "channel 1 carries the 7I77's analog processor");
   }
-  EXPECT_THROW(servers::PtyChannel(card, 6), std::invalid_argument);
+  EXPECT_THROW(server::PtyChannel(card, 6), std::invalid_argument);
   EXPECT_FALSE(card.part<hm2::Sslbp>().link(0).external());
 }
 

@@ -9,11 +9,15 @@
 
 #include <chrono>
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace lbp = lbpkit::model::lbp;
+namespace server = lbpkit::server;
+
 namespace {
 
 using namespace std::chrono_literals;
-using servers::SimClock;
 using lbp::SimTime;
+using server::SimClock;
 
 // The wall clock these tests read: set by hand.
 SimClock::Wall::time_point wall{};
@@ -26,7 +30,7 @@ class HostClockTest : public ::testing::Test {
 };
 
 TEST_F(HostClockTest, EachHostCycleMovesTimeOnePeriodWhateverTheWallClockDid) {
-  SimClock c(servers::HostClock{1ms, 20ms}, false, &testWall);
+  SimClock c(server::HostClock{1ms, 20ms}, false, &testWall);
   EXPECT_EQ(c.source(), SimClock::Source::Host);
   EXPECT_EQ(c.period(), SimTime{1ms});
   c.hostCycle();
@@ -50,7 +54,7 @@ TEST_F(HostClockTest, EachHostCycleMovesTimeOnePeriodWhateverTheWallClockDid) {
 }
 
 TEST_F(HostClockTest, ASilentHostHandsTimeBackToTheWallClockFromItsLastCycle) {
-  SimClock c(servers::HostClock{1ms, 20ms}, false, &testWall);
+  SimClock c(server::HostClock{1ms, 20ms}, false, &testWall);
   c.hostCycle();
   const SimTime atCycle = c.now();  // one period after the cycle
   pass(20ms);
@@ -75,7 +79,7 @@ TEST_F(HostClockTest, ASilentHostHandsTimeBackToTheWallClockFromItsLastCycle) {
 // its own absence, not the host's silence, and the host's next cycle is one
 // period on. A host silent before the card was held back stays silent.
 TEST_F(HostClockTest, TimeTheCardWasHeldBackIsNoSilenceOfTheHost) {
-  SimClock c(servers::HostClock{1ms, 40ms}, false, &testWall);
+  SimClock c(server::HostClock{1ms, 40ms}, false, &testWall);
   c.hostCycle();
   const SimTime atCycle = c.now();
   pass(61ms);
@@ -115,7 +119,7 @@ TEST_F(HostClockTest, ADoItTakenLateIsTakenAtWhenItCame) {
   // The card thread got to a DoIt 24 ms after it came, 1 ms after the last
   // cycle (the kernel held the sim back): the host was on time, and the
   // cycle is the host's, one period on.
-  SimClock c(servers::HostClock{1ms, 20ms}, false, &testWall);
+  SimClock c(server::HostClock{1ms, 20ms}, false, &testWall);
   c.hostCycle();
   const SimTime t = c.now();
   pass(25ms);
@@ -129,7 +133,7 @@ TEST_F(HostClockTest, ADoItTakenLateIsTakenAtWhenItCame) {
 TEST_F(HostClockTest, BeforeTheFirstCycleTimeFollowsTheWallClock) {
   // hm2_eth's and setsserial's set-up come before any cycle: their
   // smart-serial commands need time to pass.
-  SimClock c(servers::HostClock{1ms, 20ms}, false, &testWall);
+  SimClock c(server::HostClock{1ms, 20ms}, false, &testWall);
   EXPECT_EQ(c.now(), SimTime{0});
   pass(5ms);
   EXPECT_EQ(c.now(), SimTime{0}) << "within the bound of the start";
@@ -143,7 +147,7 @@ TEST_F(HostClockTest, BeforeTheFirstCycleTimeFollowsTheWallClock) {
 // cycle meets the wall clock from its last cycle on, at once, not after the
 // silence, and its next cycle drives time again.
 TEST_F(HostClockTest, AHostOutOfItsCycleMeetsTheWallClockUntilItsNextCycle) {
-  SimClock c(servers::HostClock{1ms, 40ms}, false, &testWall);
+  SimClock c(server::HostClock{1ms, 40ms}, false, &testWall);
   c.hostCycle();
   const SimTime atCycle = c.now();
   pass(2ms);
@@ -168,7 +172,7 @@ TEST_F(HostClockTest, AHostOutOfItsCycleMeetsTheWallClockUntilItsNextCycle) {
 }
 
 TEST_F(HostClockTest, ThePeriodIsLearnedFromTheFirstCyclesSpacing) {
-  SimClock c(servers::HostClock{SimTime{0}, 20ms}, false, &testWall);
+  SimClock c(server::HostClock{SimTime{0}, 20ms}, false, &testWall);
   c.hostCycle();  // the first: its spacing from set-up says nothing
   // 32 spacings near 1 ms, seven of them late or catching up (under a
   // fourth off by more than a fifth): the median, rounded to 10 us.
@@ -186,7 +190,7 @@ TEST_F(HostClockTest, ThePeriodIsLearnedFromTheFirstCyclesSpacing) {
 
 TEST_F(HostClockTest, SpacingsThatAreNoServoPeriodTeachNothing) {
   // Half the cycles 1 ms apart, half 5 ms: no period; nor 50 us, nor 20 ms.
-  SimClock c(servers::HostClock{SimTime{0}, 100ms}, false, &testWall);
+  SimClock c(server::HostClock{SimTime{0}, 100ms}, false, &testWall);
   c.hostCycle();
   for (std::size_t i = 0; i < SimClock::kLearnCycles; ++i) {
     pass(i % 2 ? 1ms : 5ms);
@@ -209,7 +213,7 @@ TEST_F(HostClockTest, SpacingsThatAreNoServoPeriodTeachNothing) {
 }
 
 TEST_F(HostClockTest, PausedTimeStandsAndStepsByHand) {
-  SimClock c(servers::HostClock{1ms, 20ms}, true, &testWall);
+  SimClock c(server::HostClock{1ms, 20ms}, true, &testWall);
   c.hostCycle();
   EXPECT_EQ(c.now(), SimTime{0}) << "a cycle while paused moves nothing";
   EXPECT_EQ(c.hostCycles(), 0U);
@@ -256,10 +260,10 @@ TEST(WallClock, AModelThatOnlyMovesIsLookedAtEverySoMuchSimulatedTime) {
 // time, at the clock's speed, and not at all while paused.
 TEST(SimClock, AgoIsTheSimulatedTimeOfAWallClockMomentPast) {
   using namespace std::chrono_literals;
-  servers::SimClock paused(1.0, true);
+  server::SimClock paused(1.0, true);
   paused.advanceBy(5ms);
   EXPECT_EQ(paused.ago(3ms), paused.now());  // paused time does not move
-  servers::SimClock doubled(2.0, false);
+  server::SimClock doubled(2.0, false);
   doubled.advanceBy(100ms);  // simulated time well past 0
   const auto now = doubled.now();
   const auto back = doubled.ago(10ms);

@@ -26,11 +26,11 @@ namespace test_support {
 class FixedStepAxis {
  public:
   struct Drive {
-    machine::AmplifierParameters amplifier;
+    lbpkit::model::machine::AmplifierParameters amplifier;
     double inertia = 0.0;  // its share of the axis' inertia, for its loop's gains
   };
 
-  FixedStepAxis(machine::AxisParameters p, std::vector<Drive> drives, double position)
+  FixedStepAxis(lbpkit::model::machine::AxisParameters p, std::vector<Drive> drives, double position)
       : p_(p), drives_(std::move(drives)), integral_(drives_.size(), 0.0), revs_(position / p.unitsPerMotorRev) {}
 
   // `seconds` in steps of `h`, each drive's input volts and ENA switch constant.
@@ -47,22 +47,22 @@ class FixedStepAxis {
   void step(const std::vector<double>& volts, const std::vector<bool>& ena, bool brake, double h) {
     double torque = 0.0;
     for (std::size_t i = 0; i < drives_.size(); ++i) {
-      const machine::ServoAmplifier amp(drives_[i].amplifier);
+      const lbpkit::model::machine::ServoAmplifier amp(drives_[i].amplifier);
       if (!amp.enabled(ena[i])) {
         integral_[i] = 0.0;
         continue;
       }
-      if (amp.parameters().mode == machine::AmplifierMode::Torque) {
+      if (amp.parameters().mode == lbpkit::model::machine::AmplifierMode::Torque) {
         torque += amp.command(volts[i]);
         continue;
       }
       const auto [kp, ki] = amp.gains(drives_[i].inertia);
       const double peak = amp.parameters().peakTorque;
-      const double error = machine::kTwoPi * (amp.command(volts[i]) - speed_);
+      const double error = lbpkit::model::machine::kTwoPi * (amp.command(volts[i]) - speed_);
       torque += std::clamp(kp * error + integral_[i], -peak, peak);
       integral_[i] = std::clamp(integral_[i] + ki * error * h, -peak, peak);
     }
-    const double w0 = machine::kTwoPi * speed_;
+    const double w0 = lbpkit::model::machine::kTwoPi * speed_;
     const double holding = p_.coulomb + (brake ? p_.brakeTorque : 0.0);
     const double applied = torque - p_.gravityTorque - p_.viscous * w0;
     double w1 = 0.0;
@@ -72,8 +72,8 @@ class FixedStepAxis {
       w1 = w0 + (applied - std::copysign(holding, w0)) * h / p_.inertia;
       if ((w1 > 0) != (w0 > 0)) w1 = 0.0;
     }
-    revs_ += (w0 + w1) / 2.0 * h / machine::kTwoPi;
-    speed_ = w1 / machine::kTwoPi;
+    revs_ += (w0 + w1) / 2.0 * h / lbpkit::model::machine::kTwoPi;
+    speed_ = w1 / lbpkit::model::machine::kTwoPi;
     const double pos = position(), v = velocity();
     if ((pos <= p_.hardStopMin && v <= 0) || (pos >= p_.hardStopMax && v >= 0)) {
       revs_ = std::clamp(pos, p_.hardStopMin, p_.hardStopMax) / p_.unitsPerMotorRev;
@@ -81,7 +81,7 @@ class FixedStepAxis {
     }
   }
 
-  machine::AxisParameters p_;
+  lbpkit::model::machine::AxisParameters p_;
   std::vector<Drive> drives_;
   std::vector<double> integral_;
   double revs_;

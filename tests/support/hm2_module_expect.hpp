@@ -8,7 +8,8 @@
 
 namespace testing_hm2 {
 
-inline void expectDescriptor(const hm2::ModuleDescriptor& got, const hm2::ModuleDescriptor& want) {
+inline void expectDescriptor(const lbpkit::model::hm2::ModuleDescriptor& got,
+                             const lbpkit::model::hm2::ModuleDescriptor& want) {
   EXPECT_EQ(got.gtag, want.gtag);
   EXPECT_EQ(got.version, want.version);
   EXPECT_EQ(got.clockTag, want.clockTag);

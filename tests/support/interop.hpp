@@ -35,7 +35,6 @@
 
 namespace interop {
 
-using namespace std::chrono_literals;
 using nlohmann::json;
 using test_support::Daemon;
 
@@ -97,7 +96,7 @@ class Sim : public test_support::SimChild {
 // that takes CPU from the sim and from LinuxCNC's servo thread.
 template <typename F>
 bool waitFor(F&& ok, std::chrono::milliseconds limit) {
-  return test_support::waitFor(std::forward<F>(ok), limit, 25ms);
+  return test_support::waitFor(std::forward<F>(ok), limit, std::chrono::milliseconds(25));
 }
 
 // A loopback address of this test's own (several cards can run side by side).
@@ -170,7 +169,7 @@ class LinuxCnc : public ::testing::Test {
     sim_.reset();
     ns_.reset();
     std::filesystem::remove(fifo_);
-    std::this_thread::sleep_for(100ms);
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
     reapOrphans();
   }
   // rtapi_app (LinuxCNC's servo thread, hm2_eth's sender) is started by the

@@ -14,10 +14,9 @@
 namespace testing_lbp {
 
 using Bytes = std::vector<std::uint8_t>;
-using namespace std::chrono_literals;
 
 inline Bytes withCrc(Bytes b) {
-  b.push_back(lbp::crc8(b));
+  b.push_back(lbpkit::model::lbp::crc8(b));
   return b;
 }
 
@@ -25,16 +24,18 @@ inline Bytes withCrc(Bytes b) {
 // baud rate, starting at `now`, and returns what came back.
 class Host {
  public:
-  explicit Host(remote::RemoteDevice& d, lbp::SimTime start = lbp::SimTime{0}) : dev(d), now(start) {}
+  explicit Host(lbpkit::model::remote::RemoteDevice& d,
+                lbpkit::model::lbp::SimTime start = lbpkit::model::lbp::SimTime{0})
+      : dev(d), now(start) {}
 
   Bytes raw(const Bytes& bytes) {
     Bytes reply;
     for (auto b : bytes) {
-      now += lbp::characterTime(dev.baud());
+      now += lbpkit::model::lbp::characterTime(dev.baud());
       auto r = dev.receive(b, now);
       reply.insert(reply.end(), r.begin(), r.end());
     }
-    now += lbp::characterTime(dev.baud()) * 2;
+    now += lbpkit::model::lbp::characterTime(dev.baud()) * 2;
     return reply;
   }
   Bytes send(const Bytes& command) { return raw(withCrc(command)); }
@@ -43,12 +44,12 @@ class Host {
   std::optional<Bytes> transact(const Bytes& command, std::size_t dataBytes) {
     Bytes r = send(command);
     if (r.size() != dataBytes + 1) return std::nullopt;
-    EXPECT_EQ(lbp::crc8(r), 0) << "reply CRC";
+    EXPECT_EQ(lbpkit::model::lbp::crc8(r), 0) << "reply CRC";
     r.pop_back();
     return r;
   }
   std::uint64_t read(std::uint16_t address, std::uint8_t size) {
-    auto r = transact({lbp::readHeader(size, true), static_cast<std::uint8_t>(address & 0xFF),
+    auto r = transact({lbpkit::model::lbp::readHeader(size, true), static_cast<std::uint8_t>(address & 0xFF),
                        static_cast<std::uint8_t>(address >> 8)},
                       size);
     EXPECT_TRUE(r.has_value()) << "read at " << address;
@@ -58,7 +59,7 @@ class Host {
     return v;
   }
   bool write(std::uint16_t address, std::uint8_t size, std::uint64_t value) {
-    Bytes c{lbp::writeHeader(size, true), static_cast<std::uint8_t>(address & 0xFF),
+    Bytes c{lbpkit::model::lbp::writeHeader(size, true), static_cast<std::uint8_t>(address & 0xFF),
             static_cast<std::uint8_t>(address >> 8)};
     for (unsigned i = 0; i < size; ++i) c.push_back(static_cast<std::uint8_t>(value >> (8 * i)));
     return send(c) == Bytes{0x00};
@@ -69,19 +70,19 @@ class Host {
   }
   bool setLocal(std::uint8_t command, std::uint8_t value) { return send({command, value}) == Bytes{0x00}; }
   Bytes processData(const Bytes& out) {
-    Bytes c{lbp::special_rpc::kProcessData};
+    Bytes c{lbpkit::model::lbp::special_rpc::kProcessData};
     c.insert(c.end(), out.begin(), out.end());
     auto r = transact(c, dev.discovery().rxSize);
     EXPECT_TRUE(r.has_value());
     return r.value_or(Bytes{});
   }
-  void wait(lbp::SimTime t) {
+  void wait(lbpkit::model::lbp::SimTime t) {
     now += t;
     dev.advance(now);
   }
 
-  remote::RemoteDevice& dev;
-  lbp::SimTime now;
+  lbpkit::model::remote::RemoteDevice& dev;
+  lbpkit::model::lbp::SimTime now;
 };
 
 }  // namespace testing_lbp

@@ -37,8 +37,8 @@ class LossyUdpCard {
   [[nodiscard]] unsigned delayed() const { return delayed_.load(); }
 
  private:
-  hm2::SimTime now() const {
-    return std::chrono::duration_cast<hm2::SimTime>(std::chrono::steady_clock::now() - start_);
+  lbpkit::model::hm2::SimTime now() const {
+    return std::chrono::duration_cast<lbpkit::model::hm2::SimTime>(std::chrono::steady_clock::now() - start_);
   }
   void serve() {
     auto& io = card_.daughtercard(0).fieldIo;
@@ -68,9 +68,9 @@ class LossyUdpCard {
   }
 
   const std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
-  hm2::HostMot2Card card_;
-  servers::Lbp16Card lbp16_{card_, servers::Lbp16Card::Identity{}};
-  servers::UdpServer server_;
+  lbpkit::model::hm2::HostMot2Card card_;
+  lbpkit::server::Lbp16Card lbp16_{card_, lbpkit::server::Lbp16Card::Identity{}};
+  lbpkit::server::UdpServer server_;
   std::atomic<bool> stop_{false};
   std::atomic<unsigned> drop_{0}, late_{0}, dropped_{0}, delayed_{0};
   std::atomic<long> delay_{0};

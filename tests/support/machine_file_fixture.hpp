@@ -33,8 +33,8 @@ class MachineFileFixture : public testing::Test {
   // The message loading `text` fails with ("" when it loads).
   std::string error(const std::string& text) {
     try {
-      (void)config::loadMachine(write(text));
-    } catch (const config::FileError& e) {
+      (void)lbpkit::config::loadMachine(write(text));
+    } catch (const lbpkit::config::FileError& e) {
       return e.what();
     }
     return "";

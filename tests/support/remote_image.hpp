@@ -29,8 +29,9 @@ inline std::vector<std::uint8_t> remoteProgram(std::size_t n, std::uint8_t seed)
 // 7I77's field I/O processor, software revision `revision`, written to `file`.
 inline void writeRemoteImage(const std::filesystem::path& file, std::size_t programBytes, std::uint8_t revision,
                              std::string_view cardName = "7I77",
-                             std::uint8_t processor = remote::kFieldIoProcessor) {
-  const auto image = remote::ProgramFlash::image(cardName, processor, revision, remoteProgram(programBytes, revision));
+                             std::uint8_t processor = lbpkit::model::remote::kFieldIoProcessor) {
+  const auto image =
+      lbpkit::model::remote::ProgramFlash::image(cardName, processor, revision, remoteProgram(programBytes, revision));
   std::ofstream(file, std::ios::binary)
       .write(reinterpret_cast<const char*>(image.data()), static_cast<std::streamsize>(image.size()));
 }

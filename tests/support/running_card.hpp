@@ -19,7 +19,7 @@ struct RunningCard {
   lbpkit::CardInfo info;
   lbpkit::SmartSerial ss;
 
-  explicit RunningCard(hm2::HostMot2Card::Options card = {}, std::uint8_t mask = 0x03)
+  explicit RunningCard(lbpkit::model::hm2::HostMot2Card::Options card = {}, std::uint8_t mask = 0x03)
       : t(std::move(card)), info(lbpkit::readCardInfo(t)), ss(t, info, channels(mask)) {
     ss.discover(mask);
     ss.startNormal();

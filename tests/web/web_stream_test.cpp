@@ -15,6 +15,8 @@
 
 namespace {
 
+using namespace std::chrono_literals;
+
 using namespace webtest;
 
 // A page's event stream over a plain socket: asks for it, then reads it

@@ -39,7 +39,6 @@
 
 namespace webtest {
 
-using namespace std::chrono_literals;
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
@@ -55,7 +54,7 @@ using Sim = test_support::SimChild;
 class Host {
  public:
   explicit Host(const Sim& sim) : transport_(sim.address(), static_cast<std::uint16_t>(sim.udpPort())) {
-    transport_.setCycleTimeout(500ms);  // what is tested is the data, not the reply time
+    transport_.setCycleTimeout(std::chrono::milliseconds(500));  // what is tested is the data, not the reply time
     const auto info = lbpkit::readCardInfo(transport_);
     lbpkit::SmartSerial::Options o;
     o.channelMask = 0x03;
@@ -105,7 +104,7 @@ class Host {
       if (!st.ok) ++failedCycles;
       fieldIoFaults = ss_->remoteFaults(0);
       ++cycles;
-      transport_.sleep(1ms);
+      transport_.sleep(std::chrono::milliseconds(1));
     }
   }
 
@@ -124,7 +123,7 @@ class SevenI76Host {
  public:
   static constexpr unsigned kChannel = 3;
   explicit SevenI76Host(const Sim& sim) : transport_(sim.address(), static_cast<std::uint16_t>(sim.udpPort())) {
-    transport_.setCycleTimeout(500ms);
+    transport_.setCycleTimeout(std::chrono::milliseconds(500));
     const auto info = lbpkit::readCardInfo(transport_);
     stepGen_ = std::make_unique<testing_stepgen::StepGenRegisters>(transport_, info);
     lbpkit::SmartSerial::Options o;
@@ -176,7 +175,7 @@ class SevenI76Host {
         }
       }
       ++cycles;
-      transport_.sleep(1ms);
+      transport_.sleep(std::chrono::milliseconds(1));
     }
   }
 
@@ -245,10 +244,12 @@ class Browser {
     }
     client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
     client_->set_read_timeout(60, 0);
-    if (!test_support::waitFor([this] {
-          auto r = client_->Get("/status");
-          return r && r->status == 200;
-        }, 30000ms))  // a loaded 2-core machine starts it slowly
+    if (!test_support::waitFor(
+            [this] {
+              auto r = client_->Get("/status");
+              return r && r->status == 200;
+            },
+            std::chrono::milliseconds(30000)))  // a loaded 2-core machine starts it slowly
       throw std::runtime_error("chromedriver did not start");
     const json caps = {{"capabilities",
                         {{"alwaysMatch",
@@ -287,7 +288,7 @@ class Browser {
     call("POST", path("/element/" + id + "/click"), json::object());
   }
   // Waits up to `limit` for `script` to return true in the page.
-  bool waitFor(const std::string& script, std::chrono::milliseconds limit = 5000ms) {
+  bool waitFor(const std::string& script, std::chrono::milliseconds limit = std::chrono::milliseconds(5000)) {
     return test_support::waitFor([&] {
       const auto v = run(script);
       return v.is_boolean() && v.get<bool>();

@@ -12,6 +12,8 @@
 
 namespace {
 
+using namespace std::chrono_literals;
+
 using namespace webtest;
 
 #define SKIP_WITHOUT_BROWSER()                                                                          \

@@ -11,6 +11,10 @@
 #include <vector>
 #include "remote/field_io.hpp"
 #include "sslbp_vsim.h"
+
+// The layers' namespaces this file names (docs/architecture.md).
+namespace remote = lbpkit::model::remote;
+namespace lbp = lbpkit::model::lbp;
 int main() {
   const int fch = getenv("FIO_CH") ? atoi(getenv("FIO_CH")) : 3;
   SslbpSim s(6);

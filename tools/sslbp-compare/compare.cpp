@@ -28,6 +28,11 @@
 #include "sslbp_vsim.h"
 #endif
 
+// The layers' namespaces this file names (docs/architecture.md).
+namespace hm2 = lbpkit::model::hm2;
+namespace remote = lbpkit::model::remote;
+namespace lbp = lbpkit::model::lbp;
+
 namespace {
 
 constexpr std::uint16_t kCmd = 0x5A00, kData = 0x5B00;
@@ -89,11 +94,11 @@ struct LbpkitBackend : Backend {
     card.advance(lbp::SimTime{t});
   }
   std::uint64_t now() override { return static_cast<std::uint64_t>(t); }
-  void cable(int ch, bool c) override { card.smartSerial().link(static_cast<unsigned>(ch)).setConnected(c); }
+  void cable(int ch, bool c) override { card.part<hm2::Sslbp>().link(static_cast<unsigned>(ch)).setConnected(c); }
   void fieldVoltage(double v) override { card.daughtercard(0).fieldIo.setFieldVoltage(v, lbp::SimTime{t}); }
   void fieldInput(unsigned i, double v) override { card.daughtercard(0).fieldIo.setInputVoltage(i, v); }
   void driverHot(unsigned chip, bool hot) override { card.daughtercard(0).fieldIo.setDriverOverTemperature(chip, hot); }
-  int channels() override { return static_cast<int>(card.smartSerial().channels()); }
+  int channels() override { return static_cast<int>(card.part<hm2::Sslbp>().channels()); }
   std::string remoteInfo() override {
     auto& d = card.daughtercard(0);
     char b[200];

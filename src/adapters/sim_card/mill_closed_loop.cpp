@@ -16,12 +16,12 @@ SmartSerial::Options bothChannels() {
 constexpr unsigned kEncodersUsed = 6;  // the 7I77's, as LinuxCNC's num_encoders=6 reads them
 }  // namespace
 
-machine::MachineDescription millWithRotaryTables(std::chrono::microseconds step) {
-  auto d = machine::mill();
+model::machine::MachineDescription millWithRotaryTables(std::chrono::microseconds step) {
+  auto d = model::machine::mill();
   d.name = "mill+ab";
   d.step = step;
   for (unsigned channel : {3U, 4U}) {
-    machine::AxisDescription rotary = d.axes[0];  // X's drive and motor
+    model::machine::AxisDescription rotary = d.axes[0];  // X's drive and motor
     // A new string moved in, not operator=(const char*) on X's copied name: GCC 12
     // at -O3 warns on that (-Wrestrict, a false positive: GCC bugs 105329, 105651).
     rotary.name = std::string(1, channel == 3 ? 'a' : 'b');
@@ -44,7 +44,7 @@ MillClosedLoop::StartedCard::StartedCard()
 }
 
 MillClosedLoop::MillClosedLoop(std::chrono::microseconds plantStep)
-    : machine_(millWithRotaryTables(plantStep), card_.t.card(), hm2::SimTime{card_.t.now()}) {
+    : machine_(millWithRotaryTables(plantStep), card_.t.card(), model::hm2::SimTime{card_.t.now()}) {
   auto& ss = card_.ss;
   for (unsigned i = 0; i < aout_.size(); ++i) aout_[i] = ss.find(1, "analogout" + std::to_string(i));
   ss.setRaw(ss.find(1, "analogena"), 1);
@@ -79,7 +79,7 @@ CycleStatus MillClosedLoop::cycle() {
   enc.update();
   if (cycles_ == 0)
     for (unsigned a = 0; a < kAxes; ++a) offset_[a] = enc.position(a);
-  machine_.advance(hm2::SimTime{start + 1ms});
+  machine_.advance(model::hm2::SimTime{start + 1ms});
   t.sleep(start + 1ms - t.now());
   ++cycles_;
   return status_;

@@ -29,7 +29,7 @@ namespace lbpkit {
 
 // The built-in mill plus rotary tables A and B (10 degrees per motor
 // revolution, no switches), its plant's longest span `step`.
-[[nodiscard]] machine::MachineDescription millWithRotaryTables(std::chrono::microseconds step);
+[[nodiscard]] model::machine::MachineDescription millWithRotaryTables(std::chrono::microseconds step);
 
 class MillClosedLoop {
  public:
@@ -44,7 +44,7 @@ class MillClosedLoop {
   CycleStatus cycle();
 
   SimTransport& transport() { return card_.t; }
-  [[nodiscard]] const machine::Machine& machine() const { return machine_; }
+  [[nodiscard]] const model::machine::Machine& machine() const { return machine_; }
   [[nodiscard]] const MuxedEncoders& encoders() const { return card_.enc; }
   [[nodiscard]] const CycleStatus& status() const { return status_; }
   [[nodiscard]] std::uint64_t cycles() const { return cycles_; }
@@ -64,7 +64,7 @@ class MillClosedLoop {
     StartedCard();
   };
   StartedCard card_;
-  machine::Machine machine_;
+  model::machine::Machine machine_;
   std::array<ElementRef, 6> aout_{};
   std::array<double, kAxes> initial_{};  // where each axis started
   std::array<double, kAxes> offset_{};   // the encoders' positions at the first cycle

@@ -5,10 +5,11 @@
 
 namespace lbpkit {
 
-SimTransport::SimTransport(hm2::HostMot2Card& card, Nanoseconds accessTime) : card_(card), accessTime_(accessTime) {}
+SimTransport::SimTransport(model::hm2::HostMot2Card& card, Nanoseconds accessTime)
+    : card_(card), accessTime_(accessTime) {}
 
-SimTransport::SimTransport(hm2::HostMot2Card::Options options, Nanoseconds accessTime)
-    : owned_(std::make_unique<hm2::HostMot2Card>(std::move(options))), card_(*owned_), accessTime_(accessTime) {}
+SimTransport::SimTransport(model::hm2::HostMot2Card::Options options, Nanoseconds accessTime)
+    : owned_(std::make_unique<model::hm2::HostMot2Card>(std::move(options))), card_(*owned_), accessTime_(accessTime) {}
 
 void SimTransport::queueRead(std::uint16_t address, std::uint32_t* into, std::size_t count) {
   for (std::size_t i = 0; i < count; ++i) {

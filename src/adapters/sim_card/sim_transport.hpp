@@ -16,9 +16,9 @@ namespace lbpkit {
 class SimTransport final : public Transport {
  public:
   static constexpr std::size_t kMaxQueued = 512;
-  explicit SimTransport(hm2::HostMot2Card& card, Nanoseconds accessTime = Nanoseconds{500});
+  explicit SimTransport(model::hm2::HostMot2Card& card, Nanoseconds accessTime = Nanoseconds{500});
   // Owns its card (by default a 7I92 with one 7I77).
-  explicit SimTransport(hm2::HostMot2Card::Options options = {}, Nanoseconds accessTime = Nanoseconds{500});
+  explicit SimTransport(model::hm2::HostMot2Card::Options options = {}, Nanoseconds accessTime = Nanoseconds{500});
 
   void queueRead(std::uint16_t address, std::uint32_t* into, std::size_t count = 1) override;
   void queueWrite(std::uint16_t address, const std::uint32_t* from, std::size_t count = 1) override;
@@ -30,7 +30,7 @@ class SimTransport final : public Transport {
   [[nodiscard]] std::uint64_t exchanges() const override { return exchanges_; }
   [[nodiscard]] std::string describe() const override { return "in-process virtual 7I92 with 7I77"; }
 
-  hm2::HostMot2Card& card() { return card_; }
+  model::hm2::HostMot2Card& card() { return card_; }
   // Simulated network round trip added to every flush (0: a local bus).
   void setExchangeLatency(Nanoseconds d) { exchangeLatency_ = d; }
 
@@ -51,8 +51,8 @@ class SimTransport final : public Transport {
     std::uint32_t* into;
     std::uint32_t value;
   };
-  std::unique_ptr<hm2::HostMot2Card> owned_;
-  hm2::HostMot2Card& card_;
+  std::unique_ptr<model::hm2::HostMot2Card> owned_;
+  model::hm2::HostMot2Card& card_;
   Nanoseconds accessTime_;
   Nanoseconds now_{0};
   Nanoseconds exchangeLatency_{0};

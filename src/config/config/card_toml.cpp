@@ -11,9 +11,9 @@
 #include "config/toml_reader.hpp"
 #include "lbpkit/wire/seven_i77.hpp"
 
-namespace config {
+namespace lbpkit::config {
 
-void loadConfig(const std::string& path, hm2::HostMot2Card::Options& card) {
+void loadConfig(const std::string& path, model::hm2::HostMot2Card::Options& card) {
   const toml::table t = parseFile(path, "a TOML configuration file");
   const ConfigReader r(path);
   r.onlyKeys(t, "", {"card", "daughtercard", "fault"});  // fault: config/fault_script
@@ -31,27 +31,28 @@ void loadConfig(const std::string& path, hm2::HostMot2Card::Options& card) {
       return *v;
     };
     if (const auto name = textOf("name")) {
-      const hm2::cards::Card* c = hm2::cards::find(*name);
+      const model::hm2::cards::Card* c = model::hm2::cards::find(*name);
       std::string list;
-      for (const auto& k : hm2::cards::all()) list += (list.empty() ? "\"" : ", \"") + std::string(k.name) + "\"";
+      for (const auto& k : model::hm2::cards::all())
+        list += (list.empty() ? "\"" : ", \"") + std::string(k.name) + "\"";
       if (c == nullptr) r.fail(cardTable->get("name"), "card.name", fmt::format("\"{}\" is not one of {}", *name, list));
       if (card.card != nullptr && card.card != c)
         r.fail(cardTable->get("name"), "card.name",
                fmt::format("\"{}\", but lbpkit sim --card says the {}", *name, card.card->name));
       card.card = c;
     }
-    const auto& chosen = card.card != nullptr ? *card.card : hm2::cards::defaultCard();
+    const auto& chosen = card.card != nullptr ? *card.card : model::hm2::cards::defaultCard();
     if (const auto pinout = textOf("pinout")) {
-      const auto* f = hm2::cards::firmware(chosen, *pinout);
+      const auto* f = model::hm2::cards::firmware(chosen, *pinout);
       if (f == nullptr)
         r.fail(cardTable->get("pinout"), "card.pinout",
-               fmt::format("\"{}\" is not one of {}{}", *pinout, hm2::cards::firmwareNames(chosen),
+               fmt::format("\"{}\" is not one of {}{}", *pinout, model::hm2::cards::firmwareNames(chosen),
                            chosen.firmwares.size() > 1 ? fmt::format(" (the {}'s firmwares)", chosen.name) : ""));
       card.pinout = f->pinout;
     }
   }
-  const auto& chosen = card.card != nullptr ? *card.card : hm2::cards::defaultCard();
-  const auto& firmware = *(card.pinout ? hm2::cards::firmware(chosen, *card.pinout) : &chosen.firmwares.front());
+  const auto& chosen = card.card != nullptr ? *card.card : model::hm2::cards::defaultCard();
+  const auto& firmware = *(card.pinout ? model::hm2::cards::firmware(chosen, *card.pinout) : &chosen.firmwares.front());
   const toml::array* boards = r.tables(t, "", "daughtercard");
   if (boards == nullptr) return;
   // One table per connector a firmware gives a 7I77 (two at most: a 7I92's
@@ -68,23 +69,23 @@ void loadConfig(const std::string& path, hm2::HostMot2Card::Options& card) {
     const auto type = r.text(b, prefix, "type", "7I77", {"7I77", "7I77D", "none"});
     if (i == 1 && type != "none" && firmware.sevenI77s.size() < 2)
       r.fail(b.get("type") != nullptr ? b.get("type") : &b, prefix + "type",
-             firmware.pinout == hm2::cards::Pinout::SevenI77Gpio
+             firmware.pinout == model::hm2::cards::Pinout::SevenI77Gpio
                  ? std::string("the 7I77+GPIO pinout has GPIO on the second connector: use pinout = \"7I77x2\" for a "
                                "second 7I77")
                  : fmt::format("the {} pinout of the {} has one 7I77 connector{}", firmware.name, chosen.name,
-                               hm2::cards::firmware(chosen, hm2::cards::Pinout::SevenI77x2) != nullptr
+                               model::hm2::cards::firmware(chosen, model::hm2::cards::Pinout::SevenI77x2) != nullptr
                                    ? ": use pinout = \"7I77x2\" for a second 7I77"
                                    : ""));
     if (type == "none") {
       if (i == 0) r.fail(b.get("type"), prefix + "type", "the first connector must carry a 7I77");
       continue;
     }
-    hm2::HostMot2Card::DaughterOptions d;
+    model::hm2::HostMot2Card::DaughterOptions d;
     if (i == 1 && !card.first.fieldIo.nvFile.empty()) {
       d.fieldIo.nvFile = card.first.fieldIo.nvFile.string() + ".2";
       d.analog.nvFile = card.first.analog.nvFile.string() + ".2";
     }
-    d.fieldIo.outputs = type == "7I77D" ? remote::OutputType::Sinking : remote::OutputType::Sourcing;
+    d.fieldIo.outputs = type == "7I77D" ? model::remote::OutputType::Sinking : model::remote::OutputType::Sourcing;
     // Rated 5..28 V field power and 10..32 V VIN (manual: SPECIFICATIONS);
     // lower values model a failing supply, above 36 V nothing survives.
     d.fieldIo.fieldVoltage = r.number(b, prefix, "field_voltage", 24.0, 0.0, 36.0, "V");
@@ -117,4 +118,4 @@ void loadConfig(const std::string& path, hm2::HostMot2Card::Options& card) {
   }
 }
 
-}  // namespace config
+}  // namespace lbpkit::config

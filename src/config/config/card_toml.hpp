@@ -8,11 +8,11 @@
 
 #include "hostmot2/card.hpp"
 
-namespace config {
+namespace lbpkit::config {
 
 // Reads `path` into `card`, keeping the EEPROM file names already set in
 // card.first (the second connector's get the same with ".2"). Throws
 // FileError (config/toml_reader.hpp) naming file, line, column and key.
-void loadConfig(const std::string& path, hm2::HostMot2Card::Options& card);
+void loadConfig(const std::string& path, model::hm2::HostMot2Card::Options& card);
 
-}  // namespace config
+}  // namespace lbpkit::config

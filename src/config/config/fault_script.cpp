@@ -11,7 +11,7 @@
 
 #include "config/toml_reader.hpp"
 
-namespace config {
+namespace lbpkit::config {
 
 namespace {
 
@@ -113,4 +113,4 @@ std::vector<ScriptedFault> loadFaultScript(const std::string& path, bool scriptO
   return script;
 }
 
-}  // namespace config
+}  // namespace lbpkit::config

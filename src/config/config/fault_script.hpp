@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-namespace config {
+namespace lbpkit::config {
 
 struct ScriptedFault {
   std::chrono::nanoseconds at{0};
@@ -44,4 +44,4 @@ std::vector<ScriptedFault> loadFaultScript(const std::string& path, bool scriptO
 // Throws std::invalid_argument saying what a duration looks like.
 std::chrono::nanoseconds parseDuration(const std::string& text);
 
-}  // namespace config
+}  // namespace lbpkit::config

@@ -19,40 +19,40 @@
 #include "remote/field_io.hpp"
 #include "remote/seven_i76.hpp"
 
-namespace config {
+namespace lbpkit::config {
 
 namespace {
 
-using machine::AmplifierMode;
-using machine::AmplifierParameters;
-using machine::AxisDescription;
-using machine::Contact;
-using machine::Daughtercard;
-using machine::DriveDescription;
-using machine::EnablePolarity;
-using machine::EncoderParameters;
-using machine::MachineDescription;
-using machine::OutputDescription;
-using machine::SpindleDescription;
-using machine::StepperParameters;
-using machine::SwitchKind;
-using machine::SwitchParameters;
+using model::machine::AmplifierMode;
+using model::machine::AmplifierParameters;
+using model::machine::AxisDescription;
+using model::machine::Contact;
+using model::machine::Daughtercard;
+using model::machine::DriveDescription;
+using model::machine::EnablePolarity;
+using model::machine::EncoderParameters;
+using model::machine::MachineDescription;
+using model::machine::OutputDescription;
+using model::machine::SpindleDescription;
+using model::machine::StepperParameters;
+using model::machine::SwitchKind;
+using model::machine::SwitchParameters;
 
 // What one 7I77 has (manual: ANALOG SERVO DRIVE INTERFACE, SERVO ENABLE
 // OUTPUTS, ENCODER INTERFACE, FIELD INPUT/OUTPUT CONNECTORS).
-constexpr std::int64_t kAnalogOutputs = remote::AnalogProcessor::kChannels;  // AOUT0..5
+constexpr std::int64_t kAnalogOutputs = model::remote::AnalogProcessor::kChannels;  // AOUT0..5
 constexpr std::int64_t kEnables = 6;                                         // ENA0..5
 constexpr std::int64_t kEncoders = 6;                                        // TB3 0..2, TB4 3..5
-constexpr std::int64_t kInputs = remote::FieldIoProcessor::kInputs;          // 0..31
-constexpr std::int64_t kOutputs = remote::FieldIoProcessor::kOutputs;        // 0..15
+constexpr std::int64_t kInputs = model::remote::FieldIoProcessor::kInputs;   // 0..31
+constexpr std::int64_t kOutputs = model::remote::FieldIoProcessor::kOutputs;  // 0..15
 // The 7I76's (docs/cards.md#the-7i76-field-io): 32 inputs, 16 outputs, one
 // spindle encoder input.
-constexpr std::int64_t kInputs76 = remote::SevenI76FieldIo::kInputs;    // 0..31
+constexpr std::int64_t kInputs76 = model::remote::SevenI76FieldIo::kInputs;  // 0..31
 constexpr std::int64_t kCardPins = 144;  // a card's IO pins: at most 6 ports of 24 (the machine checks the card's)
-constexpr std::int64_t kOutputs76 = remote::SevenI76FieldIo::kOutputs;  // 0..15
+constexpr std::int64_t kOutputs76 = model::remote::SevenI76FieldIo::kOutputs;  // 0..15
 // A HostMot2 firmware's StepGens (how many this card's has, the machine
 // checks against the card: machine.cpp).
-constexpr std::int64_t kStepGens = hm2::StepGen::kMaxInstances;
+constexpr std::int64_t kStepGens = model::hm2::StepGen::kMaxInstances;
 
 // Generous bounds that still catch a slipped decimal point.
 constexpr double kMaxPosition = 1e6;  // mm
@@ -105,7 +105,7 @@ class MachineReader {
     m.name = r_.name(root_, "", "name", std::move(defaultName));
     // The longest span the plant solves in one piece (MachineDescription::step).
     const double stepUs = r_.number(root_, "", "step_us", 1000.0, 1.0, 1000.0, "us");
-    m.step = lbp::SimTime{static_cast<std::int64_t>(std::llround(stepUs * 1000.0))};
+    m.step = model::lbp::SimTime{static_cast<std::int64_t>(std::llround(stepUs * 1000.0))};
 
     readList(root_, "axis", m.axes, [&](const toml::table& t, const std::string& prefix) { return axis(t, prefix); });
     if (const toml::table* s = r_.table(root_, "", "spindle")) m.spindle = spindle(*s);
@@ -157,7 +157,8 @@ class MachineReader {
   // is noted: the machine names it when the card's firmware has no 7I76.
   Daughtercard daughtercard(const toml::table& t, const std::string& prefix, std::string_view key,
                             Daughtercard fallback = Daughtercard::SevenI77, bool wired = true) {
-    const auto text = r_.text(t, prefix, key, std::string(machine::daughtercardName(fallback)), {"7I77", "7I76"});
+    const auto text =
+        r_.text(t, prefix, key, std::string(model::machine::daughtercardName(fallback)), {"7I77", "7I76"});
     const Daughtercard d = text == "7I76" ? Daughtercard::SevenI76 : Daughtercard::SevenI77;
     if (d == Daughtercard::SevenI76 && wired && sevenI76Where_.empty())
       sevenI76Where_ = fmt::format("{}:{}: {}{}", r_.path(), ConfigReader::where(at(t, key)), prefix, key);
@@ -433,15 +434,15 @@ class MachineReader {
 
 }  // namespace
 
-machine::MachineDescription loadMachineFile(const std::string& path) {
+model::machine::MachineDescription loadMachineFile(const std::string& path) {
   const toml::table root = parseFile(path, "a TOML machine file");
   return MachineReader(path, root).read(std::filesystem::path(path).stem().string());
 }
 
-machine::MachineDescription loadMachine(const std::string& nameOrPath) {
-  if (nameOrPath == "mill") return machine::mill();
-  if (nameOrPath == "lathe") return machine::lathe();
-  if (nameOrPath == "gantry") return machine::gantry();
+model::machine::MachineDescription loadMachine(const std::string& nameOrPath) {
+  if (nameOrPath == "mill") return model::machine::mill();
+  if (nameOrPath == "lathe") return model::machine::lathe();
+  if (nameOrPath == "gantry") return model::machine::gantry();
   std::error_code ec;
   if (!std::filesystem::exists(nameOrPath, ec))
     throw FileError(fmt::format("{}: no such file (a machine file, or a built-in machine: mill, lathe or gantry)",
@@ -449,4 +450,4 @@ machine::MachineDescription loadMachine(const std::string& nameOrPath) {
   return loadMachineFile(nameOrPath);
 }
 
-}  // namespace config
+}  // namespace lbpkit::config

@@ -10,7 +10,7 @@
 #include <vector>
 #include "lbpkit/wire/names.hpp"
 
-namespace config {
+namespace lbpkit::config {
 
 toml::table parseFile(const std::string& path, std::string_view what) {
   std::error_code ec;
@@ -194,4 +194,4 @@ std::string ConfigReader::typeName(const toml::node& n) {
   }
 }
 
-}  // namespace config
+}  // namespace lbpkit::config

@@ -13,7 +13,7 @@
 #include <toml++/toml.h>
 #include <utility>
 
-namespace config {
+namespace lbpkit::config {
 
 // A mistake in a file, or a file that cannot be read: "FILE:LINE:COL: key:
 // what" (or "FILE: what" when there is no place in the file to point at).
@@ -110,4 +110,4 @@ class ConfigReader {
   std::string path_;
 };
 
-}  // namespace config
+}  // namespace lbpkit::config

@@ -6,16 +6,16 @@
 #include <string>
 #include <utility>
 
-
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 namespace {
 // The identification area and the IDROM: read only (HostMot2 regmap;
 // docs/protocol-facts.md#identification-area-and-idrom).
 constexpr bool readOnlyIdentification(std::uint16_t address) {
-  return (address >= idrom::kIdromAddress && address < idrom::kIdromAddress + idrom::kWords * 4) ||
-         address == idrom::kCookieAddress || address == idrom::kConfigName || address == idrom::kConfigName + 4 ||
-         address == idrom::kIdromPointer;
+  return (address >= wire::hm2::idrom::kIdromAddress &&
+          address < wire::hm2::idrom::kIdromAddress + idrom::kWords * 4) ||
+         address == wire::hm2::idrom::kCookieAddress || address == wire::hm2::idrom::kConfigName ||
+         address == wire::hm2::idrom::kConfigName + 4 || address == wire::hm2::idrom::kIdromPointer;
 }
 
 constexpr AccessKind refusal(WriteResult r) {
@@ -87,8 +87,10 @@ HostMot2Card::HostMot2Card(Options options)
     }
   // read32() asks the module map first: no module may decode the
   // identification area (the cookie's words up to the IDROM's end).
-  static_assert(idrom::kCookieAddress < idrom::kConfigName && idrom::kIdromPointer < idrom::kIdromAddress);
-  for (unsigned reg = idrom::kCookieAddress; reg < idrom::kIdromAddress + idrom::kWords * 4U; reg += 4)
+  static_assert(wire::hm2::idrom::kCookieAddress < wire::hm2::idrom::kConfigName &&
+                wire::hm2::idrom::kIdromPointer < wire::hm2::idrom::kIdromAddress);
+  for (unsigned reg = wire::hm2::idrom::kCookieAddress; reg < wire::hm2::idrom::kIdromAddress + idrom::kWords * 4U;
+       reg += 4)
     if (readOnlyIdentification(static_cast<std::uint16_t>(reg)) && moduleAt(static_cast<std::uint16_t>(reg)) != nullptr)
       throw std::logic_error("a module of the " + std::string(firmware_->name) + " firmware decodes the identification area");
 
@@ -197,13 +199,13 @@ std::uint32_t HostMot2Card::read32(std::uint16_t address, SimTime now) {
   // What Module::read does, with the map's answers looked up once per block
   // (no module decodes the identification area: the constructor checks).
   if (Module* m = moduleAt(reg)) return blockAccess_[reg >> 8] == map::Access::WriteOnly ? 0 : m->readRegister(reg, now_);
-  if (reg >= idrom::kIdromAddress && reg < idrom::kIdromAddress + idrom::kWords * 4)
-    return idrom_[static_cast<unsigned>(reg - idrom::kIdromAddress) / 4];
+  if (reg >= wire::hm2::idrom::kIdromAddress && reg < wire::hm2::idrom::kIdromAddress + idrom::kWords * 4)
+    return idrom_[static_cast<unsigned>(reg - wire::hm2::idrom::kIdromAddress) / 4];
   switch (reg) {
-    case idrom::kCookieAddress: return idrom::kCookie;
-    case idrom::kConfigName: return idrom::kConfigNameHost;
-    case idrom::kConfigName + 4: return idrom::kConfigNameMot2;
-    case idrom::kIdromPointer: return idrom::kIdromAddress;
+    case wire::hm2::idrom::kCookieAddress: return wire::hm2::idrom::kCookie;
+    case wire::hm2::idrom::kConfigName: return wire::hm2::idrom::kConfigNameHost;
+    case wire::hm2::idrom::kConfigName + 4: return wire::hm2::idrom::kConfigNameMot2;
+    case wire::hm2::idrom::kIdromPointer: return wire::hm2::idrom::kIdromAddress;
     default: break;
   }
   noteAccess(AccessKind::UnmappedRead, address, 0);
@@ -246,4 +248,4 @@ RecentAccesses HostMot2Card::recentAccesses() const {
   return r;
 }
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

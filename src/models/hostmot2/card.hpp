@@ -34,7 +34,7 @@
 #include "remote/field_io.hpp"
 #include "remote/seven_i76.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 // One 7I77 on a connector: its two LBP processors. Its six encoder inputs
 // are the card's muxed counters (6 per 7I77).
@@ -229,4 +229,4 @@ class HostMot2Card {
   SimTime now_{};
 };
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

@@ -3,7 +3,7 @@
 
 #include <algorithm>
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 namespace {
 // A 24-bit two's complement field as a signed number.
@@ -167,4 +167,4 @@ Dpll::State Dpll::state() const {
   return s;
 }
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

@@ -30,7 +30,7 @@
 
 #include "hostmot2/module.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 class Dpll final : public Module {
  public:
@@ -92,4 +92,4 @@ class Dpll final : public Module {
   std::array<std::uint16_t, 4> timer_{};
 };
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

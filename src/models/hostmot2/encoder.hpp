@@ -13,7 +13,7 @@
 
 #include "hostmot2/muxed_encoder.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 class Encoder final : public MuxedEncoder {
  public:
@@ -24,4 +24,4 @@ class Encoder final : public MuxedEncoder {
       : MuxedEncoder(instances, clockLow, Variant{&kKind, base, version, 1, 16'000'000, {3, 15}}) {}
 };
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

@@ -3,7 +3,7 @@
 
 #include <algorithm>
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 namespace {
 std::uint32_t fourChars(std::string_view s, std::size_t at) {
@@ -22,26 +22,26 @@ std::array<std::uint32_t, idrom::kWords> buildIdrom(const BoardIdentity& board,
                                                     std::span<const PinDescriptor> pins) {
   std::array<std::uint32_t, idrom::kWords> w{};
   auto at = [&](unsigned byteOffset) -> std::uint32_t& { return w[byteOffset / 4]; };
-  at(0) = idrom::kIdromType;
-  at(4) = idrom::kOffsetToModules;
-  at(8) = idrom::kOffsetToPins;
-  at(idrom::kBoardNameLow) = fourChars(board.boardName, 0);
-  at(idrom::kBoardNameHigh) = fourChars(board.boardName, 4);
-  at(idrom::kFpgaSize) = board.fpgaSize;
-  at(idrom::kFpgaPins) = board.fpgaPins;
-  at(idrom::kIoPorts) = board.ioPorts;
-  at(idrom::kIoWidth) = board.ioPorts * board.portWidth;
-  at(idrom::kPortWidth) = board.portWidth;
-  at(idrom::kClockLow) = board.clockLow;
-  at(idrom::kClockHigh) = board.clockHigh;
-  at(idrom::kInstanceStride0) = kInstanceStride0;
-  at(idrom::kInstanceStride1) = kInstanceStride1;
-  at(idrom::kRegisterStride0) = kRegisterStride;
-  at(idrom::kRegisterStride1) = kRegisterStride;
+  at(0) = wire::hm2::idrom::kIdromType;
+  at(4) = wire::hm2::idrom::kOffsetToModules;
+  at(8) = wire::hm2::idrom::kOffsetToPins;
+  at(wire::hm2::idrom::kBoardNameLow) = fourChars(board.boardName, 0);
+  at(wire::hm2::idrom::kBoardNameHigh) = fourChars(board.boardName, 4);
+  at(wire::hm2::idrom::kFpgaSize) = board.fpgaSize;
+  at(wire::hm2::idrom::kFpgaPins) = board.fpgaPins;
+  at(wire::hm2::idrom::kIoPorts) = board.ioPorts;
+  at(wire::hm2::idrom::kIoWidth) = board.ioPorts * board.portWidth;
+  at(wire::hm2::idrom::kPortWidth) = board.portWidth;
+  at(wire::hm2::idrom::kClockLow) = board.clockLow;
+  at(wire::hm2::idrom::kClockHigh) = board.clockHigh;
+  at(wire::hm2::idrom::kInstanceStride0) = kInstanceStride0;
+  at(wire::hm2::idrom::kInstanceStride1) = kInstanceStride1;
+  at(wire::hm2::idrom::kRegisterStride0) = kRegisterStride;
+  at(wire::hm2::idrom::kRegisterStride1) = kRegisterStride;
   const std::size_t nm = std::min<std::size_t>(modules.size(), idrom::kMaxModules - 1);  // a zero record ends the list
   for (std::size_t i = 0; i < nm; ++i) {
     const auto& m = modules[i];
-    const unsigned base = idrom::kOffsetToModules + static_cast<unsigned>(i) * 12;
+    const unsigned base = wire::hm2::idrom::kOffsetToModules + static_cast<unsigned>(i) * 12;
     at(base) = static_cast<std::uint32_t>(m.gtag) | (static_cast<std::uint32_t>(m.version) << 8) |
                (static_cast<std::uint32_t>(m.clockTag) << 16) | (static_cast<std::uint32_t>(m.instances) << 24);
     at(base + 4) = static_cast<std::uint32_t>(m.baseAddress) | (static_cast<std::uint32_t>(m.registers) << 16) |
@@ -49,7 +49,8 @@ std::array<std::uint32_t, idrom::kWords> buildIdrom(const BoardIdentity& board,
     at(base + 8) = m.multipleRegisters;
   }
   const std::size_t np = std::min<std::size_t>(pins.size(), idrom::kMaxPins);
-  for (std::size_t i = 0; i < np; ++i) at(idrom::kOffsetToPins + static_cast<unsigned>(i) * 4) = pins[i].word();
+  for (std::size_t i = 0; i < np; ++i)
+    at(wire::hm2::idrom::kOffsetToPins + static_cast<unsigned>(i) * 4) = pins[i].word();
   return w;
 }
 
@@ -80,4 +81,4 @@ std::array<PinDescriptor, 17> sevenI76Pins(unsigned firstStepGen, unsigned chann
           qc(kQcB),          qc(kQcA)};
 }
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

@@ -12,15 +12,15 @@
 
 #include "hostmot2/module.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 namespace idrom {
-// Offsets, cookie and layout: the wire facts the driver reads by.
-using namespace lbpkit::wire::hm2::idrom;
+// Offsets, cookie and layout are the wire's (wire::hm2::idrom), which the
+// driver reads by.
 // How much room the card's IDROM has.
 inline constexpr unsigned kMaxModules = 32;
 inline constexpr unsigned kMaxPins = 144;
-inline constexpr std::size_t kWords = kIdromBytes / 4;
+inline constexpr std::size_t kWords = wire::hm2::idrom::kIdromBytes / 4;
 }  // namespace idrom
 
 // One pin descriptor: primary IOPort, and the module that can drive it.
@@ -81,4 +81,4 @@ std::array<PinDescriptor, 17> sevenI77Pins(unsigned firstChannel, unsigned first
 // encoder's index, B and A on muxed counter unit `counterUnit`.
 std::array<PinDescriptor, 17> sevenI76Pins(unsigned firstStepGen, unsigned channel, unsigned counterUnit);
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

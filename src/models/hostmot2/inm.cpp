@@ -3,7 +3,7 @@
 
 #include <algorithm>
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 namespace {
 constexpr unsigned kDivisorShift = 6, kShortShift = 16, kLongShift = 22;
@@ -145,4 +145,4 @@ InM::State InM::state() const {
   return s;
 }
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

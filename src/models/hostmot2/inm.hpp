@@ -34,7 +34,7 @@
 #include "hostmot2/ioport.hpp"
 #include "hostmot2/module.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 class InM final : public Module {
  public:
@@ -100,4 +100,4 @@ class InM final : public Module {
   SimTime now_{};
 };
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

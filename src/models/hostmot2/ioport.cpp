@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "hostmot2/ioport.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 std::uint32_t IoPort::readRegister(std::uint16_t address, SimTime) {
   const unsigned port = (address & 0xFFU) / 4;
@@ -69,4 +69,4 @@ void IoPort::releaseOutputs() {
   }
 }
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

@@ -10,7 +10,7 @@
 
 #include "hostmot2/module.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 class IoPort final : public Module {
  public:
@@ -64,4 +64,4 @@ class IoPort final : public Module {
   std::array<std::uint32_t, kMaxPorts> inputs_{~0U, ~0U, ~0U, ~0U};
 };
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

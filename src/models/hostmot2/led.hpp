@@ -8,7 +8,7 @@
 
 #include "hostmot2/module.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 class Led final : public Module {
  public:
@@ -34,4 +34,4 @@ class Led final : public Module {
   std::uint32_t value_ = 0;
 };
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

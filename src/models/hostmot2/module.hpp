@@ -11,10 +11,9 @@
 #include "lbp/sim_time.hpp"
 #include "lbpkit/wire/hostmot2.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 using lbp::SimTime;
-using namespace std::chrono_literals;
 
 // The module map (tags, clocks, strides, every kind's registers) is the
 // wire library's: models answer at the addresses it gives.
@@ -140,4 +139,4 @@ constexpr std::uint64_t clockTicks(SimTime t, std::uint32_t hz) {
   return ns / 1'000'000'000U * hz + ns % 1'000'000'000U * hz / 1'000'000'000U;
 }
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <limits>
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 namespace {
 namespace reg = lbpkit::wire::qcount::reg;
@@ -313,4 +313,4 @@ WriteResult MuxedEncoder::writeRegister(std::uint16_t address, std::uint32_t val
   }
 }
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

@@ -41,7 +41,7 @@
 #include "hostmot2/module.hpp"
 #include "lbpkit/wire/muxed_encoder.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 // The A/B/Z signals of one encoder: a position in quadrature counts moving
 // at a set velocity, with an index pulse one count wide every countsPerRev.
@@ -238,4 +238,4 @@ class MuxedEncoder : public Module {
   std::uint16_t latchedTimestamp_ = 0;
 };
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

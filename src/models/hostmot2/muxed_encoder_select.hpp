@@ -7,7 +7,7 @@
 
 #include "hostmot2/module.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 class MuxedEncoderSelect final : public Module {
  public:
@@ -18,4 +18,4 @@ class MuxedEncoderSelect final : public Module {
   void reset() override {}
 };
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

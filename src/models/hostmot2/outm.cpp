@@ -3,7 +3,7 @@
 
 #include <algorithm>
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 OutM::OutM(std::uint16_t base, unsigned instances, std::uint8_t version)
     : Module(kKind, base, std::min(instances, kMaxInstances), version) {}
@@ -18,4 +18,4 @@ WriteResult OutM::writeRegister(std::uint16_t address, std::uint32_t value, SimT
   return WriteResult::Accepted;
 }
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

@@ -18,7 +18,7 @@
 
 #include "hostmot2/module.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 class OutM final : public Module {
  public:
@@ -44,4 +44,4 @@ class OutM final : public Module {
   std::array<std::uint32_t, kMaxInstances> data_{};
 };
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

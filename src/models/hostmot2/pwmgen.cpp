@@ -3,7 +3,7 @@
 
 #include <algorithm>
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 namespace {
 constexpr std::uint32_t kValueMask = 0xFFFU << 16;  // PWMRefWidth 13: 12 value bits at 27..16
@@ -88,4 +88,4 @@ PwmGen::State PwmGen::state() const {
   return s;
 }
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

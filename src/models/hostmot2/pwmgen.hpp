@@ -24,7 +24,7 @@
 
 #include "hostmot2/module.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 class PwmGen final : public Module {
  public:
@@ -71,4 +71,4 @@ class PwmGen final : public Module {
   std::array<std::uint32_t, kMaxInstances> mode_{};
 };
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

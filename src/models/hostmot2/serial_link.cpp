@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 std::uint64_t SerialLink::nextRandom() {
   std::uint64_t z = (random_ += 0x9E3779B97F4A7C15ULL);
@@ -180,4 +180,4 @@ SerialLink::Reply SerialLink::exchange(std::span<const std::uint8_t> frame, SimT
   return reply;
 }
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

@@ -15,7 +15,7 @@
 #include "lbp/sim_time.hpp"
 #include "remote/remote_device.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 using lbp::SimTime;
 
@@ -168,4 +168,4 @@ class SerialLink {
   Counters counters_;
 };
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

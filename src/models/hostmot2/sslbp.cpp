@@ -6,7 +6,7 @@
 
 #include "lbp/protocol.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 namespace {
 
@@ -1005,4 +1005,4 @@ void Sslbp::runSetup(Channel& c, SimTime now) {
   checkCommandDone(now);
 }
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

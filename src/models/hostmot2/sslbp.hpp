@@ -25,7 +25,7 @@
 #include "hostmot2/serial_link.hpp"
 #include "lbpkit/wire/sslbp.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 // CS bits and COMMAND values are wire facts the driver shares.
 namespace cs = lbpkit::wire::sslbp::cs;
@@ -34,7 +34,18 @@ namespace command = lbpkit::wire::sslbp::command;
 // Local parameters: the map is a wire fact; where the channel blocks sit and
 // how big the RAM is are this firmware's (SSLBP 1.43) values.
 namespace local {
-using namespace lbpkit::wire::sslbp::local;
+// The map's parameters (wire::sslbp::local), by name.
+using wire::sslbp::local::kBaudOffset;
+using wire::sslbp::local::kChannels;
+using wire::sslbp::local::kChannelStart;
+using wire::sslbp::local::kChannelStride;
+using wire::sslbp::local::kInterfaceType;
+using wire::sslbp::local::kInterfaceWidth;
+using wire::sslbp::local::kMajorRev;
+using wire::sslbp::local::kMinorRev;
+using wire::sslbp::local::kProcessorType;
+using wire::sslbp::local::kRxSizeOffset;
+using wire::sslbp::local::kTxSizeOffset;
 inline constexpr std::uint16_t kChannelBlock = 0x70;
 inline constexpr std::uint16_t kChannelBlockStride = 0x32;
 inline constexpr std::uint16_t kRamSize = 0x200;
@@ -277,4 +288,4 @@ class Sslbp final : public Module {
   Counters counters_;
 };
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

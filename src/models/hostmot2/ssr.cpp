@@ -3,7 +3,7 @@
 
 #include <algorithm>
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 Ssr::Ssr(std::uint16_t base, unsigned instances, std::uint32_t clockLow, std::uint8_t version)
     : Module(kKind, base, std::min(instances, kMaxInstances), version), clock_(clockLow) {}
@@ -37,4 +37,4 @@ double Ssr::driveFrequency(unsigned instance) const {
   return static_cast<double>(clock_) / ((rate_[instance] & kDivisorMask) + 2) / 2;
 }
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

@@ -21,7 +21,7 @@
 
 #include "hostmot2/module.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 class Ssr final : public Module {
  public:
@@ -56,4 +56,4 @@ class Ssr final : public Module {
   std::array<std::uint32_t, kMaxInstances> rate_{};
 };
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

@@ -6,7 +6,7 @@
 
 #include "hostmot2/dpll.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 namespace {
 constexpr std::uint64_t kAccumMask = (std::uint64_t{1} << 48) - 1;
@@ -285,4 +285,4 @@ StepGen::State StepGen::state(SimTime now) {
   return s;
 }
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

@@ -33,7 +33,7 @@
 
 #include "hostmot2/module.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 class Dpll;
 
@@ -126,4 +126,4 @@ class StepGen final : public Module {
   std::array<Channel, kMaxInstances> ch_{};
 };
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "hostmot2/watchdog.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 Watchdog::Watchdog(std::uint32_t clockLow, std::function<void()> onBite)
     : Module(kKind, kKind.base, 1, kKind.version),
@@ -91,4 +91,4 @@ WriteResult Watchdog::writeRegister(std::uint16_t address, std::uint32_t value, 
   return WriteResult::Accepted;
 }
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

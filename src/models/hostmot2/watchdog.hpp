@@ -17,7 +17,7 @@
 
 #include "hostmot2/module.hpp"
 
-namespace hm2 {
+namespace lbpkit::model::hm2 {
 
 class Watchdog final : public Module {
  public:
@@ -73,4 +73,4 @@ class Watchdog final : public Module {
   bool bitten_ = false;
 };
 
-}  // namespace hm2
+}  // namespace lbpkit::model::hm2

@@ -5,7 +5,7 @@
 
 #include "lbp/protocol.hpp"
 
-namespace lbp {
+namespace lbpkit::model::lbp {
 
 namespace {
 
@@ -271,4 +271,4 @@ void Parser::executeLocal(std::uint8_t header, std::uint8_t value) {
   }
 }
 
-}  // namespace lbp
+}  // namespace lbpkit::model::lbp

@@ -22,7 +22,7 @@
 #include "lbp/sim_time.hpp"
 #include "lbp/target.hpp"
 
-namespace lbp {
+namespace lbpkit::model::lbp {
 
 struct ParserConfig {
   std::uint16_t rpcSize = 0x200;        // RPC table at 0..rpcSize-1 (64 RPCs of pitch 8)
@@ -179,4 +179,4 @@ class Parser {
   std::size_t responseLength_ = 0;
 };
 
-}  // namespace lbp
+}  // namespace lbpkit::model::lbp

@@ -11,14 +11,12 @@
 
 #include "lbp/protocol.hpp"
 
-namespace lbp {
+namespace lbpkit::model::lbp {
 
 using SimTime = std::chrono::duration<std::int64_t, std::nano>;
-
-using namespace std::chrono_literals;
 
 constexpr SimTime characterTime(std::uint32_t baud) {
   return SimTime{static_cast<std::int64_t>(1'000'000'000LL * kBitsPerCharacter / (baud ? baud : 1))};
 }
 
-}  // namespace lbp
+}  // namespace lbpkit::model::lbp

@@ -8,7 +8,7 @@
 
 #include "lbp/sim_time.hpp"
 
-namespace lbp {
+namespace lbpkit::model::lbp {
 
 class Target {
  public:
@@ -51,4 +51,4 @@ class Target {
   virtual void resetProcessor() = 0;
 };
 
-}  // namespace lbp
+}  // namespace lbpkit::model::lbp

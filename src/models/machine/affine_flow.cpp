@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 namespace {
 
@@ -105,4 +105,4 @@ FlowVector AffineFlow::solve(const FlowMatrix& a, std::size_t n, const FlowVecto
   return out;
 }
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

@@ -18,7 +18,7 @@
 #include <array>
 #include <cstddef>
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 inline constexpr std::size_t kMaxFlowDimension = 6;
 
@@ -57,4 +57,4 @@ struct AffineFlow {
   }
 };
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

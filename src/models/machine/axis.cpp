@@ -6,7 +6,7 @@
 #include <numbers>
 #include <stdexcept>
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 namespace {
 constexpr double kGravity = 9.80665;  // m/s^2
@@ -40,4 +40,4 @@ void Axis::setJammed(bool jammed) {
   if (jammed_) speed_ = 0.0;
 }
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

@@ -11,7 +11,7 @@
 
 #include <numbers>
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 // Radians in a revolution: the axes integrate in rad/s, and speak of
 // motor revolutions.
@@ -71,4 +71,4 @@ class Axis {
   double pushSpeed_ = 0.0;  // machine units per second
 };
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

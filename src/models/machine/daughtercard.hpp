@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <string_view>
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 enum class Daughtercard : std::uint8_t { SevenI77, SevenI76, Card };
 
@@ -19,4 +19,4 @@ enum class Daughtercard : std::uint8_t { SevenI77, SevenI76, Card };
   return d == Daughtercard::SevenI76 ? "7I76" : d == Daughtercard::Card ? "card" : "7I77";
 }
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

@@ -10,7 +10,7 @@
 #include <string>
 #include <utility>
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 namespace {
 
@@ -459,4 +459,4 @@ Machine::State Machine::state() const {
   return s;
 }
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

@@ -43,7 +43,7 @@
 #include "machine/stepper_motor.hpp"
 #include "machine/switches.hpp"
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 class Machine {
  public:
@@ -248,4 +248,4 @@ class Machine {
   std::optional<QuadratureEncoder> spindleEncoder_;
 };
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

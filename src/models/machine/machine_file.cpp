@@ -5,7 +5,7 @@
 #include <string>
 #include <utility>
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 namespace {
 
@@ -131,4 +131,4 @@ MachineDescription gantry() {
   return m;
 }
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

@@ -26,7 +26,7 @@
 #include "machine/stepper_motor.hpp"
 #include "machine/switches.hpp"
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 // One motor on an axis: its amplifier on AOUTn/ENAn (manual: ANALOG SERVO
 // DRIVE INTERFACE, SERVO ENABLE OUTPUTS) and its encoder (ENCODER INTERFACE).
@@ -120,4 +120,4 @@ struct MachineDescription {
 // A gantry router: Y driven by two motors (AOUT1/ENC1 and AOUT2/ENC2), X, Z.
 [[nodiscard]] MachineDescription gantry();
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <string>
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 QuadratureEncoder::QuadratureEncoder(EncoderParameters parameters, hm2::MuxedEncoder& encoders, unsigned input,
                                      double revs)
@@ -38,4 +38,4 @@ void QuadratureEncoder::setBroken(EncoderChannel channel, bool broken, double re
                             std::llround(slipped_));
 }
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

@@ -17,7 +17,7 @@
 #include "hostmot2/muxed_encoder.hpp"
 #include "lbp/sim_time.hpp"
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 using lbp::SimTime;
 
@@ -110,4 +110,4 @@ class QuadratureEncoder {
   std::uint8_t broken_ = 0;  // bit per EncoderChannel
 };
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

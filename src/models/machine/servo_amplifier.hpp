@@ -17,7 +17,7 @@
 
 #include "lbp/sim_time.hpp"
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 using lbp::SimTime;
 
@@ -93,4 +93,4 @@ class ServoAmplifier {
   double velocityCommand_ = 0.0;
 };
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

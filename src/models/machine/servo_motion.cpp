@@ -5,7 +5,7 @@
 #include <cmath>
 #include <limits>
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 namespace {
 
@@ -491,4 +491,4 @@ void ServoMotion::advance(Axis& axis, std::span<ServoDrive> drives, bool brakeEn
   finish();
 }
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

@@ -45,7 +45,7 @@
 #include "machine/servo_amplifier.hpp"
 #include "lbp/sim_time.hpp"
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 using lbp::SimTime;
 
@@ -106,4 +106,4 @@ class ServoMotion {
   bool atRestChecked_ = false;
 };
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

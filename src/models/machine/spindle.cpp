@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 void Spindle::step(double volts, bool enaOn, double h) {
   // Stopped VFDs ramp down to zero too (no coasting: the usual ramp-stop setting).
@@ -25,4 +25,4 @@ void Spindle::step(double volts, bool enaOn, double h) {
   }
 }
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

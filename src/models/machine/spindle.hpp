@@ -9,7 +9,7 @@
 
 #include "machine/servo_amplifier.hpp"
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 struct SpindleParameters {
   double rpmPerVolt = 2400.0;
@@ -44,4 +44,4 @@ class Spindle {
   double revs_ = 0.0;
 };
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 StepperMotor::StepperMotor(StepperParameters parameters, double position, std::int64_t count, double hardStopMin,
                            double hardStopMax)
@@ -40,4 +40,4 @@ void StepperMotor::step(std::int64_t count, double commandedRate, bool held) {
   velocity_ = following ? commandedRate * unitsPerStep() : 0.0;
 }
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

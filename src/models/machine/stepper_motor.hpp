@@ -25,7 +25,7 @@
 
 #include <cstdint>
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 struct StepperParameters {
   unsigned stepGen = 0;       // the card's StepGen instance (stepgen.NN)
@@ -82,4 +82,4 @@ class StepperMotor {
   double velocity_ = 0.0;
 };
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

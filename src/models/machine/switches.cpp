@@ -8,7 +8,7 @@
 #include <string>
 #include <utility>
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 Switches::Switches(std::vector<SwitchParameters> switches, std::vector<int> axisOf)
     : switches_(std::move(switches)), axisOf_(std::move(axisOf)) {
@@ -109,4 +109,4 @@ Switches::State Switches::state(std::size_t i) const {
   return State{s.name, s.kind, s.input, tripped_[i] || forced_[i], on(i), s.daughtercard};
 }
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

@@ -21,7 +21,7 @@
 #include "remote/field_io.hpp"
 #include "remote/seven_i76.hpp"
 
-namespace machine {
+namespace lbpkit::model::machine {
 
 enum class SwitchKind { Home, MinLimit, MaxLimit, Estop, Probe, Other };
 enum class Contact { NormallyOpen, NormallyClosed };
@@ -104,4 +104,4 @@ class Switches {
   std::vector<Unchanged> unchanged_;    // per axis index
 };
 
-}  // namespace machine
+}  // namespace lbpkit::model::machine

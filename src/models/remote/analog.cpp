@@ -3,7 +3,7 @@
 
 #include <algorithm>
 
-namespace remote {
+namespace lbpkit::model::remote {
 
 namespace {
 
@@ -82,4 +82,4 @@ void AnalogProcessor::driveOutputs() {
   enables_[5] = spin;
 }
 
-}  // namespace remote
+}  // namespace lbpkit::model::remote

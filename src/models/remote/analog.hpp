@@ -14,7 +14,7 @@
 
 #include "remote/remote_device.hpp"
 
-namespace remote {
+namespace lbpkit::model::remote {
 
 class AnalogProcessor final : public RemoteDevice {
  public:
@@ -67,4 +67,4 @@ class AnalogProcessor final : public RemoteDevice {
   std::array<std::int16_t, kChannels> codes_{};
 };
 
-}  // namespace remote
+}  // namespace lbpkit::model::remote

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <utility>
 
-namespace remote {
+namespace lbpkit::model::remote {
 
 namespace {
 
@@ -314,4 +314,4 @@ void FieldIoProcessor::driveOutputs() {
   }
 }
 
-}  // namespace remote
+}  // namespace lbpkit::model::remote

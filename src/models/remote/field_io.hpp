@@ -17,7 +17,7 @@
 
 #include "remote/remote_device.hpp"
 
-namespace remote {
+namespace lbpkit::model::remote {
 
 enum class OutputType { Sourcing, Sinking };  // 7I77, 7I77D
 
@@ -178,4 +178,4 @@ class FieldIoProcessor final : public FieldPoweredProcessor {
   std::array<std::uint8_t, kMpgs> encMode_{};
 };
 
-}  // namespace remote
+}  // namespace lbpkit::model::remote

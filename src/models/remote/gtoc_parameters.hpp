@@ -25,7 +25,7 @@
 
 #include "lbp/protocol.hpp"
 
-namespace remote {
+namespace lbpkit::model::remote {
 
 // Which processor lists a row.
 enum Processors : std::uint8_t {
@@ -74,4 +74,4 @@ inline constexpr GtocParameter kGtocParameters[] = {
 
 inline constexpr std::size_t kStandardParameterCount = 7;
 
-}  // namespace remote
+}  // namespace lbpkit::model::remote

@@ -9,7 +9,7 @@
 #include <cerrno>
 #include <cstring>
 
-namespace remote {
+namespace lbpkit::model::remote {
 
 namespace {
 constexpr std::uint8_t kMagic[4] = {'L', 'B', 'N', 'V'};
@@ -354,4 +354,4 @@ bool NvStore::commit(std::span<const std::uint8_t> image) {
   return true;
 }
 
-}  // namespace remote
+}  // namespace lbpkit::model::remote

@@ -27,7 +27,7 @@
 #include <string_view>
 #include <vector>
 
-namespace remote {
+namespace lbpkit::model::remote {
 
 // What the store has to tell whoever runs the model (models do not log; the
 // application prints these).
@@ -115,4 +115,4 @@ class NvStore {
 
 std::uint32_t crc32(std::span<const std::uint8_t> bytes);
 
-}  // namespace remote
+}  // namespace lbpkit::model::remote

@@ -6,7 +6,7 @@
 
 #include "lbp/protocol.hpp"
 
-namespace remote {
+namespace lbpkit::model::remote {
 
 namespace {
 
@@ -127,4 +127,4 @@ bool ProgramFlash::commit(std::uint8_t command) {
   return true;
 }
 
-}  // namespace remote
+}  // namespace lbpkit::model::remote

@@ -49,7 +49,7 @@
 #include "lbpkit/wire/seven_i77.hpp"
 #include "remote/nv_store.hpp"
 
-namespace remote {
+namespace lbpkit::model::remote {
 
 class ProgramFlash {
  public:
@@ -112,4 +112,4 @@ class ProgramFlash {
   std::uint32_t pageWrites_ = 0;
 };
 
-}  // namespace remote
+}  // namespace lbpkit::model::remote

@@ -6,7 +6,7 @@
 #include <utility>
 #include <stdexcept>
 
-namespace remote {
+namespace lbpkit::model::remote {
 
 using lbp::byteSize;
 using lbp::isNonVolatile;
@@ -498,4 +498,4 @@ void RemoteDevice::runSpecialRpc(std::uint8_t command, std::span<const std::uint
   }
 }
 
-}  // namespace remote
+}  // namespace lbpkit::model::remote

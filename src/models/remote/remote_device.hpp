@@ -30,7 +30,7 @@
 #include "remote/nv_store.hpp"
 #include "remote/program_flash.hpp"
 
-namespace remote {
+namespace lbpkit::model::remote {
 
 using lbp::SimTime;
 using lbp::DataType;
@@ -353,4 +353,4 @@ class RemoteDevice : public lbp::Target {
   std::uint32_t processDataCount_ = 0;
 };
 
-}  // namespace remote
+}  // namespace lbpkit::model::remote

@@ -6,7 +6,7 @@
 
 #include "remote/field_io.hpp"
 
-namespace remote {
+namespace lbpkit::model::remote {
 
 namespace {
 
@@ -147,4 +147,4 @@ SevenI76FieldIo::State SevenI76FieldIo::state() const {
   return s;
 }
 
-}  // namespace remote
+}  // namespace lbpkit::model::remote

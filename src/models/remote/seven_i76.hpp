@@ -20,7 +20,7 @@
 
 #include "remote/field_io.hpp"
 
-namespace remote {
+namespace lbpkit::model::remote {
 
 class SevenI76FieldIo final : public FieldPoweredProcessor {
  public:
@@ -100,4 +100,4 @@ class SevenI76FieldIo final : public FieldPoweredProcessor {
   bool spindleDirection_ = false;
 };
 
-}  // namespace remote
+}  // namespace lbpkit::model::remote

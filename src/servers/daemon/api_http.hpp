@@ -8,11 +8,11 @@
 
 #include "daemon/api_routes.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 // Adds to `http` the checks every request passes first (Host, Origin, the
 // token, for an API on `port`) and every route of ApiTarget's.
 void addApiRoutes(httplib::Server& http, const ApiOptions& options, int port, const ApiTarget& target,
                   const CardThreadRunner& run);
 
-}  // namespace servers
+}  // namespace lbpkit::server

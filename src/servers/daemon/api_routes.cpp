@@ -21,7 +21,7 @@
 #include "daemon/web_view.hpp"
 #include "lbpkit/wire/names.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 using nlohmann::json;
 
@@ -53,7 +53,7 @@ json body(const httplib::Request& req) {
 constexpr unsigned kSevenI76Connector = SimState::SevenI76::kConnector;
 
 // "connector" (0 when absent), checked against the 7I77s the card carries.
-unsigned connector(const json& j, hm2::HostMot2Card& card) {
+unsigned connector(const json& j, model::hm2::HostMot2Card& card) {
   const auto d = j.contains("connector") ? index(j, "connector", 2) : 0U;
   if (d >= card.daughtercards())
     throw std::invalid_argument(d == kSevenI76Connector && card.sevenI76() != nullptr
@@ -65,7 +65,7 @@ unsigned connector(const json& j, hm2::HostMot2Card& card) {
 }
 
 // The 7I76 when "connector" names its connector, else nullptr (a 7I77's).
-remote::SevenI76FieldIo* sevenI76At(const json& j, hm2::HostMot2Card& card) {
+model::remote::SevenI76FieldIo* sevenI76At(const json& j, model::hm2::HostMot2Card& card) {
   if (card.sevenI76() == nullptr || !j.contains("connector")) return nullptr;
   return index(j, "connector", 2) == kSevenI76Connector && card.daughtercards() <= kSevenI76Connector
              ? card.sevenI76()
@@ -96,7 +96,7 @@ struct NoMachine : std::runtime_error {
   NoMachine() : std::runtime_error("no machine is loaded (start the sim with --machine mill, lathe, gantry or FILE)") {}
 };
 
-std::string axisNames(const machine::Machine& m) {
+std::string axisNames(const model::machine::Machine& m) {
   std::vector<std::string> names;
   for (const auto& a : m.description().axes) names.push_back(a.name);
   return listed(names);
@@ -108,7 +108,7 @@ constexpr double kMaxPush = 1e6;
 constexpr double kMaxPushSpeed = 1e5;
 constexpr double kDefaultPushSpeed = 20.0;
 
-void machineAction(machine::Machine& m, const json& j) {
+void machineAction(model::machine::Machine& m, const json& j) {
   const std::string action = text(j, "action");
   auto axis = [&]() {
     const std::string name = text(j, "axis");
@@ -145,13 +145,13 @@ void machineAction(machine::Machine& m, const json& j) {
     const unsigned drives = a ? static_cast<unsigned>(m.drives(*a)) : 1U;
     const unsigned drive = j.contains("drive") ? index(j, "drive", drives) : 0U;
     const std::string channelName = text(j, "channel");
-    machine::EncoderChannel channel{};
+    model::machine::EncoderChannel channel{};
     if (channelName == "A")
-      channel = machine::EncoderChannel::A;
+      channel = model::machine::EncoderChannel::A;
     else if (channelName == "B")
-      channel = machine::EncoderChannel::B;
+      channel = model::machine::EncoderChannel::B;
     else if (channelName == "index")
-      channel = machine::EncoderChannel::Index;
+      channel = model::machine::EncoderChannel::Index;
     else
       throw std::invalid_argument("\"channel\" must be \"A\", \"B\" or \"index\"");
     const bool broken = flag(j, "broken");
@@ -163,12 +163,12 @@ void machineAction(machine::Machine& m, const json& j) {
   } else if (action == "estop") {
     fields::onlyKnown(j, {"action", "pressed"});
     const bool pressed = flag(j, "pressed");
-    if (m.setSwitches(machine::SwitchKind::Estop, pressed) == 0)
+    if (m.setSwitches(model::machine::SwitchKind::Estop, pressed) == 0)
       throw std::invalid_argument("\"action\": this machine has no E-stop switch");
   } else if (action == "probe") {
     fields::onlyKnown(j, {"action", "touching"});
     const bool touching = flag(j, "touching");
-    if (m.setSwitches(machine::SwitchKind::Probe, touching) == 0)
+    if (m.setSwitches(model::machine::SwitchKind::Probe, touching) == 0)
       throw std::invalid_argument("\"action\": this machine has no probe");
   } else if (action == "switch") {
     fields::onlyKnown(j, {"action", "name", "tripped"});
@@ -224,7 +224,7 @@ std::string traceJson(const TraceRing& trace, const httplib::Request& req) {
 
 using Action = void (*)(const ApiTarget&, const json&);
 
-void linkAction(const ApiTarget& t, const json& j) { applyLink(t.card.part<hm2::Sslbp>(), j, t.card.now()); }
+void linkAction(const ApiTarget& t, const json& j) { applyLink(t.card.part<model::hm2::Sslbp>(), j, t.card.now()); }
 
 void networkAction(const ApiTarget& t, const json& j) {
   if (t.udp == nullptr) throw std::invalid_argument("this sim has no network to disturb");
@@ -239,13 +239,13 @@ void machineRouteAction(const ApiTarget& t, const json& j) {
 void inputAction(const ApiTarget& t, const json& j) {
   fields::onlyKnown(j, {"connector", "input", "volts", "on"});
   if (auto* i76 = sevenI76At(j, t.card)) {
-    const auto n = index(j, "input", remote::SevenI76FieldIo::kInputs);
+    const auto n = index(j, "input", model::remote::SevenI76FieldIo::kInputs);
     i76->setInputVoltage(n, j.contains("volts") ? number(j, "volts", 0, kMaxVolts, kVoltsRange)
                                                 : (flag(j, "on") ? i76->fieldVoltage() : 0.0));
     return;
   }
   auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
-  const auto n = index(j, "input", remote::FieldIoProcessor::kInputs);
+  const auto n = index(j, "input", model::remote::FieldIoProcessor::kInputs);
   const double v = j.contains("volts") ? number(j, "volts", 0, kMaxVolts, kVoltsRange)
                                        : (flag(j, "on") ? io.fieldVoltage() : 0.0);
   io.setInputVoltage(n, v);
@@ -281,22 +281,24 @@ void encoderAction(const ApiTarget& t, const json& j) {
                                 fmt::format("from {:g} to {:g} (counts per second)", -kMaxCountsPerSecond,
                                             kMaxCountsPerSecond))
                        : 0;
-  auto& enc = t.card.part<hm2::MuxedEncoder>();
+  auto& enc = t.card.part<model::hm2::MuxedEncoder>();
   if (cpr) enc.setIndexPeriod(n, static_cast<std::uint32_t>(c));
   if (vel) enc.setVelocity(n, v, t.card.now());
 }
 
 void cableAction(const ApiTarget& t, const json& j) {
   fields::onlyKnown(j, {"channel", "connected"});
-  const auto ch = index(j, "channel", t.card.part<hm2::Sslbp>().channels());
-  t.card.part<hm2::Sslbp>().link(ch).setConnected(flag(j, "connected"));
+  const auto ch = index(j, "channel", t.card.part<model::hm2::Sslbp>().channels());
+  t.card.part<model::hm2::Sslbp>().link(ch).setConnected(flag(j, "connected"));
 }
 
 void outputAction(const ApiTarget& t, const json& j) {
   fields::onlyKnown(j, {"connector", "output", "ohms", "short"});
   auto* i76 = sevenI76At(j, t.card);
   auto* io = i76 != nullptr ? nullptr : &t.card.daughtercard(connector(j, t.card)).fieldIo;
-  const auto n = index(j, "output", i76 != nullptr ? remote::SevenI76FieldIo::kOutputs : remote::FieldIoProcessor::kOutputs);
+  const auto n =
+      index(j, "output",
+            i76 != nullptr ? model::remote::SevenI76FieldIo::kOutputs : model::remote::FieldIoProcessor::kOutputs);
   double ohms = std::numeric_limits<double>::infinity();  // {} or null: an open terminal
   if (flag(j, "short", false))
     ohms = 0;
@@ -314,7 +316,7 @@ void outputAction(const ApiTarget& t, const json& j) {
 void overtempAction(const ApiTarget& t, const json& j) {
   fields::onlyKnown(j, {"connector", "chip", "hot"});
   auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
-  io.setDriverOverTemperature(index(j, "chip", remote::FieldIoProcessor::kChips), flag(j, "hot"));
+  io.setDriverOverTemperature(index(j, "chip", model::remote::FieldIoProcessor::kChips), flag(j, "hot"));
 }
 
 void timeAction(const ApiTarget& t, const json& j) {
@@ -332,7 +334,7 @@ void timeAction(const ApiTarget& t, const json& j) {
           : t.clock.speed();
   const double step = j.contains("step_ms") ? number(j, "step_ms", 0, kMaxStepMs, "from 0 to 60000") : 0;
   t.clock.set(speed, flag(j, "paused", t.clock.paused()));
-  if (step > 0) t.clock.advanceBy(lbp::SimTime{static_cast<std::int64_t>(step * 1e6)});
+  if (step > 0) t.clock.advanceBy(model::lbp::SimTime{static_cast<std::int64_t>(step * 1e6)});
 }
 
 constexpr std::pair<std::string_view, Action> kActions[] = {
@@ -435,7 +437,7 @@ void addRoutes(httplib::Server& http, const ApiTarget& t, const CardThreadRunner
             }));
   // The RS-422 links: GET and POST answer what GET /api/link shows.
   auto link = [t] {
-    const auto s = takeLinkSnapshots(t.card.part<hm2::Sslbp>(), t.card.now());
+    const auto s = takeLinkSnapshots(t.card.part<model::hm2::Sslbp>(), t.card.now());
     return Answer{[s] { return toJson(s).dump(); }};
   };
   http.Get("/api/link", handle([link](const json&) { return link(); }));
@@ -571,4 +573,4 @@ void addApiRoutes(httplib::Server& http, const ApiOptions& options, int port, co
   addRoutes(http, target, run);
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

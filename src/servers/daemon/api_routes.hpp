@@ -24,7 +24,7 @@
 #include "hostmot2/card.hpp"
 #include "machine/machine.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 // Where and how the API serves, who may use it, and its limits. The limits
 // keep it answering whatever clients do: slow or idle connections wait in
@@ -57,13 +57,13 @@ using Answer = std::function<std::string()>;
 // What the routes act on: touched only inside jobs, on the card thread
 // (but for the trace, made to be read by any thread).
 struct ApiTarget {
-  hm2::HostMot2Card& card;  // card.now(): the simulated time everything happens at
+  model::hm2::HostMot2Card& card;  // card.now(): the simulated time everything happens at
   SimClock& clock;
   // The answer to every successful call: the whole state.
   std::function<Answer()> state;
   // The machine behind connector 0 (`lbpkit sim --machine`), or none: then
   // the /api/machine routes answer 404.
-  machine::Machine* machine = nullptr;
+  model::machine::Machine* machine = nullptr;
   std::function<Answer()> machineState;  // GET /api/machine's answer
   const TraceRing* trace = nullptr;      // GET /api/machine/trace reads it on the API's threads
   // The network between host and card: /api/network sets its faults.
@@ -102,4 +102,4 @@ class ControlApi {
   int port_ = -1;
 };
 
-}  // namespace servers
+}  // namespace lbpkit::server

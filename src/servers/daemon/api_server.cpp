@@ -34,7 +34,7 @@
 #include "daemon/web_view.hpp"
 #include "lbpkit/wire/names.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 using nlohmann::json;
 
@@ -490,5 +490,4 @@ ControlApi::~ControlApi() {
     if (w.joinable()) w.join();
 }
 
-}  // namespace servers
-
+}  // namespace lbpkit::server

@@ -3,7 +3,7 @@
 
 #include <utility>
 
-namespace servers {
+namespace lbpkit::server {
 
 DrainThread::DrainThread(std::chrono::milliseconds period, std::function<void()> drain)
     : period_(period), drain_(std::move(drain)) {
@@ -30,4 +30,4 @@ void DrainThread::run() {
   }
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

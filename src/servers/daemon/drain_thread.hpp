@@ -12,7 +12,7 @@
 #include <mutex>
 #include <thread>
 
-namespace servers {
+namespace lbpkit::server {
 
 class DrainThread {
  public:
@@ -34,4 +34,4 @@ class DrainThread {
   std::thread thread_;
 };
 
-}  // namespace servers
+}  // namespace lbpkit::server

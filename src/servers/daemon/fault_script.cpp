@@ -10,7 +10,7 @@
 #include "daemon/network_api.hpp"
 #include "daemon/sim_clock.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 using nlohmann::json;
 
@@ -41,8 +41,8 @@ networkFields() {
   return f;
 }
 
-const std::vector<std::pair<const char*, std::function<json(const hm2::SerialLink::Rates&)>>>& linkFields() {
-  using R = hm2::SerialLink::Rates;
+const std::vector<std::pair<const char*, std::function<json(const model::hm2::SerialLink::Rates&)>>>& linkFields() {
+  using R = model::hm2::SerialLink::Rates;
   static const std::vector<std::pair<const char*, std::function<json(const R&)>>> f = {
       {"bit_error_rate", [](const R& r) { return json(r.bitErrorRate); }},
       {"drop_rate", [](const R& r) { return json(r.dropRate); }},
@@ -88,10 +88,12 @@ std::vector<Touched> touchedBy(const ScriptedFault& f, const ApiTarget& t) {
   if (f.fault == "link") {
     const json& channel = b.contains("channel") ? b.at("channel") : json();
     if (!channel.is_number_integer() || channel.get<std::int64_t>() < 0 ||
-        channel.get<std::int64_t>() >= static_cast<std::int64_t>(t.card.part<hm2::Sslbp>().channels()))
+        channel.get<std::int64_t>() >= static_cast<std::int64_t>(t.card.part<model::hm2::Sslbp>().channels()))
       return out;
     const auto ch = channel.get<unsigned>();
-    auto link = [ch](const ApiTarget& target) -> hm2::SerialLink& { return target.card.part<hm2::Sslbp>().link(ch); };
+    auto link = [ch](const ApiTarget& target) -> model::hm2::SerialLink& {
+      return target.card.part<model::hm2::Sslbp>().link(ch);
+    };
     const std::string direction = b.value("direction", std::string("both"));
     for (const char* dir : {"to_remote", "from_remote"}) {
       if (direction != "both" && direction != dir) continue;
@@ -150,8 +152,8 @@ std::vector<Touched> touchedBy(const ScriptedFault& f, const ApiTarget& t) {
 
 }  // namespace
 
-FaultScript::FaultScript(std::vector<ScriptedFault> entries, const hm2::HostMot2Card::Options& card,
-                         const std::optional<machine::MachineDescription>& machine)
+FaultScript::FaultScript(std::vector<ScriptedFault> entries, const model::hm2::HostMot2Card::Options& card,
+                         const std::optional<model::machine::MachineDescription>& machine)
     : entries_(std::move(entries)) {
   std::stable_sort(entries_.begin(), entries_.end(),
                    [](const ScriptedFault& a, const ScriptedFault& b) { return a.at < b.at; });
@@ -165,10 +167,10 @@ FaultScript::FaultScript(std::vector<ScriptedFault> entries, const hm2::HostMot2
     options.second->fieldIo.nvFile.clear();
     options.second->analog.nvFile.clear();
   }
-  hm2::HostMot2Card scratch(options);
+  model::hm2::HostMot2Card scratch(options);
   SimClock clock(1.0, true);
-  std::unique_ptr<machine::Machine> m;
-  if (machine) m = std::make_unique<machine::Machine>(*machine, scratch, scratch.now(), 0);
+  std::unique_ptr<model::machine::Machine> m;
+  if (machine) m = std::make_unique<model::machine::Machine>(*machine, scratch, scratch.now(), 0);
   NetworkFaults network;
   const ApiTarget t{scratch, clock, {}, m.get(), {}, nullptr, nullptr};
   for (const auto& f : entries_) {
@@ -187,11 +189,12 @@ FaultScript::FaultScript(std::vector<ScriptedFault> entries, const hm2::HostMot2
 }
 
 void FaultScript::findNext() {
-  next_ = done_ < entries_.size() ? entries_[done_].at : lbp::SimTime::max();
+  next_ = done_ < entries_.size() ? entries_[done_].at : model::lbp::SimTime::max();
   for (const auto& u : undos_) next_ = std::min(next_, u.at);
 }
 
-void FaultScript::run(lbp::SimTime now, const ApiTarget& target, const std::function<void(const std::string&)>& log) {
+void FaultScript::run(model::lbp::SimTime now, const ApiTarget& target,
+                      const std::function<void(const std::string&)>& log) {
   for (;;) {
     // The earliest thing due: an undo before an entry at the same time (an
     // entry that ends as the next begins).
@@ -262,4 +265,4 @@ void FaultScript::end(const Undo& undo, const ApiTarget& target) {
   }
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

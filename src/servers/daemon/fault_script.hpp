@@ -22,13 +22,13 @@
 #include "lbp/sim_time.hpp"
 #include "machine/machine.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 struct ScriptedFault {
-  lbp::SimTime at{};
+  model::lbp::SimTime at{};
   std::string fault;  // the API's kind: network, cable, ...
   nlohmann::json body;
-  std::optional<lbp::SimTime> lasts;  // undone this long after `at`
+  std::optional<model::lbp::SimTime> lasts;  // undone this long after `at`
   std::string where;                  // "FILE:LINE:COL"
 };
 
@@ -37,21 +37,21 @@ class FaultScript {
   // Checks every entry (throws std::invalid_argument "WHERE: fault KIND:
   // what is wrong") by carrying it out, in order, on a scratch card made
   // from `card` (EEPROMs in memory) with `machine`, if any.
-  FaultScript(std::vector<ScriptedFault> entries, const hm2::HostMot2Card::Options& card,
-              const std::optional<machine::MachineDescription>& machine);
+  FaultScript(std::vector<ScriptedFault> entries, const model::hm2::HostMot2Card::Options& card,
+              const std::optional<model::machine::MachineDescription>& machine);
 
   // Carries out what is due by `now` (entries and undos, in time order).
   // `log` hears each, in words. Inline: one comparison until something is due.
-  void runDue(lbp::SimTime now, const ApiTarget& target, const std::function<void(const std::string&)>& log) {
+  void runDue(model::lbp::SimTime now, const ApiTarget& target, const std::function<void(const std::string&)>& log) {
     if (now >= next_) run(now, target, log);
   }
   [[nodiscard]] std::size_t size() const { return entries_.size(); }
   [[nodiscard]] std::size_t done() const { return done_; }  // entries carried out so far
   // Whether an entry or an undo is still to come.
-  [[nodiscard]] bool pending() const { return next_ != lbp::SimTime::max(); }
+  [[nodiscard]] bool pending() const { return next_ != model::lbp::SimTime::max(); }
 
  private:
-  void run(lbp::SimTime now, const ApiTarget& target, const std::function<void(const std::string&)>& log);
+  void run(model::lbp::SimTime now, const ApiTarget& target, const std::function<void(const std::string&)>& log);
   void findNext();
 
   // What an entry with `for` changed, setting by setting ("network.reply.drop",
@@ -68,7 +68,7 @@ class FaultScript {
     std::function<void(const ApiTarget&, const nlohmann::json&)> set;
   };
   struct Undo {
-    lbp::SimTime at{};
+    model::lbp::SimTime at{};
     std::string where;
     std::size_t entry = 0;
     std::vector<std::string> settings;  // the Setting keys it took part in
@@ -79,7 +79,7 @@ class FaultScript {
   std::size_t done_ = 0;
   std::vector<Undo> undos_;  // not in order; few
   std::map<std::string, Setting> settings_;
-  lbp::SimTime next_ = lbp::SimTime::max();
+  model::lbp::SimTime next_ = model::lbp::SimTime::max();
 };
 
-}  // namespace servers
+}  // namespace lbpkit::server

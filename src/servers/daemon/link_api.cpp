@@ -9,7 +9,7 @@
 
 #include "daemon/request_fields.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 using nlohmann::json;
 
@@ -19,13 +19,13 @@ constexpr std::uint64_t kMaxCutMs = 600'000;  // 10 minutes of simulated time
 
 double rate(const json& j, const char* key) { return fields::number(j, key, 0, 1, "from 0 to 1"); }
 
-json ratesJson(const hm2::SerialLink::Rates& r) {
+json ratesJson(const model::hm2::SerialLink::Rates& r) {
   return {{"bit_error_rate", r.bitErrorRate}, {"drop_rate", r.dropRate}, {"extra_rate", r.extraRate}};
 }
 
 }  // namespace
 
-LinkSnapshots takeLinkSnapshots(hm2::Sslbp& sserial, lbp::SimTime now) {
+LinkSnapshots takeLinkSnapshots(model::hm2::Sslbp& sserial, model::lbp::SimTime now) {
   LinkSnapshots out;
   const auto state = sserial.state();
   out.channels = state.channels;
@@ -43,19 +43,19 @@ LinkSnapshots takeLinkSnapshots(hm2::Sslbp& sserial, lbp::SimTime now) {
   return out;
 }
 
-void applyLink(hm2::Sslbp& sserial, const json& j, lbp::SimTime now) {
+void applyLink(model::hm2::Sslbp& sserial, const json& j, model::lbp::SimTime now) {
   fields::onlyKnown(j, {"channel", "clear", "direction", "bit_error_rate", "drop_rate", "extra_rate", "break_rate",
                         "break", "cut_ms", "connected", "seed"});
   if (!j.contains("channel")) throw std::invalid_argument("missing \"channel\" (the smart-serial channel, from 0)");
   auto& link = sserial.link(fields::index(j, "channel", sserial.channels()));
   const bool clear = fields::flag(j, "clear", false);
-  auto s = clear ? hm2::SerialLink::RateSettings{} : link.rates();
+  auto s = clear ? model::hm2::SerialLink::RateSettings{} : link.rates();
   const std::string direction = j.contains("direction") ? fields::text(j, "direction") : "both";
   if (direction != "to_remote" && direction != "from_remote" && direction != "both")
     throw std::invalid_argument(
         fmt::format("\"direction\" must be \"to_remote\", \"from_remote\" or \"both\", not \"{}\"", direction));
   // Every field read (and checked) before anything changes.
-  auto change = [&](hm2::SerialLink::Rates& r) {
+  auto change = [&](model::hm2::SerialLink::Rates& r) {
     if (j.contains("bit_error_rate")) r.bitErrorRate = rate(j, "bit_error_rate");
     if (j.contains("drop_rate")) r.dropRate = rate(j, "drop_rate");
     if (j.contains("extra_rate")) r.extraRate = rate(j, "extra_rate");
@@ -119,4 +119,4 @@ json toJson(const LinkSnapshots& s) {
   return {{"channels", chans}};
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

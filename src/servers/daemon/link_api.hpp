@@ -14,23 +14,23 @@
 
 #include "hostmot2/sslbp.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 // What GET /api/link shows of one channel, taken on the card thread.
 struct LinkSnapshot {
   unsigned channel = 0;
-  hm2::SerialLink::RateSettings rates;
+  model::hm2::SerialLink::RateSettings rates;
   bool connected = true;
   double cutForMs = 0;  // simulated time until a cut cable is back
-  hm2::Sslbp::State::Channel sslbp;
+  model::hm2::Sslbp::State::Channel sslbp;
   std::optional<unsigned> remoteCrcErrors;  // absent: no model remote on it
 };
 struct LinkSnapshots {
   unsigned channels = 0;
-  std::array<LinkSnapshot, hm2::Sslbp::kMaxChannels> channel{};
+  std::array<LinkSnapshot, model::hm2::Sslbp::kMaxChannels> channel{};
 };
 
-LinkSnapshots takeLinkSnapshots(hm2::Sslbp& sserial, lbp::SimTime now);
+LinkSnapshots takeLinkSnapshots(model::hm2::Sslbp& sserial, model::lbp::SimTime now);
 
 // Applies a request body to one channel's link: all of it or, when any
 // field is wrong, none of it (std::invalid_argument naming the field). Keys:
@@ -46,7 +46,7 @@ LinkSnapshots takeLinkSnapshots(hm2::Sslbp& sserial, lbp::SimTime now);
 //                        now, then back (0: back now)
 //   connected            the cable plugged in or pulled (as POST /api/cable)
 //   seed                 the rates' random sequence (repeatable runs)
-void applyLink(hm2::Sslbp& sserial, const nlohmann::json& body, lbp::SimTime now);
+void applyLink(model::hm2::Sslbp& sserial, const nlohmann::json& body, model::lbp::SimTime now);
 nlohmann::json toJson(const LinkSnapshots& s);
 
-}  // namespace servers
+}  // namespace lbpkit::server

@@ -7,7 +7,7 @@
 
 #include "daemon/request_fields.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 using nlohmann::json;
 
@@ -89,4 +89,4 @@ json toJson(const NetworkSnapshot& s) {
           {"held", s.held}};
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

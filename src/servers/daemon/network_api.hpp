@@ -9,7 +9,7 @@
 
 #include "lbp16/network_faults.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 // What GET /api/network shows, taken on the card thread.
 struct NetworkSnapshot {
@@ -36,4 +36,4 @@ struct NetworkSnapshot {
 void applyNetwork(NetworkFaults& faults, const nlohmann::json& body, NetworkFaults::Clock::time_point now);
 nlohmann::json toJson(const NetworkSnapshot& s);
 
-}  // namespace servers
+}  // namespace lbpkit::server

@@ -13,7 +13,7 @@
 #include <cstring>
 #include <stdexcept>
 
-namespace servers {
+namespace lbpkit::server {
 
 bool isCapture(std::string_view head) {
   if (head.size() < 4) return false;
@@ -112,4 +112,4 @@ std::FILE* openOutputFile(const std::string& option, const std::string& path, co
   return f;
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

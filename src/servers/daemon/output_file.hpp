@@ -17,7 +17,7 @@
 #include <string_view>
 #include <vector>
 
-namespace servers {
+namespace lbpkit::server {
 
 // Whether the first bytes of an existing file are what the option writes.
 using OutputKind = std::function<bool(std::string_view head)>;
@@ -46,4 +46,4 @@ bool isText(std::string_view head);
 void checkReplaceable(const std::string& option, const std::string& path, const OutputKind& kind,
                       const std::vector<std::filesystem::path>& own = {});
 
-}  // namespace servers
+}  // namespace lbpkit::server

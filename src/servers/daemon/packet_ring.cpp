@@ -3,7 +3,7 @@
 
 #include <stdexcept>
 
-namespace servers {
+namespace lbpkit::server {
 
 PacketRing::PacketRing(std::size_t slots) : capacity_(slots) {
   if (capacity_ == 0) throw std::invalid_argument("a packet ring needs room for packets");
@@ -21,4 +21,4 @@ PacketRing::Slot* PacketRing::claim() {
 
 void PacketRing::commit() { head_.store(head_.load(std::memory_order_relaxed) + 1, std::memory_order_release); }
 
-}  // namespace servers
+}  // namespace lbpkit::server

@@ -14,7 +14,7 @@
 #include <memory>
 #include <span>
 
-namespace servers {
+namespace lbpkit::server {
 
 class PacketRing {
  public:
@@ -59,4 +59,4 @@ class PacketRing {
   std::atomic<std::uint64_t> dropped_{0};
 };
 
-}  // namespace servers
+}  // namespace lbpkit::server

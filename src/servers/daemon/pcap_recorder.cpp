@@ -14,7 +14,7 @@
 #include "daemon/output_file.hpp"
 #include "lbpkit/wire/capture.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 namespace {
 namespace capture = lbpkit::wire::capture;
@@ -137,4 +137,4 @@ void PcapRecorder::drain() {
   droppedSaid_ = lost;
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

@@ -23,7 +23,7 @@
 struct pcap;
 struct pcap_dumper;
 
-namespace servers {
+namespace lbpkit::server {
 
 class PcapRecorder {
  public:
@@ -75,4 +75,4 @@ class PcapRecorder {
   std::unique_ptr<DrainThread> thread_;  // last: it calls drain() until it goes
 };
 
-}  // namespace servers
+}  // namespace lbpkit::server

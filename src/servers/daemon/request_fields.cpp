@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <vector>
 
-namespace servers::fields {
+namespace lbpkit::server::fields {
 
 bool flag(const json& j, const char* key) {
   if (!j.contains(key)) throw std::invalid_argument(fmt::format("missing \"{}\"", key));
@@ -57,4 +57,4 @@ void onlyKnown(const json& j, std::initializer_list<std::string_view> known) {
   }
 }
 
-}  // namespace servers::fields
+}  // namespace lbpkit::server::fields

@@ -12,7 +12,7 @@
 #include <string>
 #include <string_view>
 
-namespace servers::fields {
+namespace lbpkit::server::fields {
 
 using nlohmann::json;
 
@@ -36,4 +36,4 @@ std::string listed(const Names& names) {
   return out.empty() ? "none" : out;
 }
 
-}  // namespace servers::fields
+}  // namespace lbpkit::server::fields

@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <cstdint>
 
-namespace servers {
+namespace lbpkit::server {
 
 SimClock::SimClock(double speed, bool paused, WallNow wall)
     : wallNow_(wall), wallBase_(wallNow_()), speed_(speed), paused_(paused) {}
@@ -18,15 +18,15 @@ SimClock::SimClock(const HostClock& host, bool paused, WallNow wall)
       period_(host.period),
       silence_(host.silence) {}
 
-lbp::SimTime SimClock::now() const { return at(wallNow_()); }
+model::lbp::SimTime SimClock::now() const { return at(wallNow_()); }
 
-lbp::SimTime SimClock::at(Wall::time_point wall) const {
+model::lbp::SimTime SimClock::at(Wall::time_point wall) const {
   if (paused_) return simBase_;
   if (source_ == Source::Host && period_.count() > 0 && !silent(wall)) return simBase_;
   // Never before the base: a moment before it (a datagram that came before
   // the last change) is taken at the base.
   const auto elapsed = std::max(0.0, std::chrono::duration<double, std::nano>(wall - wallBase_).count());
-  return simBase_ + lbp::SimTime{static_cast<std::int64_t>(elapsed * speed_)};
+  return simBase_ + model::lbp::SimTime{static_cast<std::int64_t>(elapsed * speed_)};
 }
 
 bool SimClock::drivenByHost() const {
@@ -51,7 +51,7 @@ void SimClock::hostCycle(std::chrono::nanoseconds wallAgo) {
   // When the DoIt came, not when the card thread got to it: a card thread
   // the kernel held back must not make a host on time look silent.
   const auto wall = std::max(wallBase_, wallNow_() - wallAgo);
-  const lbp::SimTime t = at(wall);
+  const model::lbp::SimTime t = at(wall);
   if (hostCycles_ > 0 && !leftCycle_ && silent(wall)) ++silences_;
   leftCycle_ = false;
   if (period_.count() == 0) learn(wall);
@@ -97,32 +97,32 @@ void SimClock::learn(Wall::time_point wall) {
   const auto near = std::count_if(spacings_.begin(), spacings_.end(),
                                   [median](std::int64_t s) { return s * 5 >= median * 4 && s * 5 <= median * 6; });
   if (median < 100'000 || median > 10'000'000 || static_cast<std::size_t>(near) * 4 < kLearnCycles * 3) return;
-  period_ = lbp::SimTime{(median + 5'000) / 10'000 * 10'000};
+  period_ = model::lbp::SimTime{(median + 5'000) / 10'000 * 10'000};
 }
 
-void SimClock::fallBackTo(lbp::SimTime t) {
+void SimClock::fallBackTo(model::lbp::SimTime t) {
   const auto wall = wallNow_();
   const auto lag = now() - t;
-  if (lag <= lbp::SimTime{0}) return;
+  if (lag <= model::lbp::SimTime{0}) return;
   simBase_ = t;
   wallBase_ = wall;
   behind_ += lag;
   ++slips_;
 }
 
-lbp::SimTime SimClock::ago(std::chrono::nanoseconds wallAgo) const {
+model::lbp::SimTime SimClock::ago(std::chrono::nanoseconds wallAgo) const {
   if (source_ == Source::Host) return at(wallNow_() - wallAgo);
-  const lbp::SimTime t = now();
+  const model::lbp::SimTime t = now();
   if (paused_) return t;
-  const auto back = lbp::SimTime{static_cast<std::int64_t>(static_cast<double>(wallAgo.count()) * speed_)};
+  const auto back = model::lbp::SimTime{static_cast<std::int64_t>(static_cast<double>(wallAgo.count()) * speed_)};
   // Across a change of speed this is approximate, which is harmless: the
   // card never runs back, so a time before its own is taken as its own.
-  return std::max(lbp::SimTime{0}, t - back);
+  return std::max(model::lbp::SimTime{0}, t - back);
 }
 
-void SimClock::advanceBy(lbp::SimTime t) {
+void SimClock::advanceBy(model::lbp::SimTime t) {
   simBase_ = now() + t;
   wallBase_ = wallNow_();
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

@@ -28,13 +28,13 @@
 
 #include "lbp/sim_time.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 // `--clock host[=PERIOD]`.
 struct HostClock {
   // One servo period of simulated time a host cycle; zero: learned from the
   // wall-clock spacing of the host's first cycles (SimClock::kLearnCycles).
-  lbp::SimTime period{0};
+  model::lbp::SimTime period{0};
   // A host silent this long (wall clock) has stopped: time follows the wall
   // clock again, counted from its last cycle, so the 7I77's 50 ms watchdog
   // still bites 50 ms after it (any bound under 50 ms less a period does
@@ -52,7 +52,7 @@ class SimClock {
   using WallNow = Wall::time_point (*)();
   explicit SimClock(double speed = 1.0, bool paused = false, WallNow wall = &Wall::now);
   SimClock(const HostClock& host, bool paused, WallNow wall = &Wall::now);
-  [[nodiscard]] lbp::SimTime now() const;
+  [[nodiscard]] model::lbp::SimTime now() const;
   // Changes speed or pauses from now on: time so far is kept, never jumps.
   // On the host clock the speed stays 1 (what follows the wall clock).
   void set(double speed, bool paused);
@@ -63,11 +63,11 @@ class SimClock {
   // wall clock, or paused, a look that often is often enough): how long
   // the card thread may sleep between looks at a model that only moves.
   [[nodiscard]] std::chrono::milliseconds wallFor(std::chrono::milliseconds simulated) const;
-  void advanceBy(lbp::SimTime t);  // while paused: step time by hand
+  void advanceBy(model::lbp::SimTime t);  // while paused: step time by hand
   // The simulated time it was `wallAgo` of wall-clock time ago (now() while
   // paused; on the host clock, the time of the cycle a datagram came in, or
   // the wall clock's if the host was silent by then).
-  [[nodiscard]] lbp::SimTime ago(std::chrono::nanoseconds wallAgo) const;
+  [[nodiscard]] model::lbp::SimTime ago(std::chrono::nanoseconds wallAgo) const;
 
   // --- The host clock --------------------------------------------------------------
   [[nodiscard]] Source source() const { return source_; }
@@ -77,7 +77,7 @@ class SimClock {
   // wall-clock spacing is learned from and time follows the wall clock.
   void hostCycle(std::chrono::nanoseconds wallAgo = std::chrono::nanoseconds{0});
   // The period a host cycle moves time (zero while still being learned).
-  [[nodiscard]] lbp::SimTime period() const { return period_; }
+  [[nodiscard]] model::lbp::SimTime period() const { return period_; }
   [[nodiscard]] std::chrono::milliseconds silence() const { return silence_; }
   [[nodiscard]] std::uint64_t hostCycles() const { return hostCycles_; }
   // True when time follows a host's cycles right now; false on the wall
@@ -130,12 +130,12 @@ class SimClock {
   // where the model got (never past it), and the slip is counted. While
   // paused, or driven by a host's cycles, nothing is behind: the rest is
   // caught up on the next call.
-  static constexpr lbp::SimTime kSlice = std::chrono::milliseconds(1);
+  static constexpr model::lbp::SimTime kSlice = std::chrono::milliseconds(1);
   // A card alone (no machine behind it) is event-driven: each part's
   // advance() is a comparison until something is due, and counting is
   // exact over any span, so it is caught up in long slices: after a
   // sleep of an hour, a few thousand comparisons.
-  static constexpr lbp::SimTime kCardSlice = std::chrono::seconds(1);
+  static constexpr model::lbp::SimTime kCardSlice = std::chrono::seconds(1);
   static constexpr std::chrono::microseconds kBudget{2000};
   // Driven by a host's cycles, each datagram is answered at the cycle's
   // time, whatever the wall clock did meanwhile: a period of simulation
@@ -144,16 +144,16 @@ class SimClock {
   // Cycles whose spacing a learned period is taken from.
   static constexpr std::size_t kLearnCycles = 32;
   template <typename Advance>
-  lbp::SimTime catchUp(lbp::SimTime from, Advance&& advance, std::chrono::microseconds budget = kBudget) {
+  model::lbp::SimTime catchUp(model::lbp::SimTime from, Advance&& advance, std::chrono::microseconds budget = kBudget) {
     return catchUpTo(from, now(), std::forward<Advance>(advance), budget);
   }
   // The same towards `target`, a simulated time at most now(), in slices
   // of at most `slice`.
   template <typename Advance>
-  lbp::SimTime catchUpTo(lbp::SimTime from, lbp::SimTime target, Advance&& advance,
-                         std::chrono::microseconds budget = kBudget, lbp::SimTime slice = kSlice) {
+  model::lbp::SimTime catchUpTo(model::lbp::SimTime from, model::lbp::SimTime target, Advance&& advance,
+                                std::chrono::microseconds budget = kBudget, model::lbp::SimTime slice = kSlice) {
     const auto start = Wall::now();
-    lbp::SimTime t = from;
+    model::lbp::SimTime t = from;
     while (t < target) {
       t = std::min(target, t + slice);
       advance(t);
@@ -164,12 +164,12 @@ class SimClock {
   }
   // How far simulated time has fallen behind the wall clock in all, and how
   // many times.
-  [[nodiscard]] lbp::SimTime behind() const { return behind_; }
+  [[nodiscard]] model::lbp::SimTime behind() const { return behind_; }
   [[nodiscard]] std::uint64_t slips() const { return slips_; }
 
  private:
-  void fallBackTo(lbp::SimTime t);
-  [[nodiscard]] lbp::SimTime at(Wall::time_point wall) const;  // simulated time at a wall-clock moment
+  void fallBackTo(model::lbp::SimTime t);
+  [[nodiscard]] model::lbp::SimTime at(Wall::time_point wall) const;  // simulated time at a wall-clock moment
   void learn(Wall::time_point wall);
   [[nodiscard]] bool silent(Wall::time_point wall) const { return leftCycle_ || wall - wallBase_ > silence_; }
 
@@ -180,12 +180,12 @@ class SimClock {
   // when it came; silent beyond the bound (or learning), time runs on from
   // there with the wall clock.
   Wall::time_point wallBase_;
-  lbp::SimTime simBase_{0};
+  model::lbp::SimTime simBase_{0};
   double speed_;
   bool paused_;
-  lbp::SimTime behind_{0};
+  model::lbp::SimTime behind_{0};
   std::uint64_t slips_ = 0;
-  lbp::SimTime period_{0};
+  model::lbp::SimTime period_{0};
   std::chrono::milliseconds silence_{20};
   std::uint64_t hostCycles_ = 0;
   std::uint64_t silences_ = 0;
@@ -198,4 +198,4 @@ class SimClock {
   std::size_t learned_ = 0;
 };
 
-}  // namespace servers
+}  // namespace lbpkit::server

@@ -23,7 +23,7 @@
 #include "lbp16/udp_server.hpp"
 #include "process/process.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 SimDaemon::SimDaemon(SimOptions options)
     : options_(std::move(options)),
@@ -44,7 +44,7 @@ SimDaemon::SimDaemon(SimOptions options)
   }
   if (options_.machine) {
     if (options_.demo) throw std::invalid_argument("a machine and the demo world both want the 7I77's terminals");
-    machine_ = std::make_unique<machine::Machine>(*options_.machine, card_, card_.now(), 0);
+    machine_ = std::make_unique<model::machine::Machine>(*options_.machine, card_, card_.now(), 0);
     trace_ = std::make_unique<TraceRing>(machine_->traceColumns(), std::max<std::size_t>(options_.traceRows, 1));
     traceRow_.assign(trace_->width(), 0.0);
     analogExchanges_ = card_.daughtercard(0).analog.processDataCount();
@@ -74,10 +74,10 @@ SimDaemon::SimDaemon(SimOptions options)
   // happens (the card counts them by kind at every level, /api/state).
   if (options_.logLevel >= LogLevel::Debug)
     card_.setAccessObserver(
-        [](void* self, const hm2::AccessEvent& e) {
+        [](void* self, const model::hm2::AccessEvent& e) {
           static_cast<const SimDaemon*>(self)->log(
               LogLevel::Debug, fmt::format("{}: address 0x{:04X}, value 0x{:08X}, at {:.6f} s simulated",
-                                           hm2::accessKindName(e.kind), e.address, e.value,
+                                           model::hm2::accessKindName(e.kind), e.address, e.value,
                                            std::chrono::duration<double>(e.at).count()));
         },
         this);
@@ -151,9 +151,9 @@ std::string SimDaemon::packetTraceSummary() const {
                      lost ? fmt::format(" ({} lost: the writer fell behind)", lost) : std::string());
 }
 
-lbp::SimTime SimDaemon::catchUp(std::chrono::microseconds budget) { return catchUpTo(clock_.now(), budget); }
+model::lbp::SimTime SimDaemon::catchUp(std::chrono::microseconds budget) { return catchUpTo(clock_.now(), budget); }
 
-lbp::SimTime SimDaemon::catchUpTo(lbp::SimTime target, std::chrono::microseconds budget) {
+model::lbp::SimTime SimDaemon::catchUpTo(model::lbp::SimTime target, std::chrono::microseconds budget) {
   // The machine first: each plant span sets its encoders' velocities to
   // reach the shaft at the span's end, so the counters then follow the
   // plant over the card's advance (machine/machine.hpp). It is a slice
@@ -163,7 +163,7 @@ lbp::SimTime SimDaemon::catchUpTo(lbp::SimTime target, std::chrono::microseconds
   // starts within a slice of it.
   return clock_.catchUpTo(
       card_.now(), target,
-      [this](lbp::SimTime t) {
+      [this](model::lbp::SimTime t) {
         if (machine_) machine_->advance(t);
         card_.advance(t);
       },
@@ -223,11 +223,11 @@ SimState SimDaemon::state() {
               {}};
   for (std::size_t i = 0; i < s.server.atLeast.size(); ++i)
     s.server.atLeast[i] = latency_.countAtLeastUs(SimState::Server::kAtLeastUs[i]);
-  s.watchdog = card_.part<hm2::Watchdog>().state(now);
-  s.cardLeds = card_.part<hm2::Led>().state();
-  s.sserial = card_.part<hm2::Sslbp>().state();
+  s.watchdog = card_.part<model::hm2::Watchdog>().state(now);
+  s.cardLeds = card_.part<model::hm2::Led>().state();
+  s.sserial = card_.part<model::hm2::Sslbp>().state();
   s.accessCounters = card_.accessCounters();
-  const auto encoders = card_.part<hm2::MuxedEncoder>().state();
+  const auto encoders = card_.part<model::hm2::MuxedEncoder>().state();
   for (unsigned d = 0; d < card_.daughtercards(); ++d) {
     auto& b = card_.daughtercard(d);
     SimState::Daughtercard board{b.fieldIo.state(), b.analog.state(), {}};
@@ -239,7 +239,7 @@ SimState SimDaemon::state() {
     // PIN_7I77_7I76_34.vhd: the 7I76 on IO17..33, the card's second connector.
     constexpr unsigned kConnector = SimState::SevenI76::kConnector;
     s.sevenI76 = SimState::SevenI76{kConnector, std::string(card_.description().connectors.at(kConnector)),
-                                    hm2::cards::sevenI76Channel(card_.firmware()).value_or(0), i76->state()};
+                                    model::hm2::cards::sevenI76Channel(card_.firmware()).value_or(0), i76->state()};
   }
   if (machine_) s.machine = machine_->state();
   return s;
@@ -247,11 +247,11 @@ SimState SimDaemon::state() {
 
 Answer SimDaemon::machineAnswer() {
   catchUp(clock_.paused() ? std::chrono::microseconds(200'000) : SimClock::kBudget);
-  return [s = machine_->state()] { return servers::toJson(s).dump(); };
+  return [s = machine_->state()] { return server::toJson(s).dump(); };
 }
 
 Answer SimDaemon::stateAnswer() {
-  return [s = state()] { return servers::stateJson(s); };
+  return [s = state()] { return server::stateJson(s); };
 }
 
 std::vector<std::pair<unsigned, std::string>> SimDaemon::externalRemotes() const {
@@ -263,27 +263,29 @@ std::vector<std::pair<unsigned, std::string>> SimDaemon::externalRemotes() const
 std::string SimDaemon::banner() const {
   const auto& id = lbp16_->identity();
   std::string s = fmt::format("lbpkit sim: virtual {} (HostMot2, SSLBP {}.{}) on UDP {}:{}\n", id.name,
-                              hm2::Sslbp::kMajorRevision, hm2::Sslbp::kMinorRevision,
+                              model::hm2::Sslbp::kMajorRevision, model::hm2::Sslbp::kMinorRevision,
                               options_.bindAddress, udp_->port());
   s += fmt::format("  MAC {:02x}:{:02x}:{:02x}:{:02x}:{:02x}:{:02x}{}\n", id.mac[0], id.mac[1], id.mac[2], id.mac[3],
                    id.mac[4], id.mac[5],
                    macFromInterface_ ? fmt::format(" (of {})", interface_) : std::string(" (locally administered)"));
   for (unsigned d = 0; d < card_.daughtercards(); ++d) {
-    auto& b = const_cast<hm2::HostMot2Card&>(card_).daughtercard(d);
-    s += fmt::format("  connector {}: {} field I/O unit 0x{:08X} on channel {}, analog unit 0x{:08X} on channel {}, "
-                     "6 encoders, field {:.1f} V{}\n",
-                     d, b.fieldIo.outputType() == remote::OutputType::Sinking ? "7I77D" : "7I77",
-                     b.fieldIo.unitNumber(), 3 * d, b.analog.unitNumber(), 3 * d + 1, b.fieldIo.fieldVoltage(),
-                     b.fieldIo.nvStore().file().empty() ? "" : ", EEPROM " + b.fieldIo.nvStore().file().string());
+    auto& b = const_cast<model::hm2::HostMot2Card&>(card_).daughtercard(d);
+    s += fmt::format(
+        "  connector {}: {} field I/O unit 0x{:08X} on channel {}, analog unit 0x{:08X} on channel {}, "
+        "6 encoders, field {:.1f} V{}\n",
+        d, b.fieldIo.outputType() == model::remote::OutputType::Sinking ? "7I77D" : "7I77", b.fieldIo.unitNumber(),
+        3 * d, b.analog.unitNumber(), 3 * d + 1, b.fieldIo.fieldVoltage(),
+        b.fieldIo.nvStore().file().empty() ? "" : ", EEPROM " + b.fieldIo.nvStore().file().string());
   }
-  if (auto* i76 = const_cast<hm2::HostMot2Card&>(card_).sevenI76())
-    s += fmt::format("  connector {}: 7I76 field I/O unit 0x{:08X} on channel {} (32 inputs, 16 outputs, spindle), "
-                     "field {:.1f} V\n",
-                     SimState::SevenI76::kConnector, i76->unitNumber(), hm2::cards::sevenI76Channel(card_.firmware()).value_or(0),
-                     i76->fieldVoltage());
+  if (auto* i76 = const_cast<model::hm2::HostMot2Card&>(card_).sevenI76())
+    s += fmt::format(
+        "  connector {}: 7I76 field I/O unit 0x{:08X} on channel {} (32 inputs, 16 outputs, spindle), "
+        "field {:.1f} V\n",
+        SimState::SevenI76::kConnector, i76->unitNumber(),
+        model::hm2::cards::sevenI76Channel(card_.firmware()).value_or(0), i76->fieldVoltage());
   for (const auto& p : ptyChannels_)
     s += fmt::format("  channel {}: external remote on {} (LBP at {} baud; reply timeouts x{})\n", p->channel(),
-                     p->path(), p->baud(), hm2::Sslbp::kExternalTimeoutFactor);
+                     p->path(), p->baud(), model::hm2::Sslbp::kExternalTimeoutFactor);
   s += fmt::format("  configuration: {}\n", options_.configDescription);
   if (script_) s += fmt::format("  fault script: {} entries, from {}\n", script_->size(), options_.configDescription);
   if (machine_) {
@@ -503,19 +505,17 @@ void SimDaemon::serve(std::chrono::milliseconds wait) {
   // One that carried any other command takes the host out of its cycle
   // (SimClock::hostLeftItsCycle): the wall clock again.
   const auto until = NetworkFaults::Clock::now() + wait;
-  const bool served = udp_->serveOnce(wait,
-                                      [&](std::span<const std::uint8_t> req, std::span<std::uint8_t> reply) {
-                                        const auto before = card_.part<hm2::Sslbp>().counters();
-                                        const std::size_t n = lbp16_->handle(
-                                            req, reply, catchUpTo(clock_.ago(udp_->sinceReceived()), budget()));
-                                        const auto& after = card_.part<hm2::Sslbp>().counters();
-                                        if (after.doits != before.doits)
-                                          clock_.hostCycle(udp_->sinceReceived());
-                                        else if (after.commands != before.commands)
-                                          clock_.hostLeftItsCycle();
-                                        if (packetTrace_) traceDatagram(req, reply.first(n));
-                                        return n;
-                                      });
+  const bool served = udp_->serveOnce(wait, [&](std::span<const std::uint8_t> req, std::span<std::uint8_t> reply) {
+    const auto before = card_.part<model::hm2::Sslbp>().counters();
+    const std::size_t n = lbp16_->handle(req, reply, catchUpTo(clock_.ago(udp_->sinceReceived()), budget()));
+    const auto& after = card_.part<model::hm2::Sslbp>().counters();
+    if (after.doits != before.doits)
+      clock_.hostCycle(udp_->sinceReceived());
+    else if (after.commands != before.commands)
+      clock_.hostLeftItsCycle();
+    if (packetTrace_) traceDatagram(req, reply.first(n));
+    return n;
+  });
   // From the kernel's receive timestamp, so time queued in the socket
   // counts: that is what the host waits.
   if (served) {
@@ -539,7 +539,7 @@ void SimDaemon::serve(std::chrono::milliseconds wait) {
   if (script_) script_->runDue(card_.now(), *target_, scriptLog_);
   if (options_.demo) {
     auto& io = card_.daughtercard(0).fieldIo;
-    for (unsigned i = 0; i < remote::FieldIoProcessor::kOutputs; ++i) {
+    for (unsigned i = 0; i < model::remote::FieldIoProcessor::kOutputs; ++i) {
       const double v = io.outputOn(i) ? io.fieldVoltage() : 0.0;
       if (io.inputVoltage(i) != v) io.setInputVoltage(i, v);
     }
@@ -583,7 +583,7 @@ void SimDaemon::runAll(std::span<SimDaemon* const> cards, const std::atomic<bool
   const std::string schedule = cards.front()->takeCardThread();
   for (SimDaemon* d : cards) {
     d->schedule_ = schedule;
-    if (d->options_.demo) d->card_.part<hm2::MuxedEncoder>().setVelocity(0, 10000, d->card_.now());
+    if (d->options_.demo) d->card_.part<model::hm2::MuxedEncoder>().setVelocity(0, 10000, d->card_.now());
   }
   // Between datagrams the thread sleeps until the next one, a job or the
   // stop, or for idleWait(): a card alone is caught up exactly when next
@@ -639,4 +639,4 @@ void SimDaemon::closeJobs() {
   for (auto& task : last) task();
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

@@ -36,7 +36,7 @@
 #include "machine/machine.hpp"
 #include "pty/pty_channel.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 enum class LogLevel { Error, Warn, Info, Debug };
 
@@ -72,13 +72,13 @@ struct SimOptions {
   bool demo = false;
   // A machine behind the 7I77 on connector 0: servo axes,
   // switches, spindle (machine/machine.hpp). Excludes `demo`.
-  std::optional<machine::MachineDescription> machine;
+  std::optional<model::machine::MachineDescription> machine;
   std::string machineSource;  // where it came from, for the banner ("built-in mill", a file)
   // With a machine: its servo-cycle trace also goes to this CSV file.
   std::string recordFile;
   // How many servo cycles the trace keeps for GET /api/machine/trace (60 s at 1 kHz).
   std::size_t traceRows = 60'000;
-  hm2::HostMot2Card::Options card;
+  model::hm2::HostMot2Card::Options card;
   // The 7I92's configuration flash, kept across runs (lbp16/flash_file.hpp);
   // empty: in memory, blank at every start.
   std::filesystem::path flashFile;
@@ -147,9 +147,9 @@ class SimDaemon {
   void drainJobs();
   // Brings the card up to the clock, with bounded work (SimClock::catchUp);
   // returns the card's time, the time everything happens at.
-  lbp::SimTime catchUp(std::chrono::microseconds budget = SimClock::kBudget);
+  model::lbp::SimTime catchUp(std::chrono::microseconds budget = SimClock::kBudget);
   // The same towards `target` (a simulated time not after the clock's).
-  lbp::SimTime catchUpTo(lbp::SimTime target, std::chrono::microseconds budget = SimClock::kBudget);
+  model::lbp::SimTime catchUpTo(model::lbp::SimTime target, std::chrono::microseconds budget = SimClock::kBudget);
   // The budget of a catch-up towards the clock: bounded on the wall clock;
   // driven by a host's cycles, the whole cycle (SimClock::kHostBudget).
   [[nodiscard]] std::chrono::microseconds budget() const {
@@ -181,16 +181,16 @@ class SimDaemon {
   void log(LogLevel level, const std::string& text) const;
 
   SimOptions options_;
-  hm2::HostMot2Card card_;
+  model::hm2::HostMot2Card card_;
   // Stepped on the card thread, before the card (catchUp).
-  std::unique_ptr<machine::Machine> machine_;
+  std::unique_ptr<model::machine::Machine> machine_;
   // Its trace: a row per host cycle, seen as a new process data exchange
   // of the analog processor (one DOIT of its channel per servo period).
   std::unique_ptr<TraceRing> trace_;
   std::vector<double> traceRow_;  // allocated once
   std::uint32_t analogExchanges_ = 0;
   bool traced_ = false;  // a trace row has been taken, at lastTraced_ (the plant's time)
-  lbp::SimTime lastTraced_{};
+  model::lbp::SimTime lastTraced_{};
   std::unique_ptr<TraceFile> traceFile_;  // after trace_: it reads it until it goes
   std::unique_ptr<Lbp16Card> lbp16_;
   std::unique_ptr<UdpServer> udp_;
@@ -240,4 +240,4 @@ class SimDaemon {
   int apiPort_ = -1;
 };
 
-}  // namespace servers
+}  // namespace lbpkit::server

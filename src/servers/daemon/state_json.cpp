@@ -7,7 +7,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-namespace servers {
+namespace lbpkit::server {
 
 using nlohmann::json;
 
@@ -24,13 +24,13 @@ std::string macText(const std::array<std::uint8_t, 6>& m) {
 json faultNames(std::uint8_t faults) {
   json a = json::array();
   for (unsigned b = 0; b < 8; ++b)
-    if ((static_cast<unsigned>(faults) >> b) & 1U) a.push_back(std::string(remote::fault::kNames[b]));
+    if ((static_cast<unsigned>(faults) >> b) & 1U) a.push_back(std::string(model::remote::fault::kNames[b]));
   return a;
 }
 
-json toJson(const hm2::Watchdog::State& s) { return {{"bitten", s.bitten}, {"timer", s.timer}}; }
+json toJson(const model::hm2::Watchdog::State& s) { return {{"bitten", s.bitten}, {"timer", s.timer}}; }
 
-json toJson(const hm2::Sslbp::State& s) {
+json toJson(const model::hm2::Sslbp::State& s) {
   json chans = json::array();
   for (unsigned ch = 0; ch < s.channels; ++ch) {
     const auto& c = s.channel[ch];
@@ -56,7 +56,7 @@ json toJson(const hm2::Sslbp::State& s) {
           {"channels", chans}};
 }
 
-json toJson(const hm2::MuxedEncoder::State::Counter& s) {
+json toJson(const model::hm2::MuxedEncoder::State::Counter& s) {
   return {{"count", s.count},
           {"position", s.signal.position},
           {"velocity", s.signal.velocity},
@@ -66,7 +66,7 @@ json toJson(const hm2::MuxedEncoder::State::Counter& s) {
 namespace {
 
 // What a field I/O processor (the 7I77's, the 7I76's) shows of itself.
-json fieldProcessor(const remote::RemoteDevice::DeviceState& d, double fieldVoltage, json inputs, json outputs) {
+json fieldProcessor(const model::remote::RemoteDevice::DeviceState& d, double fieldVoltage, json inputs, json outputs) {
   return {{"powered", d.powered},
           {"field_voltage", fieldVoltage},
           {"mode", d.softwareMode},
@@ -80,7 +80,7 @@ json fieldProcessor(const remote::RemoteDevice::DeviceState& d, double fieldVolt
 
 }  // namespace
 
-json toJson(const remote::FieldIoProcessor::State& s) {
+json toJson(const model::remote::FieldIoProcessor::State& s) {
   json inputs = json::array(), outputs = json::array();
   for (const auto& in : s.inputs) inputs.push_back({{"volts", in.volts}, {"on", in.on}});
   // JSON has no infinity: a dead short's current reads -1.
@@ -95,7 +95,7 @@ json toJson(const remote::FieldIoProcessor::State& s) {
   return j;
 }
 
-json toJson(const remote::AnalogProcessor::State& s) {
+json toJson(const model::remote::AnalogProcessor::State& s) {
   json outputs = json::array();
   for (const auto& out : s.outputs) outputs.push_back({{"volts", out.volts}, {"code", out.code}, {"enable", out.enable}});
   return {{"powered", s.device.powered},
@@ -112,7 +112,7 @@ json toJson(const Lbp16Card::Counters& s) {
           {"write_errors", s.writeErrors}};
 }
 
-json toJson(const hm2::AccessCounters& s) {
+json toJson(const model::hm2::AccessCounters& s) {
   return {{"unmapped_reads", s.unmappedReads},
           {"unmapped_writes", s.unmappedWrites},
           {"read_only_writes", s.readOnlyWrites},
@@ -146,7 +146,7 @@ json toJson(const SimState::Daughtercard& s, unsigned connector) {
   // CR1, CR6 and CR7 watch the 5 V, +16 V and -12 V supplies (manual: STATUS
   // LEDs); the model has no supply faults, so they are always on.
   return {{"connector", connector},
-          {"type", io.outputType == remote::OutputType::Sinking ? "7I77D" : "7I77"},
+          {"type", io.outputType == model::remote::OutputType::Sinking ? "7I77D" : "7I77"},
           {"leds",
            {{"CR1", true},
             {"CR3", io.fieldVoltageLed},
@@ -162,9 +162,10 @@ json toJson(const SimState::Daughtercard& s, unsigned connector) {
 json toJson(const SimState::SevenI76& s) {
   const auto& io = s.fieldIo;
   json inputs = json::array(), outputs = json::array();
-  for (unsigned i = 0; i < remote::SevenI76FieldIo::kInputs; ++i) inputs.push_back({{"on", ((io.inputs >> i) & 1U) != 0}});
+  for (unsigned i = 0; i < model::remote::SevenI76FieldIo::kInputs; ++i)
+    inputs.push_back({{"on", ((io.inputs >> i) & 1U) != 0}});
   // Sourcing outputs: one that is on is at field power (seven_i76.hpp).
-  for (unsigned i = 0; i < remote::SevenI76FieldIo::kOutputs; ++i) {
+  for (unsigned i = 0; i < model::remote::SevenI76FieldIo::kOutputs; ++i) {
     const bool on = ((io.outputs >> i) & 1U) != 0;
     const double amps = io.outputAmps[i];
     outputs.push_back({{"on", on}, {"volts", on ? io.fieldVoltage : 0.0}, {"amps", std::isinf(amps) ? -1.0 : amps}});
@@ -180,8 +181,8 @@ json toJson(const SimState::SevenI76& s) {
 
 namespace {
 
-const char* kindName(machine::SwitchKind k) {
-  using K = machine::SwitchKind;
+const char* kindName(model::machine::SwitchKind k) {
+  using K = model::machine::SwitchKind;
   switch (k) {
     case K::Home: return "home";
     case K::MinLimit: return "min_limit";
@@ -193,26 +194,23 @@ const char* kindName(machine::SwitchKind k) {
   return "other";
 }
 
-json channelNames(const std::vector<machine::EncoderChannel>& channels) {
+json channelNames(const std::vector<model::machine::EncoderChannel>& channels) {
   json a = json::array();
   for (const auto c : channels)
-    a.push_back(c == machine::EncoderChannel::A ? "A" : c == machine::EncoderChannel::B ? "B" : "index");
+    a.push_back(c == model::machine::EncoderChannel::A ? "A" : c == model::machine::EncoderChannel::B ? "B" : "index");
   return a;
 }
 
 }  // namespace
 
-json toJson(const machine::Switches::State& s) {
-  return {{"name", s.name},
-          {"kind", kindName(s.kind)},
-          {"input", s.input},
-          {"tripped", s.tripped},
-          {"input_on", s.inputOn},
-          {"daughtercard", machine::daughtercardName(s.daughtercard)}};
+json toJson(const model::machine::Switches::State& s) {
+  return {{"name", s.name},        {"kind", kindName(s.kind)},
+          {"input", s.input},      {"tripped", s.tripped},
+          {"input_on", s.inputOn}, {"daughtercard", model::machine::daughtercardName(s.daughtercard)}};
 }
 
-json toJson(const machine::Machine::State& s) {
-  auto switches = [](const std::vector<machine::Switches::State>& list) {
+json toJson(const model::machine::Machine::State& s) {
+  auto switches = [](const std::vector<model::machine::Switches::State>& list) {
     json a = json::array();
     for (const auto& sw : list) a.push_back(toJson(sw));
     return a;
@@ -262,13 +260,14 @@ json toJson(const machine::Machine::State& s) {
                {"running", sp.running},
                {"encoder_count", sp.encoderCount ? json(*sp.encoderCount) : json(nullptr)},
                {"encoder_broken", channelNames(sp.encoderBroken)},
-               {"daughtercard", machine::daughtercardName(sp.daughtercard)}};
+               {"daughtercard", model::machine::daughtercardName(sp.daughtercard)}};
   }
   json outputs = json::array();
-  for (const auto& o : s.outputs) outputs.push_back({{"name", o.name},
-                                                      {"output", o.output},
-                                                      {"on", o.on},
-                                                      {"daughtercard", machine::daughtercardName(o.daughtercard)}});
+  for (const auto& o : s.outputs)
+    outputs.push_back({{"name", o.name},
+                       {"output", o.output},
+                       {"on", o.on},
+                       {"daughtercard", model::machine::daughtercardName(o.daughtercard)}});
   return {{"name", s.name},
           {"time_s", std::chrono::duration<double>(s.time).count()},
           {"axes", axes},
@@ -321,4 +320,4 @@ json toJson(const SimState& s) {
 
 std::string stateJson(const SimState& s) { return toJson(s).dump(); }
 
-}  // namespace servers
+}  // namespace lbpkit::server

@@ -27,17 +27,17 @@
 #include "remote/field_io.hpp"
 #include "remote/seven_i76.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 // Everything GET /api/state shows, taken at one simulated instant.
 struct SimState {
-  lbp::SimTime time{};
+  model::lbp::SimTime time{};
   struct Clock {
     double speed = 1.0;
     bool paused = false;
     // How far simulated time has fallen behind the wall clock in all, and
     // how many times, because the card could not keep up.
-    lbp::SimTime behind{0};
+    model::lbp::SimTime behind{0};
     std::uint64_t slips = 0;
     // `--clock host`: time moves a period per host cycle (sim_clock.hpp);
     // driven: it does right now (not paused, the period known, the host not
@@ -46,7 +46,7 @@ struct SimState {
     // heldBack: how long (and how often) the card thread itself was held
     // back while a host drove time, which no silence counts.
     bool host = false;
-    lbp::SimTime period{0};
+    model::lbp::SimTime period{0};
     bool driven = false;
     std::uint64_t hostCycles = 0;
     std::uint64_t silences = 0;
@@ -84,18 +84,18 @@ struct SimState {
     double queueP999Us = 0;
     std::array<std::uint64_t, kAtLeastUs.size()> atLeast{};
   } server;
-  hm2::Watchdog::State watchdog;
-  hm2::Led::State cardLeds;
-  hm2::Sslbp::State sserial;
+  model::hm2::Watchdog::State watchdog;
+  model::hm2::Led::State cardLeds;
+  model::hm2::Sslbp::State sserial;
   // Register accesses the card did not carry out, per kind.
-  hm2::AccessCounters accessCounters;
+  model::hm2::AccessCounters accessCounters;
   // One 7I77 and the card's muxed encoder counters for its connector
   // (counters 6d..6d+5 for connector d, as HostMot2Card lays them out).
   static constexpr unsigned kEncodersPerDaughtercard = 6;
   struct Daughtercard {
-    remote::FieldIoProcessor::State fieldIo;
-    remote::AnalogProcessor::State analog;
-    std::array<hm2::MuxedEncoder::State::Counter, kEncodersPerDaughtercard> encoders{};
+    model::remote::FieldIoProcessor::State fieldIo;
+    model::remote::AnalogProcessor::State analog;
+    std::array<model::hm2::MuxedEncoder::State::Counter, kEncodersPerDaughtercard> encoders{};
   };
   std::vector<Daughtercard> daughtercards;
   // The 7I76 on the 7I77+7I76 firmwares: its field I/O
@@ -107,21 +107,21 @@ struct SimState {
     unsigned connector = kConnector;
     std::string connectorName;  // as mesaflash names it ("P1" on a 7I92)
     unsigned channel = 3;
-    remote::SevenI76FieldIo::State fieldIo;
+    model::remote::SevenI76FieldIo::State fieldIo;
   };
   std::optional<SevenI76> sevenI76;
   // The machine behind connector 0's 7I77 (`lbpkit sim --machine`), if any.
-  std::optional<machine::Machine::State> machine;
+  std::optional<model::machine::Machine::State> machine;
 };
 
 // Each part as it appears under its key in GET /api/state.
-nlohmann::json toJson(const hm2::Watchdog::State& s);
-nlohmann::json toJson(const hm2::Sslbp::State& s);
-nlohmann::json toJson(const hm2::MuxedEncoder::State::Counter& s);
-nlohmann::json toJson(const remote::FieldIoProcessor::State& s);
-nlohmann::json toJson(const remote::AnalogProcessor::State& s);
+nlohmann::json toJson(const model::hm2::Watchdog::State& s);
+nlohmann::json toJson(const model::hm2::Sslbp::State& s);
+nlohmann::json toJson(const model::hm2::MuxedEncoder::State::Counter& s);
+nlohmann::json toJson(const model::remote::FieldIoProcessor::State& s);
+nlohmann::json toJson(const model::remote::AnalogProcessor::State& s);
 nlohmann::json toJson(const Lbp16Card::Counters& s);
-nlohmann::json toJson(const hm2::AccessCounters& s);
+nlohmann::json toJson(const model::hm2::AccessCounters& s);
 nlohmann::json toJson(const SimState::Server& s);
 // A daughtercard on connector `connector`, with its LEDs.
 nlohmann::json toJson(const SimState::Daughtercard& s, unsigned connector);
@@ -131,11 +131,11 @@ nlohmann::json toJson(const SimState::SevenI76& s);
 nlohmann::json faultNames(std::uint8_t faults);
 // GET /api/machine (and "machine" in GET /api/state): axes with their
 // drives and switches, spindle, E-stop chain, probe, switches, outputs.
-nlohmann::json toJson(const machine::Machine::State& s);
-nlohmann::json toJson(const machine::Switches::State& s);
+nlohmann::json toJson(const model::machine::Machine::State& s);
+nlohmann::json toJson(const model::machine::Switches::State& s);
 
 // The whole document.
 nlohmann::json toJson(const SimState& s);
 std::string stateJson(const SimState& s);
 
-}  // namespace servers
+}  // namespace lbpkit::server

@@ -14,7 +14,7 @@
 #include <utility>
 #include <vector>
 
-namespace servers {
+namespace lbpkit::server {
 
 TraceFile::TraceFile(const TraceRing& ring, std::string path, Report warn, const std::vector<std::filesystem::path>& own)
     : ring_(ring), path_(std::move(path)), warn_(std::move(warn)) {
@@ -67,4 +67,4 @@ void TraceFile::drain() {
   }
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

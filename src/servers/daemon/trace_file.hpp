@@ -16,7 +16,7 @@
 #include "daemon/drain_thread.hpp"
 #include "daemon/trace_ring.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 class TraceFile {
  public:
@@ -48,4 +48,4 @@ class TraceFile {
   std::unique_ptr<DrainThread> thread_;  // last: it calls drain() until it goes
 };
 
-}  // namespace servers
+}  // namespace lbpkit::server

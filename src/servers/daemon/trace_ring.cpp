@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <utility>
 
-namespace servers {
+namespace lbpkit::server {
 
 TraceRing::TraceRing(std::vector<std::string> columns, std::size_t capacity)
     : columns_(std::move(columns)), capacity_(capacity) {
@@ -55,4 +55,4 @@ std::uint64_t TraceRing::firstAfter(double t) const {
   return lo;
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

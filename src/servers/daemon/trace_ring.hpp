@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-namespace servers {
+namespace lbpkit::server {
 
 class TraceRing {
  public:
@@ -51,4 +51,4 @@ class TraceRing {
   std::atomic<std::uint64_t> pushed_{0};   // rows it has finished
 };
 
-}  // namespace servers
+}  // namespace lbpkit::server

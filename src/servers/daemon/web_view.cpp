@@ -13,7 +13,7 @@
 #include "web/event_stream.hpp"
 #include "web/web_assets.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 namespace {
 
@@ -81,4 +81,4 @@ void WebView::addRoutes(httplib::Server& http, std::function<void()> takeOver) {
   });
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

@@ -20,11 +20,11 @@
 namespace httplib {
 class Server;
 }
-namespace web {
+namespace lbpkit::server::web {
 class EventStream;
 }
 
-namespace servers {
+namespace lbpkit::server {
 
 class WebView {
  public:
@@ -47,4 +47,4 @@ class WebView {
   std::unique_ptr<web::EventStream> stream_;
 };
 
-}  // namespace servers
+}  // namespace lbpkit::server

@@ -11,7 +11,7 @@
 
 #include "remote/nv_store.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 namespace {
 constexpr std::array<char, 8> kMagic = {'L', 'B', 'F', 'L', 'A', 'S', 'H', '1'};
@@ -80,7 +80,7 @@ FlashFileLoad loadFlashFile(const std::filesystem::path& file, std::span<std::ui
   if (data.size() != image.size())
     return {FlashFileLoad::Status::Corrupt,
             file.string() + ": the flash image is not " + std::to_string(image.size()) + " bytes: the flash starts blank"};
-  if (remote::crc32(data) != crc)
+  if (model::remote::crc32(data) != crc)
     return {FlashFileLoad::Status::Corrupt, file.string() + ": the flash image's CRC is wrong: the flash starts blank"};
   std::memcpy(image.data(), data.data(), image.size());
   r.status = FlashFileLoad::Status::Loaded;
@@ -92,7 +92,7 @@ std::string saveFlashFile(const std::filesystem::path& file, std::span<const std
   std::array<std::uint8_t, kHeader> h{};
   std::memcpy(h.data(), kMagic.data(), kMagic.size());
   putLittle32(&h[8], static_cast<std::uint32_t>(image.size()));
-  putLittle32(&h[12], remote::crc32(image));
+  putLittle32(&h[12], model::remote::crc32(image));
   errno = 0;
   struct stat st{};
   if (::lstat(file.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
@@ -184,4 +184,4 @@ void FlashSaver::run() {
   if (changes_ != saved_) saveLocked(l);
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

@@ -23,7 +23,7 @@
 #include <thread>
 #include <vector>
 
-namespace servers {
+namespace lbpkit::server {
 
 struct FlashFileLoad {
   enum class Status {
@@ -80,4 +80,4 @@ class FlashSaver {
   std::thread thread_;
 };
 
-}  // namespace servers
+}  // namespace lbpkit::server

@@ -5,7 +5,7 @@
 #include <cstring>
 #include <stdexcept>
 
-namespace servers {
+namespace lbpkit::server {
 
 namespace {
 constexpr std::uint8_t k16 = 2, k32 = 4;  // the access widths the spaces take (no space takes bytes)
@@ -71,7 +71,7 @@ const Lbp16Card::Area* Lbp16Card::area(std::uint8_t space) {
   return space < 8 && kAreas[space].name ? &kAreas[space] : nullptr;
 }
 
-Lbp16Card::Lbp16Card(hm2::HostMot2Card& card, Identity identity)
+Lbp16Card::Lbp16Card(model::hm2::HostMot2Card& card, Identity identity)
     : card_(card),
       identity_(std::move(identity)),
       flash_(card.description().lbp16.flashBytes, 0xFF),
@@ -159,7 +159,7 @@ void Lbp16Card::waitForHm2() {
   timer_[timer::kWaitForHm2] = us;  // a read returns how long it waited
 }
 
-std::uint16_t Lbp16Card::readWord16(std::uint8_t space, std::uint32_t address, hm2::SimTime now) {
+std::uint16_t Lbp16Card::readWord16(std::uint8_t space, std::uint32_t address, model::hm2::SimTime now) {
   const unsigned word = address / 2;
   switch (space) {
     case 1: return ethernetChip_[word % ethernetChip_.size()];
@@ -188,8 +188,8 @@ std::uint16_t Lbp16Card::readWord16(std::uint8_t space, std::uint32_t address, h
   }
 }
 
-void Lbp16Card::configure(std::uint16_t value, hm2::SimTime now) {
-  const bool efinix = card_.description().lbp16.family == hm2::cards::FpgaFamily::Efinix;
+void Lbp16Card::configure(std::uint16_t value, model::hm2::SimTime now) {
+  const bool efinix = card_.description().lbp16.family == model::hm2::cards::FpgaFamily::Efinix;
   const bool reload = efinix ? (value & kEfinixEnableStart) == kEfinixEnableStart
                              : icapLast_ == kIcapWriteCommand && value == kIcapIprog;
   icapLast_ = value;
@@ -207,7 +207,7 @@ void Lbp16Card::configure(std::uint16_t value, hm2::SimTime now) {
   icapLast_ = 0;
 }
 
-void Lbp16Card::writeWord16(std::uint8_t space, std::uint32_t address, std::uint16_t value, hm2::SimTime now) {
+void Lbp16Card::writeWord16(std::uint8_t space, std::uint32_t address, std::uint16_t value, model::hm2::SimTime now) {
   const unsigned word = address / 2;
   switch (space) {
     case 1: ethernetChip_[word % ethernetChip_.size()] = value; return;
@@ -237,7 +237,7 @@ void Lbp16Card::writeWord16(std::uint8_t space, std::uint32_t address, std::uint
   }
 }
 
-std::uint64_t Lbp16Card::read(std::uint8_t space, std::uint32_t address, unsigned size, hm2::SimTime now) {
+std::uint64_t Lbp16Card::read(std::uint8_t space, std::uint32_t address, unsigned size, model::hm2::SimTime now) {
   switch (space) {
     case 0: return card_.read32(static_cast<std::uint16_t>(address), now);
     case 3:
@@ -260,7 +260,8 @@ std::uint64_t Lbp16Card::read(std::uint8_t space, std::uint32_t address, unsigne
   }
 }
 
-void Lbp16Card::write(std::uint8_t space, std::uint32_t address, unsigned size, std::uint64_t value, hm2::SimTime now) {
+void Lbp16Card::write(std::uint8_t space, std::uint32_t address, unsigned size, std::uint64_t value,
+                      model::hm2::SimTime now) {
   switch (space) {
     case 0: card_.write32(static_cast<std::uint16_t>(address), static_cast<std::uint32_t>(value), now); return;
     case 3: {
@@ -301,7 +302,8 @@ void Lbp16Card::write(std::uint8_t space, std::uint32_t address, unsigned size, 
   }
 }
 
-std::size_t Lbp16Card::handle(std::span<const std::uint8_t> request, std::span<std::uint8_t> reply, hm2::SimTime now) {
+std::size_t Lbp16Card::handle(std::span<const std::uint8_t> request, std::span<std::uint8_t> reply,
+                              model::hm2::SimTime now) {
   ++counters_.packets;
   bump(status_[status::kRxPackets]);
   status_[status::kWriteEnable] = 0;  // each datagram starts without the write enable
@@ -369,7 +371,7 @@ std::size_t Lbp16Card::handle(std::span<const std::uint8_t> request, std::span<s
         clean = false;
       }
       // Waits (timer space) make what follows happen later.
-      const hm2::SimTime t = now + std::chrono::duration_cast<hm2::SimTime>(waited_);
+      const model::hm2::SimTime t = now + std::chrono::duration_cast<model::hm2::SimTime>(waited_);
       if (cmd.write) {
         std::uint64_t v = 0;
         for (unsigned b = 0; b < cmd.size; ++b) v |= static_cast<std::uint64_t>(request[pos + b]) << (8 * b);
@@ -401,4 +403,4 @@ std::size_t Lbp16Card::handle(std::span<const std::uint8_t> request, std::span<s
   return out;
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

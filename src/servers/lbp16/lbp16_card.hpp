@@ -39,7 +39,7 @@
 #include "lbp16/flash_file.hpp"
 #include "lbpkit/wire/lbp16.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 namespace lbp16 = lbpkit::wire::lbp16;
 
@@ -87,7 +87,7 @@ class Lbp16Card {
 
   // Throws std::runtime_error when identity.flashFile is a file the card
   // will not use (flash_file.hpp: loadFlashFile() tells beforehand).
-  Lbp16Card(hm2::HostMot2Card& card, Identity identity);
+  Lbp16Card(model::hm2::HostMot2Card& card, Identity identity);
   ~Lbp16Card();
   Lbp16Card(const Lbp16Card&) = delete;
   Lbp16Card& operator=(const Lbp16Card&) = delete;
@@ -95,7 +95,7 @@ class Lbp16Card {
   // One request datagram at simulated time `now`; the reply goes to `reply`
   // (kMaxDatagram bytes). Returns the reply length: 0 when the datagram
   // holds no reads.
-  std::size_t handle(std::span<const std::uint8_t> request, std::span<std::uint8_t> reply, hm2::SimTime now);
+  std::size_t handle(std::span<const std::uint8_t> request, std::span<std::uint8_t> reply, model::hm2::SimTime now);
 
   // The Ethernet EEPROM's MAC, IP and name as it now holds them: what
   // mesaflash wrote (with the write enable) shows here at once, while the
@@ -117,7 +117,7 @@ class Lbp16Card {
   [[nodiscard]] std::string flashSaveError() const { return saver_ ? saver_->lastError() : std::string(); }
   [[nodiscard]] const Identity& identity() const { return identity_; }
   [[nodiscard]] Eeprom eeprom() const;
-  hm2::HostMot2Card& card() { return card_; }
+  model::hm2::HostMot2Card& card() { return card_; }
 
  private:
   struct Area {
@@ -128,10 +128,10 @@ class Lbp16Card {
   };
   static const Area* area(std::uint8_t space);
 
-  std::uint64_t read(std::uint8_t space, std::uint32_t address, unsigned size, hm2::SimTime now);
-  void write(std::uint8_t space, std::uint32_t address, unsigned size, std::uint64_t value, hm2::SimTime now);
-  std::uint16_t readWord16(std::uint8_t space, std::uint32_t address, hm2::SimTime now);
-  void writeWord16(std::uint8_t space, std::uint32_t address, std::uint16_t value, hm2::SimTime now);
+  std::uint64_t read(std::uint8_t space, std::uint32_t address, unsigned size, model::hm2::SimTime now);
+  void write(std::uint8_t space, std::uint32_t address, unsigned size, std::uint64_t value, model::hm2::SimTime now);
+  std::uint16_t readWord16(std::uint8_t space, std::uint32_t address, model::hm2::SimTime now);
+  void writeWord16(std::uint8_t space, std::uint32_t address, std::uint16_t value, model::hm2::SimTime now);
   std::uint8_t infoByte(std::uint8_t space, std::uint32_t offset) const;
   void error(std::uint16_t bit);
   // A wait of the timer space: the rest of the datagram happens this much later.
@@ -139,12 +139,12 @@ class Lbp16Card {
   void waitForHm2();
   // A word written to space 6's configuration register (0x1E): the
   // card's FPGA family decides what reloads it (docs/cards.md#lbp16-per-card).
-  void configure(std::uint16_t value, hm2::SimTime now);
+  void configure(std::uint16_t value, model::hm2::SimTime now);
   void flashChanged() {
     if (saver_) saver_->changed();
   }
 
-  hm2::HostMot2Card& card_;
+  model::hm2::HostMot2Card& card_;
   Identity identity_;
   Counters counters_;
   std::array<std::uint16_t, 8> pointer_{};  // per-space address pointers (info word 3)
@@ -173,4 +173,4 @@ class Lbp16Card {
   std::unique_ptr<FlashSaver> saver_;
 };
 
-}  // namespace servers
+}  // namespace lbpkit::server

@@ -3,7 +3,7 @@
 
 #include "lbpkit/wire/lbp16.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 void NetworkFaults::set(const NetworkFaultSettings& s) {
   settings_ = s;
@@ -70,4 +70,4 @@ bool NetworkFaults::asksForReply(std::span<const std::uint8_t> request) {
   return false;
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

@@ -20,7 +20,7 @@
 #include <random>
 #include <span>
 
-namespace servers {
+namespace lbpkit::server {
 
 struct NetworkFaultSettings {
   // One direction of the wire: requests (host -> card) or replies.
@@ -117,4 +117,4 @@ class NetworkFaults {
   std::uniform_real_distribution<double> uniform_{0.0, 1.0};
 };
 
-}  // namespace servers
+}  // namespace lbpkit::server

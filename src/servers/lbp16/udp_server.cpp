@@ -14,7 +14,7 @@
 #include <fstream>
 #include <stdexcept>
 
-namespace servers {
+namespace lbpkit::server {
 
 UdpServer::UdpServer(const std::string& address, std::uint16_t port) : address_(address) {
   sockaddr_in sa{};
@@ -210,4 +210,4 @@ bool interfaceMac(const std::string& ipv4, std::array<std::uint8_t, 6>& mac, std
   return found;
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

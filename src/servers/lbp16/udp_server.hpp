@@ -14,7 +14,7 @@
 
 #include "lbp16/network_faults.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 class UdpServer {
  public:
@@ -154,4 +154,4 @@ class UdpServer {
 // The MAC address of the interface that has `ipv4` (none for loopback).
 bool interfaceMac(const std::string& ipv4, std::array<std::uint8_t, 6>& mac, std::string& interface);
 
-}  // namespace servers
+}  // namespace lbpkit::server

@@ -7,32 +7,33 @@
 #include <stdexcept>
 #include <string>
 
-namespace servers {
+namespace lbpkit::server {
 
 namespace {
 
 // Refuses what cannot be an external remote's channel, before any pty is made.
-unsigned checked(hm2::HostMot2Card& card, unsigned channel) {
-  auto& sserial = card.part<hm2::Sslbp>();
+unsigned checked(model::hm2::HostMot2Card& card, unsigned channel) {
+  auto& sserial = card.part<model::hm2::Sslbp>();
   if (channel >= sserial.channels())
     throw std::invalid_argument("channel " + std::to_string(channel) + " does not exist: the card has channels 0.." +
                                 std::to_string(sserial.channels() - 1));
   if (const auto* device = sserial.link(channel).remote(); device != nullptr)
     throw std::invalid_argument(
         "channel " + std::to_string(channel) + " carries the 7I77's " +
-        (dynamic_cast<const remote::FieldIoProcessor*>(device) != nullptr ? "field I/O" : "analog") + " processor");
+        (dynamic_cast<const model::remote::FieldIoProcessor*>(device) != nullptr ? "field I/O" : "analog") +
+        " processor");
   return channel;
 }
 
 }  // namespace
 
-PtyChannel::PtyChannel(hm2::HostMot2Card& card, unsigned channel)
-    : channel_(checked(card, channel)), baud_(card.part<hm2::Sslbp>().channelBaud(channel)), pty_(baud_) {
-  card.part<hm2::Sslbp>().link(channel_).setExternal(true);
+PtyChannel::PtyChannel(model::hm2::HostMot2Card& card, unsigned channel)
+    : channel_(checked(card, channel)), baud_(card.part<model::hm2::Sslbp>().channelBaud(channel)), pty_(baud_) {
+  card.part<model::hm2::Sslbp>().link(channel_).setExternal(true);
 }
 
-void PtyChannel::pump(hm2::HostMot2Card& card, lbp::SimTime now) {
-  auto& sserial = card.part<hm2::Sslbp>();
+void PtyChannel::pump(model::hm2::HostMot2Card& card, model::lbp::SimTime now) {
+  auto& sserial = card.part<model::hm2::Sslbp>();
   card.advance(now);
   // The remote's bytes first: a reply judged now frees the channel for its
   // next frame, which then goes out below.
@@ -52,4 +53,4 @@ void PtyChannel::pump(hm2::HostMot2Card& card, lbp::SimTime now) {
   link.consumeOutbox(static_cast<std::size_t>(w));
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

@@ -18,13 +18,13 @@
 #include "hostmot2/card.hpp"
 #include "pty/pty_pair.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 class PtyChannel {
  public:
   // Makes `channel`'s link external. Throws std::invalid_argument for a
   // channel the card does not have, or one a 7I77 processor is on.
-  PtyChannel(hm2::HostMot2Card& card, unsigned channel);
+  PtyChannel(model::hm2::HostMot2Card& card, unsigned channel);
 
   [[nodiscard]] unsigned channel() const { return channel_; }
   // The slave side, what the remote's program opens.
@@ -34,7 +34,7 @@ class PtyChannel {
 
   // Moves the channel's outgoing frames to the pty and the remote's bytes
   // to SSLBP, at simulated time `now` (the card's).
-  void pump(hm2::HostMot2Card& card, lbp::SimTime now);
+  void pump(model::hm2::HostMot2Card& card, model::lbp::SimTime now);
 
   [[nodiscard]] std::uint64_t bytesToRemote() const { return toRemote_; }
   [[nodiscard]] std::uint64_t bytesFromRemote() const { return fromRemote_; }
@@ -47,4 +47,4 @@ class PtyChannel {
   std::uint64_t fromRemote_ = 0;
 };
 
-}  // namespace servers
+}  // namespace lbpkit::server

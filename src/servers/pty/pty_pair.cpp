@@ -11,7 +11,7 @@
 
 #include "lbpkit/wire/serial_speed.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 std::runtime_error systemError(const std::string& what) { return std::runtime_error(what + ": " + std::strerror(errno)); }
 
@@ -55,4 +55,4 @@ PtyPair::~PtyPair() {
   if (master_ >= 0) ::close(master_);
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

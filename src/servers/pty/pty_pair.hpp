@@ -10,7 +10,7 @@
 
 #include <stdexcept>
 
-namespace servers {
+namespace lbpkit::server {
 
 // A system call's failure: `what`, and errno's text.
 std::runtime_error systemError(const std::string& what);
@@ -35,4 +35,4 @@ class PtyPair {
   std::string path_;
 };
 
-}  // namespace servers
+}  // namespace lbpkit::server

@@ -14,11 +14,10 @@
 #include "daemon/pcap_recorder.hpp"
 #include "pty/pty_pair.hpp"
 
-namespace servers {
-
+namespace lbpkit::server {
 
 // The line is raw 8N1 at 115200, the setup-mode rate Mesa's tools use.
-PtyRemote::PtyRemote(remote::RemoteDevice& device) : device_(device) {}
+PtyRemote::PtyRemote(model::remote::RemoteDevice& device) : device_(device) {}
 
 PtyRemote::~PtyRemote() = default;
 
@@ -55,7 +54,7 @@ void PtyRemote::send(std::span<const std::uint8_t> reply) {
 void PtyRemote::run(const std::atomic<bool>& stop) {
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
-  auto now = [&]() { return std::chrono::duration_cast<lbp::SimTime>(Clock::now() - start); };
+  auto now = [&]() { return std::chrono::duration_cast<model::lbp::SimTime>(Clock::now() - start); };
   std::uint8_t buffer[512];
   auto lastInput = Clock::now();
   auto lastProgress = Clock::now();
@@ -86,4 +85,4 @@ void PtyRemote::run(const std::atomic<bool>& stop) {
   }
 }
 
-}  // namespace servers
+}  // namespace lbpkit::server

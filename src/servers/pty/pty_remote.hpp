@@ -25,13 +25,13 @@
 #include "pty/pty_pair.hpp"
 #include "remote/remote_device.hpp"
 
-namespace servers {
+namespace lbpkit::server {
 
 class PcapRecorder;
 
 class PtyRemote {
  public:
-  explicit PtyRemote(remote::RemoteDevice& device);
+  explicit PtyRemote(model::remote::RemoteDevice& device);
   ~PtyRemote();
   PtyRemote(const PtyRemote&) = delete;
   PtyRemote& operator=(const PtyRemote&) = delete;
@@ -55,7 +55,7 @@ class PtyRemote {
   static constexpr std::chrono::milliseconds kAbandonedAfter{200};
 
  private:
-  remote::RemoteDevice& device_;
+  model::remote::RemoteDevice& device_;
   PtyPair pty_{115200};
   std::uint64_t bytesIn_ = 0;
   std::uint64_t bytesOut_ = 0;
@@ -67,4 +67,4 @@ class PtyRemote {
   void send(std::span<const std::uint8_t> reply);
 };
 
-}  // namespace servers
+}  // namespace lbpkit::server

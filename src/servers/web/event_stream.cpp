@@ -10,7 +10,7 @@
 #include <algorithm>
 #include <cerrno>
 
-namespace web {
+namespace lbpkit::server::web {
 
 namespace {
 
@@ -193,4 +193,4 @@ void EventStream::loop() {
   }
 }
 
-}  // namespace web
+}  // namespace lbpkit::server::web

@@ -21,7 +21,7 @@
 #include <thread>
 #include <vector>
 
-namespace web {
+namespace lbpkit::server::web {
 
 struct EventStreamOptions {
   std::chrono::milliseconds period{40};  // 25 frames a second (at least 20)
@@ -73,4 +73,4 @@ class EventStream {
   std::thread thread_;
 };
 
-}  // namespace web
+}  // namespace lbpkit::server::web

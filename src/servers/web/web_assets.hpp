@@ -8,7 +8,7 @@
 #include <string_view>
 #include <vector>
 
-namespace web {
+namespace lbpkit::server::web {
 
 struct Asset {
   std::string_view path;  // the URL path it is served at ("/", "/web/app.js")
@@ -18,4 +18,4 @@ struct Asset {
 
 const std::vector<Asset>& assets();
 
-}  // namespace web
+}  // namespace lbpkit::server::web

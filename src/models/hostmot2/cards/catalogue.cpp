@@ -8,7 +8,7 @@
 #include "hostmot2/outm.hpp"
 #include "hostmot2/ssr.hpp"
 
-namespace hm2::cards {
+namespace lbpkit::model::hm2::cards {
 
 namespace {
 
@@ -231,4 +231,4 @@ std::string firmwareNames(const Card& card) {
   return quotedList(std::span<const std::string_view>(n.data(), k));
 }
 
-}  // namespace hm2::cards
+}  // namespace lbpkit::model::hm2::cards

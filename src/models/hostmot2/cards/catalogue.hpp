@@ -15,7 +15,7 @@
 
 #include "hostmot2/idrom.hpp"
 
-namespace hm2::cards {
+namespace lbpkit::model::hm2::cards {
 
 // What sits on the connectors, as the firmware's PIN file lays it out.
 enum class Pinout : std::uint8_t {
@@ -124,4 +124,4 @@ struct Card {
 // "\"7I77x2\", \"7I77+GPIO\"": the card's firmware names, for messages.
 [[nodiscard]] std::string firmwareNames(const Card& card);
 
-}  // namespace hm2::cards
+}  // namespace lbpkit::model::hm2::cards

@@ -15,7 +15,9 @@ namespace lbpkit::wire::sslbp {
 // The registers (hostmot2_modules.hpp), from the module's base in register
 // strides; CS and the interfaces per channel, kChannelStride bytes apart.
 namespace reg {
-using namespace hm2::sserial;
+using hm2::sserial::Register;
+using enum hm2::sserial::Register;
+using hm2::sserial::kInterfaces;
 inline constexpr unsigned kChannelStride = hm2::kInstanceStride0;
 }  // namespace reg
 
