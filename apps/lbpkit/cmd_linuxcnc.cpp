@@ -44,6 +44,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "common.hpp"
@@ -120,23 +121,42 @@ int stop(pid_t pid, std::chrono::milliseconds grace) {
   return status >= 128 ? -1 : status;
 }
 
-// What a run made, removed when it goes out of scope: `remove` runs once,
-// whatever ended the scope, and nothing it throws leaves the destructor.
-class RemovedAtEnd {
+// A descriptor of the run's, closed when destroyed.
+class OwnedFd {
  public:
-  explicit RemovedAtEnd(std::function<void()> remove) : remove_(std::move(remove)) {}
-  ~RemovedAtEnd() {
-    try {
-      remove_();
-    } catch (...) {  // a destructor that throws while an error unwinds ends the program
+  OwnedFd() = default;
+  explicit OwnedFd(int fd) : fd_(fd) {}
+  OwnedFd(OwnedFd&& other) noexcept : fd_(std::exchange(other.fd_, -1)) {}
+  OwnedFd& operator=(OwnedFd&& other) noexcept {
+    if (this != &other) {
+      reset();
+      fd_ = std::exchange(other.fd_, -1);
     }
+    return *this;
   }
-  RemovedAtEnd(const RemovedAtEnd&) = delete;
-  RemovedAtEnd& operator=(const RemovedAtEnd&) = delete;
+  OwnedFd(const OwnedFd&) = delete;
+  OwnedFd& operator=(const OwnedFd&) = delete;
+  ~OwnedFd() { reset(); }
+  [[nodiscard]] int get() const { return fd_; }
+  void reset() {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = -1;
+  }
 
  private:
-  std::function<void()> remove_;
+  int fd_ = -1;
 };
+
+// A pipe's two ends (O_CLOEXEC). Throws lbpkit::Error naming what it is
+// for when the kernel makes none.
+struct Pipe {
+  OwnedFd read, write;
+};
+Pipe makePipe(const std::string& what) {
+  int fds[2];
+  if (::pipe2(fds, O_CLOEXEC) != 0) throw lbpkit::Error("cannot make a pipe for " + what);
+  return {OwnedFd(fds[0]), OwnedFd(fds[1])};
+}
 
 // The PID namespace a process is in (an inode number), or 0.
 unsigned long pidNamespace(const std::string& pid) {
@@ -629,25 +649,91 @@ Prepared prepareAsUser(const LinuxCncOptions& o, const fs::path& userFolder, con
   return p;
 }
 
-int runLinuxCnc(const LinuxCncOptions& o) {
+// One `lbpkit linuxcnc`: the run's folder, its network namespace, the sim
+// (and the pipes it writes to) and LinuxCNC, each made by a step of run()
+// and owned by a member. However the run ends (LinuxCNC or the sim ended,
+// Ctrl-C, an error), its destruction undoes what was made, once and in
+// order: LinuxCNC stopped, the sim stopped and its last output shown, its
+// pipes closed, the namespace removed, the run's folder removed.
+class LinuxCncRun {
+ public:
+  explicit LinuxCncRun(const LinuxCncOptions& o) : o_(o), options_(o) {}
+  ~LinuxCncRun();
+  LinuxCncRun(const LinuxCncRun&) = delete;
+  LinuxCncRun& operator=(const LinuxCncRun&) = delete;
+
+  // The run, until LinuxCNC or the sim ends or Ctrl-C: its exit status
+  // (LinuxCNC's; 130 on Ctrl-C, 1 when the sim ended). Throws
+  // lbpkit::Error when it cannot start.
+  int run();
+
+ private:
+  // What the run needs and checks before it makes anything, then its
+  // reaper, its folder and the configuration read as the user.
+  void prepare();
+  // The card's address, checked against this PC's before anything is
+  // built, and both addresses claimed (the namespace's link and routes
+  // made) before another run may choose.
+  void makeNamespace();
+  // The sim on the configuration's board_ip, hm2_eth's port, its API and
+  // web view on this PC's loopback.
+  void startSim();
+  // Until the sim greets (its card, control API and web view serving); its
+  // output, its banner among it, goes to the user meanwhile.
+  void awaitSim();
+  // LinuxCNC in the namespace (startLinuxCnc), and the --ready-fd greeting.
+  LinuxCncLaunch startLinuxCncInRun();
+  // Until LinuxCNC or the sim ends, or Ctrl-C: the run's exit status.
+  int watch(const LinuxCncLaunch& launch);
+  // The sim's output, when some comes within `timeoutMs`, shown to the user.
+  bool readSim(int timeoutMs);
+
+  const LinuxCncOptions& o_;
+  LinuxCncOptions options_;  // o_, with what the PC decides (lateServo)
+  std::chrono::system_clock::time_point started_ = std::chrono::system_clock::now();
+  app::linuxcnc_run::RunAs user_;
+  std::string linuxcnc_;       // the linuxcnc script
+  std::string nsName_, link_;  // the run's network namespace and link
+  std::optional<app::linuxcnc_run::RunFolder> folder_;
+  Prepared p_;
+  std::string machine_;  // lbpkit sim --machine
+  std::optional<unsigned> cpu_;
+  std::optional<lbpkit::linuxcnc::NetworkNamespace> ns_;
+  OwnedFd simOut_, simReady_;  // the sim's output and greeting
+  std::string simText_, greeting_;
+  pid_t sim_ = -1, lcnc_ = -1;  // -1: not started, or ended and reaped
+};
+
+LinuxCncRun::~LinuxCncRun() {
+  // LinuxCNC and the sim are stopped here; the members then close the
+  // sim's pipes, remove the namespace and the run's folder.
+  try {
+    if (lcnc_ > 0) stopLinuxCnc(lcnc_);
+    if (sim_ > 0) stop(sim_, 10s);
+    while (simOut_.get() >= 0 && readSim(0)) {
+    }
+  } catch (...) {  // a destructor that throws while an error unwinds ends the program
+  }
+}
+
+void LinuxCncRun::prepare() {
   namespace run = app::linuxcnc_run;
   if (::geteuid() != 0)
     throw lbpkit::Error("lbpkit linuxcnc needs root (a network namespace and a veth pair): run it with sudo");
-  const auto started = std::chrono::system_clock::now();
   // --ready-fd: a descriptor of the caller's, kept from everything the run
   // starts (the greeting is written once, by this process).
-  if (o.readyFd >= 0 && ::fcntl(o.readyFd, F_SETFD, FD_CLOEXEC) != 0)
-    throw lbpkit::Error(fmt::format("--ready-fd {}: no such open descriptor", o.readyFd));
-  const run::RunAs user = run::invokingUser();
-  std::optional<std::string> linuxcnc;
-  if (o.linuxcncRoot.empty()) {
-    linuxcnc = lbpkit::process::systemProgram("linuxcnc");
-    if (!linuxcnc) throw lbpkit::Error("linuxcnc is not installed (Debian's linuxcnc-uspace)");
+  if (o_.readyFd >= 0 && ::fcntl(o_.readyFd, F_SETFD, FD_CLOEXEC) != 0)
+    throw lbpkit::Error(fmt::format("--ready-fd {}: no such open descriptor", o_.readyFd));
+  user_ = run::invokingUser();
+  if (o_.linuxcncRoot.empty()) {
+    const auto found = lbpkit::process::systemProgram("linuxcnc");
+    if (!found) throw lbpkit::Error("linuxcnc is not installed (Debian's linuxcnc-uspace)");
+    linuxcnc_ = *found;
   } else {
     // Checked here, entered by LinuxCNC's PID 1 (startLinuxCnc).
-    if (const auto problem = lbpkit::linuxcnc::linuxCncRootProblem(o.linuxcncRoot); !problem.empty())
+    if (const auto problem = lbpkit::linuxcnc::linuxCncRootProblem(o_.linuxcncRoot); !problem.empty())
       throw lbpkit::Error(fmt::format("--linuxcnc-root {}", problem));
-    linuxcnc = "/usr/bin/linuxcnc";
+    linuxcnc_ = "/usr/bin/linuxcnc";
   }
   if (!lbpkit::process::systemProgram("ip")) throw lbpkit::Error("ip is not installed (Debian's iproute2)");
 
@@ -655,21 +741,20 @@ int runLinuxCnc(const LinuxCncOptions& o) {
   // this process's pid (linuxcnc_run.hpp).
   run::removeDeadRuns();
   const pid_t self = ::getpid();
-  const std::string nsName = run::namespaceName(self);
-  const std::string link = run::linkName(self);
+  nsName_ = run::namespaceName(self);
+  link_ = run::linkName(self);
   // From here whatever the run makes and starts ends with it.
-  run::startReaper(self, nsName, link);
-  run::RunFolder folder(self);
-  const auto userFolder = folder.makeFolder("user", 0755, user);
+  run::startReaper(self, nsName_, link_);
+  folder_.emplace(self);
+  const auto userFolder = folder_->makeFolder("user", 0755, user_);
   // Real-time or not, as LinuxCNC will find it (linuxcnc_host.hpp).
   const auto realTime = app::linuxcnc_host::detectRealTime();
-  LinuxCncOptions options = o;
-  options.lateServo = !realTime.yes && !o.asWritten;
+  options_.lateServo = !realTime.yes && !o_.asWritten;
   if (realTime.yes)
     fmt::print("lbpkit linuxcnc: LinuxCNC runs real-time on this PC ({}): the configuration runs as written, the sim "
                "on the wall clock\n",
                realTime.why);
-  else if (o.asWritten)
+  else if (o_.asWritten)
     fmt::print("lbpkit linuxcnc: LinuxCNC will not run real-time on this PC ({}); --as-written: the configuration "
                "runs untouched, the sim on the wall clock, where a servo thread that runs late finds a card that did "
                "not wait for it (docs/clocks.md)\n",
@@ -679,190 +764,192 @@ int runLinuxCnc(const LinuxCncOptions& o) {
                "and then; it runs as an on-time machine would (--as-written runs it untouched):\n",
                realTime.why);
   std::fflush(stdout);
-  const Prepared p = prepareAsUser(options, userFolder, user);
-  std::string machine = p.machine;
-  if (p.machineText) machine = folder.writeFile("machine.toml", p.machine).string();
+  p_ = prepareAsUser(options_, userFolder, user_);
+  machine_ = p_.machine;
+  if (p_.machineText) machine_ = folder_->writeFile("machine.toml", p_.machine).string();
+}
 
-  // The card's address, checked against this PC's before anything is built,
-  // and both addresses claimed (the namespace's link and routes made) before
-  // another run may choose.
-  std::optional<lbpkit::linuxcnc::AddressClaim> claim(std::in_place);
-  const auto board = lbpkit::linuxcnc::parseIpv4(p.boardIp);
-  if (!board) throw lbpkit::Error(fmt::format("board_ip {}: not an IPv4 address", p.boardIp));
+void LinuxCncRun::makeNamespace() {
+  namespace run = app::linuxcnc_run;
+  const lbpkit::linuxcnc::AddressClaim claim;
+  const auto board = lbpkit::linuxcnc::parseIpv4(p_.boardIp);
+  if (!board) throw lbpkit::Error(fmt::format("board_ip {}: not an IPv4 address", p_.boardIp));
   if (const auto problem = run::hostAddressProblem(*board)) throw lbpkit::Error(fmt::format("board_ip: {}", *problem));
   const auto peer = run::peerFor(*board);
   if (!peer)
-    throw lbpkit::Error(fmt::format("board_ip {}: every other address of its /24 is this PC's already; LinuxCNC's side "
-                                    "needs one",
-                                    p.boardIp));
+    throw lbpkit::Error(
+        fmt::format("board_ip {}: every other address of its /24 is this PC's already; LinuxCNC's side "
+                    "needs one",
+                    p_.boardIp));
   const std::string peerIp = lbpkit::linuxcnc::formatIpv4(*peer);
 
   app::installSignalHandlers();
-  lbpkit::linuxcnc::NetworkNamespace ns(nsName, {{link, p.boardIp + "/32", peerIp + "/24", peerIp + "/32"}});
-  claim.reset();
+  ns_.emplace(nsName_,
+              std::vector<lbpkit::linuxcnc::VethLink>{{link_, p_.boardIp + "/32", peerIp + "/24", peerIp + "/32"}});
+}
 
-  // The sim on the configuration's board_ip, hm2_eth's port, its API and web
-  // view on this PC's loopback.
-  int pipeFds[2];
-  if (::pipe2(pipeFds, O_CLOEXEC) != 0) throw lbpkit::Error("cannot make a pipe for the sim's output");
+void LinuxCncRun::startSim() {
+  auto out = makePipe("the sim's output");
   // The sim's greeting (lbpkit sim --ready-fd 3): it serves, and where.
-  int readyFds[2];
-  if (::pipe2(readyFds, O_CLOEXEC) != 0) throw lbpkit::Error("cannot make a pipe for the sim's greeting");
-  std::vector<std::string> simArgv = {"/proc/self/exe", "sim", "--bind", p.boardIp, "--api", "127.0.0.1:0",
-                                      "--ready-fd", "3"};
-  if (!p.card.empty()) simArgv.insert(simArgv.end(), {"--card", p.card});
-  if (!machine.empty()) simArgv.insert(simArgv.end(), {"--machine", machine});
+  auto ready = makePipe("the sim's greeting");
+  std::vector<std::string> simArgv = {"/proc/self/exe", "sim",         "--bind",     p_.boardIp,
+                                      "--api",          "127.0.0.1:0", "--ready-fd", "3"};
+  if (!p_.card.empty()) simArgv.insert(simArgv.end(), {"--card", p_.card});
+  if (!machine_.empty()) simArgv.insert(simArgv.end(), {"--machine", machine_});
   // LinuxCNC and the card thread on one CPU: each datagram hm2_eth sends
   // wakes the card thread (SCHED_FIFO) on that CPU at once, and the reply is
   // there before hm2_eth looks for it, whatever else the PC runs. hm2_eth's
   // set-up gives each read 1.6 ms (LinuxCNC: hm2_eth.c), mesaflash's
   // discovery 2 ms; a real card answers in microseconds.
-  const std::optional<unsigned> cpu = app::cpuOption(o.cpu);
-  if (cpu) simArgv.insert(simArgv.end(), {"--cpu", std::to_string(*cpu)});
+  cpu_ = app::cpuOption(o_.cpu);
+  if (cpu_) simArgv.insert(simArgv.end(), {"--cpu", std::to_string(*cpu_)});
   // On the host clock where the servo thread runs late, unless the sim's
   // options after -- choose a clock.
-  const bool clockGiven = std::any_of(o.simArguments.begin(), o.simArguments.end(),
-                                      [](const std::string& a) { return a == "--clock" || a.rfind("--clock=", 0) == 0; });
-  if (options.lateServo && !clockGiven) {
-    const std::string clock = p.servoPeriodNs > 0 ? fmt::format("host={}", p.servoPeriodNs) : std::string("host");
+  const bool clockGiven = std::any_of(o_.simArguments.begin(), o_.simArguments.end(), [](const std::string& a) {
+    return a == "--clock" || a.rfind("--clock=", 0) == 0;
+  });
+  if (options_.lateServo && !clockGiven) {
+    const std::string clock = p_.servoPeriodNs > 0 ? fmt::format("host={}", p_.servoPeriodNs) : std::string("host");
     simArgv.insert(simArgv.end(), {"--clock", clock});
-    fmt::print("  - the sim keeps time by LinuxCNC's servo cycles (--clock {}, [EMCMOT]SERVO_PERIOD: {}): a period "
-               "that runs late is one period to the machine, as it is to LinuxCNC (docs/clocks.md)\n",
-               clock, p.servoPeriodAt);
-  } else if (options.lateServo) {
+    fmt::print(
+        "  - the sim keeps time by LinuxCNC's servo cycles (--clock {}, [EMCMOT]SERVO_PERIOD: {}): a period "
+        "that runs late is one period to the machine, as it is to LinuxCNC (docs/clocks.md)\n",
+        clock, p_.servoPeriodAt);
+  } else if (options_.lateServo) {
     fmt::print("  - the sim on the clock its options after -- give\n");
   }
-  simArgv.insert(simArgv.end(), o.simArguments.begin(), o.simArguments.end());
-  pid_t sim = spawn(simArgv, pipeFds[1], readyFds[1]);
-  ::close(pipeFds[1]);
-  ::close(readyFds[1]);
-  const int simOut = pipeFds[0];
-  const int simReady = readyFds[0];
-  std::string simText, greeting;
-  pid_t lcnc = -1;
-  int exitCode = 0;
-  auto readSim = [&](int timeoutMs) {
-    pollfd pfd{simOut, POLLIN, 0};
-    if (::poll(&pfd, 1, timeoutMs) <= 0) return false;
-    char buf[4096];
-    const auto n = ::read(simOut, buf, sizeof buf);
-    if (n <= 0) return false;
-    const std::string chunk(buf, static_cast<std::size_t>(n));
-    simText += chunk;
-    fmt::print("{}", chunk);
-    std::fflush(stdout);
-    return true;
-  };
-  const auto cleanUp = [&] {
-    if (lcnc > 0) stopLinuxCnc(lcnc);
-    lcnc = -1;
-    if (sim > 0) stop(sim, 10s);
-    sim = -1;
-    while (readSim(0)) {
-    }
-    ::close(simOut);
-    ::close(simReady);
-    ns.remove();
-  };
-  {
-    // Whichever way the run ends (LinuxCNC or the sim ended, Ctrl-C, an
-    // error), its destructor stops both, closes their pipes and removes the
-    // namespace, once.
-    const RemovedAtEnd removed(cleanUp);
-    // Up when it greets (its card, control API and web view serving); its
-    // output, its banner among it, goes to the user meanwhile.
-    const auto deadline = std::chrono::steady_clock::now() + 15s;
-    bool readyOpen = true;
-    while (greeting.find('\n') == std::string::npos) {
-      if (app::gStop || !readyOpen || std::chrono::steady_clock::now() > deadline ||
-          ::waitpid(sim, nullptr, WNOHANG) == sim) {
-        sim = -1;
-        throw lbpkit::Error("lbpkit sim did not start (its output is above)");
-      }
-      readSim(0);
-      pollfd pfd{simReady, POLLIN, 0};
-      if (::poll(&pfd, 1, 100) <= 0) continue;
-      char buf[4096];
-      const auto n = ::read(simReady, buf, sizeof buf);
-      if (n <= 0) readyOpen = false;
-      else greeting.append(buf, static_cast<std::size_t>(n));
+  simArgv.insert(simArgv.end(), o_.simArguments.begin(), o_.simArguments.end());
+  sim_ = spawn(simArgv, out.write.get(), ready.write.get());
+  simOut_ = std::move(out.read);
+  simReady_ = std::move(ready.read);
+}
+
+bool LinuxCncRun::readSim(int timeoutMs) {
+  pollfd pfd{simOut_.get(), POLLIN, 0};
+  if (::poll(&pfd, 1, timeoutMs) <= 0) return false;
+  char buf[4096];
+  const auto n = ::read(simOut_.get(), buf, sizeof buf);
+  if (n <= 0) return false;
+  const std::string chunk(buf, static_cast<std::size_t>(n));
+  simText_ += chunk;
+  fmt::print("{}", chunk);
+  std::fflush(stdout);
+  return true;
+}
+
+void LinuxCncRun::awaitSim() {
+  const auto deadline = std::chrono::steady_clock::now() + 15s;
+  bool readyOpen = true;
+  while (greeting_.find('\n') == std::string::npos) {
+    if (app::gStop || !readyOpen || std::chrono::steady_clock::now() > deadline ||
+        ::waitpid(sim_, nullptr, WNOHANG) == sim_) {
+      sim_ = -1;  // left to the reaper
+      throw lbpkit::Error("lbpkit sim did not start (its output is above)");
     }
     readSim(0);
+    pollfd pfd{simReady_.get(), POLLIN, 0};
+    if (::poll(&pfd, 1, 100) <= 0) continue;
+    char buf[4096];
+    const auto n = ::read(simReady_.get(), buf, sizeof buf);
+    if (n <= 0)
+      readyOpen = false;
+    else
+      greeting_.append(buf, static_cast<std::size_t>(n));
+  }
+  readSim(0);
+}
 
-    // LinuxCNC in the namespace, and in PID, IPC and mount namespaces of
-    // its own: whatever it starts ends with it, its HAL's shared memory goes
-    // with it however it ends (a killed LinuxCNC leaves System V segments
-    // behind that the next start trips over), and its /tmp is the run's
-    // own, so that the linuxcnc script's lock file (/tmp/linuxcnc.lock)
-    // neither stops nor is stopped by another LinuxCNC on this PC.
-    LinuxCncLaunch launch;
-    launch.user = user;
-    launch.netns = nsName;
-    launch.privateTmp = folder.makeFolder("tmp", 0700, run::RunAs{}).string();
-    launch.keep = keptInTmp({fs::absolute(o.ini).string(), p.run, o.display});
-    launch.linuxcnc = *linuxcnc;
-    launch.root = o.linuxcncRoot;
-    launch.ini = p.run;
-    launch.fifo = "/tmp/rtapi_fifo";  // rtapi_app's socket, in LinuxCNC's own /tmp
-    launch.cpu = cpu;
-    fmt::print("lbpkit linuxcnc: LinuxCNC ({}{}) in network namespace {}, the card {} at {}{}; Ctrl-C stops both\n",
-               p.run, o.linuxcncRoot.empty() ? std::string() : ", from " + o.linuxcncRoot, ns.name(), p.card,
-               p.boardIp, cpu ? fmt::format(", both on CPU {}", *cpu) : std::string());
-    std::fflush(stdout);
-    lcnc = startLinuxCnc(launch);
-    if (o.readyFd >= 0) {
-      // --ready-fd: the run's greeting for a program that drives it (the
-      // sim's, the namespace and the copy LinuxCNC runs), then closed.
-      const nlohmann::json ready = {
-          {"lbpkit", "linuxcnc"},
-          {"sim", nlohmann::json::parse(greeting.substr(0, greeting.find('\n')), nullptr, false)},
-          {"network_namespace", nsName},
-          {"board_ip", p.boardIp},
-          {"linuxcnc", {{"ini", p.run}, {"root", o.linuxcncRoot.empty() ? nlohmann::json(nullptr)
-                                                                      : nlohmann::json(o.linuxcncRoot)}}}};
-      const std::string line = ready.dump() + "\n";
-      if (::write(o.readyFd, line.data(), line.size()) != static_cast<ssize_t>(line.size()))
-        fmt::print(stderr, "lbpkit linuxcnc: --ready-fd {}: the greeting could not be written\n", o.readyFd);
-      ::close(o.readyFd);
-    }
-    app::linuxcnc_host::LinuxCncLog log(launch.privateTmp, user.uid);
-    // Its servo thread SCHED_FIFO below the card thread, as on a real-time
-    // kernel (linuxcnc/servo_priority.hpp).
-    lbpkit::linuxcnc::ServoThreadPriority servoPriority(ns.inode());
+LinuxCncLaunch LinuxCncRun::startLinuxCncInRun() {
+  // LinuxCNC in the namespace, and in PID, IPC and mount namespaces of
+  // its own: whatever it starts ends with it, its HAL's shared memory goes
+  // with it however it ends (a killed LinuxCNC leaves System V segments
+  // behind that the next start trips over), and its /tmp is the run's
+  // own, so that the linuxcnc script's lock file (/tmp/linuxcnc.lock)
+  // neither stops nor is stopped by another LinuxCNC on this PC.
+  LinuxCncLaunch launch;
+  launch.user = user_;
+  launch.netns = nsName_;
+  launch.privateTmp = folder_->makeFolder("tmp", 0700, app::linuxcnc_run::RunAs{}).string();
+  launch.keep = keptInTmp({fs::absolute(o_.ini).string(), p_.run, o_.display});
+  launch.linuxcnc = linuxcnc_;
+  launch.root = o_.linuxcncRoot;
+  launch.ini = p_.run;
+  launch.fifo = "/tmp/rtapi_fifo";  // rtapi_app's socket, in LinuxCNC's own /tmp
+  launch.cpu = cpu_;
+  fmt::print("lbpkit linuxcnc: LinuxCNC ({}{}) in network namespace {}, the card {} at {}{}; Ctrl-C stops both\n",
+             p_.run, o_.linuxcncRoot.empty() ? std::string() : ", from " + o_.linuxcncRoot, ns_->name(), p_.card,
+             p_.boardIp, cpu_ ? fmt::format(", both on CPU {}", *cpu_) : std::string());
+  std::fflush(stdout);
+  lcnc_ = startLinuxCnc(launch);
+  if (o_.readyFd >= 0) {
+    // --ready-fd: the run's greeting for a program that drives it (the
+    // sim's, the namespace and the copy LinuxCNC runs), then closed.
+    const nlohmann::json ready = {
+        {"lbpkit", "linuxcnc"},
+        {"sim", nlohmann::json::parse(greeting_.substr(0, greeting_.find('\n')), nullptr, false)},
+        {"network_namespace", nsName_},
+        {"board_ip", p_.boardIp},
+        {"linuxcnc",
+         {{"ini", p_.run},
+          {"root", o_.linuxcncRoot.empty() ? nlohmann::json(nullptr) : nlohmann::json(o_.linuxcncRoot)}}}};
+    const std::string line = ready.dump() + "\n";
+    if (::write(o_.readyFd, line.data(), line.size()) != static_cast<ssize_t>(line.size()))
+      fmt::print(stderr, "lbpkit linuxcnc: --ready-fd {}: the greeting could not be written\n", o_.readyFd);
+    ::close(o_.readyFd);
+  }
+  return launch;
+}
 
-    while (true) {
-      if (app::gStop) {
-        fmt::print("lbpkit linuxcnc: stopping LinuxCNC and the sim\n");
-        exitCode = 130;
-        break;
-      }
-      int status = 0;
-      if (::waitpid(lcnc, &status, WNOHANG) == lcnc) {
-        lcnc = -1;
-        exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : 1;
-        fmt::print("lbpkit linuxcnc: LinuxCNC {} ({}); stopping the sim\n", WIFEXITED(status) ? "ended" : "was killed",
-                   WIFEXITED(status) ? fmt::format("exit status {}", WEXITSTATUS(status))
-                                     : fmt::format("signal {}", WTERMSIG(status)));
-        if (WIFEXITED(status) && WEXITSTATUS(status) != 0 && WEXITSTATUS(status) != 126) {
-          // What LinuxCNC said: its standard output, and its standard
-          // error from its own copy in the user's home when it made one.
-          log.poll();
-          log.printEnd(30, "print");
-          if (!printLinuxCncDebugFile(user, started)) log.printEnd(30, "debug");
-        }
-        break;
-      }
-      if (::waitpid(sim, &status, WNOHANG) == sim) {
-        sim = -1;
-        fmt::print(stderr, "lbpkit linuxcnc: lbpkit sim ended ({}); stopping LinuxCNC\n",
-                   WIFEXITED(status) ? fmt::format("exit status {}", WEXITSTATUS(status))
-                                     : fmt::format("signal {}", WTERMSIG(status)));
-        exitCode = 1;
-        break;
-      }
-      readSim(100);
-      log.poll();
+int LinuxCncRun::watch(const LinuxCncLaunch& launch) {
+  app::linuxcnc_host::LinuxCncLog log(launch.privateTmp, user_.uid);
+  // Its servo thread SCHED_FIFO below the card thread, as on a real-time
+  // kernel (linuxcnc/servo_priority.hpp).
+  lbpkit::linuxcnc::ServoThreadPriority servoPriority(ns_->inode());
+  while (true) {
+    if (app::gStop) {
+      fmt::print("lbpkit linuxcnc: stopping LinuxCNC and the sim\n");
+      return 130;
     }
+    int status = 0;
+    if (::waitpid(lcnc_, &status, WNOHANG) == lcnc_) {
+      lcnc_ = -1;
+      fmt::print("lbpkit linuxcnc: LinuxCNC {} ({}); stopping the sim\n", WIFEXITED(status) ? "ended" : "was killed",
+                 WIFEXITED(status) ? fmt::format("exit status {}", WEXITSTATUS(status))
+                                   : fmt::format("signal {}", WTERMSIG(status)));
+      if (WIFEXITED(status) && WEXITSTATUS(status) != 0 && WEXITSTATUS(status) != 126) {
+        // What LinuxCNC said: its standard output, and its standard
+        // error from its own copy in the user's home when it made one.
+        log.poll();
+        log.printEnd(30, "print");
+        if (!printLinuxCncDebugFile(user_, started_)) log.printEnd(30, "debug");
+      }
+      return WIFEXITED(status) ? WEXITSTATUS(status) : 1;
+    }
+    if (::waitpid(sim_, &status, WNOHANG) == sim_) {
+      sim_ = -1;
+      fmt::print(stderr, "lbpkit linuxcnc: lbpkit sim ended ({}); stopping LinuxCNC\n",
+                 WIFEXITED(status) ? fmt::format("exit status {}", WEXITSTATUS(status))
+                                   : fmt::format("signal {}", WTERMSIG(status)));
+      return 1;
+    }
+    readSim(100);
+    log.poll();
+  }
+}
+
+int LinuxCncRun::run() {
+  prepare();
+  makeNamespace();
+  startSim();
+  awaitSim();
+  return watch(startLinuxCncInRun());
+}
+
+int runLinuxCnc(const LinuxCncOptions& o) {
+  int exitCode = 0;
+  {
+    LinuxCncRun run(o);
+    exitCode = run.run();
   }
   fmt::print("lbpkit linuxcnc: stopped; the network namespace is removed\n");
   return exitCode;
