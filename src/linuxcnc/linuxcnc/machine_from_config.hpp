@@ -19,7 +19,7 @@
 // carries a comment naming the INI key or HAL line it came from; what a
 // configuration cannot say (the screw's pitch, masses) is a stated
 // assumption. A value no machine has (JOINTS past LinuxCNC's 16, a scale,
-// velocity or position past the bounds in machine_from_config.cpp, or one
+// velocity or position past the bounds in derive_common.hpp, or one
 // that gives a machine file value past its own) is an error at the INI's or
 // HAL's file and line, so a machine derived always loads. Needs no LinuxCNC.
 #pragma once
