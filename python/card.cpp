@@ -11,9 +11,10 @@
 #include "lbpkit/error.hpp"
 #include "lbpkit/lbp16_transport.hpp"
 #include "lbpkit/parameters.hpp"
+#include "lbpkit/servo_cycle.hpp"
 #include "lbpkit/wire/hostmot2.hpp"
-#include "lbpkit/wire/process_data.hpp"
 #include "lbpkit/wire/names.hpp"
+#include "lbpkit/wire/process_data.hpp"
 #include "remote/nv_store.hpp"
 #include "remote/remote_device.hpp"
 
@@ -38,30 +39,22 @@ Nanoseconds fromSeconds(double s, const char* what) {
   return Nanoseconds{static_cast<std::int64_t>(std::llround(s * 1e9))};
 }
 
-std::uint64_t mask(const ProcessDataElement& e) {
-  const unsigned n = std::min(e.bits, 64U);
-  return n >= 64 ? ~0ULL : (1ULL << n) - 1;
-}
-
-bool isSigned(const ProcessDataElement& e) {
-  return e.type == DataType::Signed || e.type == DataType::NonVolSigned;
-}
-
 // Scaled in its unit: a numeric element with a range (NUMERIC PROCESS DATA
 // SCALING) other than its raw one (WatchDogTime: 0..65535 in 16 bits is the
 // raw number); the others are raw integers.
 bool scaled(const ProcessDataElement& e) {
   if (!e.numeric() || e.min == e.max) return false;
-  const unsigned n = std::min(e.bits, 64U);
-  const double top = isSigned(e) ? std::ldexp(1.0, static_cast<int>(n) - 1) - 1 : std::ldexp(1.0, static_cast<int>(n)) - 1;
-  const bool raw = (isSigned(e) || e.min == 0) && std::abs(static_cast<double>(e.max) - top) <= 1e-6 * top;
+  const unsigned n = e.width();
+  const double top =
+      e.isSigned() ? std::ldexp(1.0, static_cast<int>(n) - 1) - 1 : std::ldexp(1.0, static_cast<int>(n)) - 1;
+  const bool raw = (e.isSigned() || e.min == 0) && std::abs(static_cast<double>(e.max) - top) <= 1e-6 * top;
   return !raw;
 }
 
 Value toValue(const ProcessDataElement& e, std::uint64_t raw) {
   if (e.type == DataType::Boolean) return raw != 0;
   if (scaled(e)) return e.scale(raw);
-  if (isSigned(e)) return lbpkit::wire::lbp::signExtend(raw, std::min(e.bits, 64U));
+  if (e.isSigned()) return e.fromRaw(raw);
   return raw;
 }
 
@@ -89,17 +82,14 @@ std::uint64_t toRaw(const ProcessDataElement& e, const Input& value) {
   } else {
     v = std::get<bool>(value) ? 1 : 0;
   }
-  const unsigned n = std::min(e.bits, 64U);
-  if (isSigned(e)) {
-    const std::int64_t lo = n >= 64 ? INT64_MIN : -(std::int64_t{1} << (n - 1));
-    const std::int64_t hi = n >= 64 ? INT64_MAX : (std::int64_t{1} << (n - 1)) - 1;
-    if (v < lo || v > hi)
-      throw std::invalid_argument(fmt::format("{}: {} does not fit its {} signed bits ({} .. {})", e.name, v, n, lo, hi));
-    return static_cast<std::uint64_t>(v) & mask(e);
+  if (!e.fits(v)) {
+    if (e.isSigned())
+      throw std::invalid_argument(fmt::format("{}: {} does not fit its {} signed bits ({} .. {})", e.name, v, e.width(),
+                                              e.lowest(), e.highest()));
+    throw std::invalid_argument(
+        fmt::format("{}: {} does not fit its {} bits (0 .. {})", e.name, v, e.width(), e.highest()));
   }
-  if (v < 0 || static_cast<std::uint64_t>(v) > mask(e))
-    throw std::invalid_argument(fmt::format("{}: {} does not fit its {} bits (0 .. {})", e.name, v, n, mask(e)));
-  return static_cast<std::uint64_t>(v);
+  return e.toRaw(v);
 }
 
 // "channel 0 (Input Output), channel 1 (AnalogOut0 ...)": what there is.
@@ -343,13 +333,7 @@ lbpkit::CycleStatus Card::cycleLocked() {
   requireRunning("cycle()");
   catchUpMachine();
   const Nanoseconds start = transport_->now();
-  // As a servo thread does it: the outputs, the DOIT and the encoders' reads
-  // in one exchange, then the inputs.
-  ss_->queueOutputs();
-  if (enc_) enc_->queue();
-  (void)transport_->tryFlush();  // a lost reply is in the status collectInputs() gives
-  const auto status = ss_->collectInputs();
-  if (enc_) (void)enc_->update();
+  const auto status = lbpkit::servoCycle(*transport_, *ss_, enc_.get());
   advanceTo(start + period_);
   return status;
 }

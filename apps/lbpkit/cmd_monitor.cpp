@@ -19,6 +19,7 @@
 #include "lbpkit/error.hpp"
 #include "lbpkit/faults.hpp"
 #include "lbpkit/lbp16_transport.hpp"
+#include "lbpkit/servo_cycle.hpp"
 #include "lbpkit/wire/seven_i77.hpp"
 #include "machine_view.hpp"
 
@@ -153,11 +154,7 @@ int runMonitor(const MonitorOptions& o) {
           if (frame == 0 && c == 0) card.sim->card().part<hm2::MuxedEncoder>().setVelocity(0, 10000, lbp::SimTime{start});
         }
       }
-      ss.queueOutputs();
-      enc.queue();
-      (void)t.tryFlush();  // a lost reply shows in the cycle's status
-      const auto st = ss.collectInputs();
-      enc.update();
+      const auto st = lbpkit::servoCycle(t, ss, &enc);  // a lost reply shows in its status
       for (unsigned s = 0; s < ss.slots(); ++s) {
         const bool bite = (ss.remoteFaults(s) & lbpkit::wire::i7i77::fault::kWatchdog) != 0;
         if (bite && !bitten[s]) ++watchdogBites;

@@ -104,11 +104,20 @@ bool ProcessDataElement::numeric() const {
   return type == DataType::Unsigned || type == DataType::Signed || type == DataType::NonVolUnsigned ||
          type == DataType::NonVolSigned;
 }
+std::int64_t ProcessDataElement::lowest() const {
+  if (!isSigned() || width() == 0) return 0;
+  return width() >= 64 ? INT64_MIN : -(std::int64_t{1} << (width() - 1));
+}
+
+bool ProcessDataElement::fits(std::int64_t v) const {
+  if (isSigned()) return v >= lowest() && v <= static_cast<std::int64_t>(highest());
+  return v >= 0 && static_cast<std::uint64_t>(v) <= highest();
+}
 
 double ProcessDataElement::scale(std::uint64_t raw) const {
-  const unsigned n = std::min(bits, 64U);
-  if (type == DataType::Signed || type == DataType::NonVolSigned) {
-    const std::int64_t v = wire::lbp::signExtend(raw, n);
+  const unsigned n = width();
+  if (isSigned()) {
+    const std::int64_t v = fromRaw(raw);
     if (min == max || n < 2) return static_cast<double>(v);
     return static_cast<double>(v) * static_cast<double>(max) / static_cast<double>((1ULL << (n - 1)) - 1);
   }
@@ -121,11 +130,11 @@ double ProcessDataElement::scale(std::uint64_t raw) const {
 }
 
 std::uint64_t ProcessDataElement::unscale(double value) const {
-  const unsigned n = std::min(bits, 64U);
-  const std::uint64_t mask = n >= 64 ? ~0ULL : (1ULL << n) - 1;
-  if (!numeric() || min == max) return static_cast<std::uint64_t>(static_cast<std::int64_t>(std::llround(value))) & mask;
+  const unsigned n = width();
+  const std::uint64_t mask = rawMask();
+  if (!numeric() || min == max) return toRaw(std::llround(value));
   value = std::clamp(value, static_cast<double>(min), static_cast<double>(max));
-  if (type == DataType::Signed || type == DataType::NonVolSigned) {
+  if (isSigned()) {
     const double top = static_cast<double>((1ULL << (n - 1)) - 1);
     return static_cast<std::uint64_t>(std::llround(value / static_cast<double>(max) * top)) & mask;
   }

@@ -85,7 +85,7 @@ void writeElement(RemoteAccess& remote, const ProcessDataElement& e, std::uint64
   chunks(e, [&](unsigned offset, unsigned size) {
     back |= remote.read(static_cast<std::uint16_t>(e.address + offset), size) << (8 * offset);
   });
-  const std::uint64_t mask = e.bits >= 64 ? ~0ULL : (1ULL << e.bits) - 1;
+  const std::uint64_t mask = e.rawMask();
   if ((back & mask) != (raw & mask))
     throw Error(fmt::format("{}: {} reads back as {} after writing {}: the EEPROM did not keep the value",
                             remote.where(), e.name, back & mask, raw & mask));
@@ -93,8 +93,7 @@ void writeElement(RemoteAccess& remote, const ProcessDataElement& e, std::uint64
 
 std::string formatElement(const ProcessDataElement& e, std::uint64_t raw, bool hex) {
   if (hex) return fmt::format("{:0{}X}", raw, (e.bits + 3) / 4);
-  if (e.type == DataType::Signed || e.type == DataType::NonVolSigned)
-    return fmt::format("{}", wire::lbp::signExtend(raw, std::min(e.bits, 64U)));
+  if (e.isSigned()) return fmt::format("{}", e.fromRaw(raw));
   return fmt::format("{}", raw);
 }
 
@@ -109,23 +108,19 @@ std::uint64_t parseElement(const ProcessDataElement& e, const std::string& text,
   errno = 0;
   char* end = nullptr;
   const bool negative = *s == '-';
-  const unsigned n = std::min(e.bits, 64U);
-  const std::uint64_t mask = n >= 64 ? ~0ULL : (1ULL << n) - 1;
-  const bool isSigned = e.type == DataType::Signed || e.type == DataType::NonVolSigned;
   std::uint64_t v = 0;
   if (negative) {
     const long long x = std::strtoll(s, &end, base);
-    if (!isSigned) throw Error(fmt::format("{} is unsigned: {} is out of range", e.name, text));
-    if (n < 64 && x < -(1LL << (n - 1))) throw Error(fmt::format("{} does not fit {} ({} bits)", text, e.name, e.bits));
-    v = static_cast<std::uint64_t>(x);
+    if (!e.isSigned()) throw Error(fmt::format("{} is unsigned: {} is out of range", e.name, text));
+    if (!e.fits(x)) throw Error(fmt::format("{} does not fit {} ({} bits)", text, e.name, e.bits));
+    v = e.toRaw(x);
   } else {
     v = std::strtoull(s, &end, base);
   }
   if (errno != 0 || end == s || *end != '\0')
     throw Error(fmt::format("\"{}\" is not a {} number", text, base == 16 ? "hexadecimal" : "decimal"));
-  const std::uint64_t largest = isSigned ? mask >> 1 : mask;  // 2^(n-1)-1 for signed elements
-  if (!negative && v > largest) throw Error(fmt::format("{} does not fit {} ({} bits)", text, e.name, e.bits));
-  return v & mask;
+  if (!negative && v > e.highest()) throw Error(fmt::format("{} does not fit {} ({} bits)", text, e.name, e.bits));
+  return v & e.rawMask();
 }
 
 }  // namespace lbpkit

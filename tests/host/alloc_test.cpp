@@ -8,17 +8,18 @@
 #include <new>
 #include <vector>
 
-#include "hostmot2/card.hpp"
-#include "lbpkit/encoders.hpp"
-#include "sim_card/sim_transport.hpp"
-#include "lbpkit/sserial.hpp"
-#include "lbp16/lbp16_card.hpp"
-#include "lbpkit/lbp16_transport.hpp"
 #include "daemon/trace_ring.hpp"
-#include "support/lossy_udp_card.hpp"
+#include "hostmot2/card.hpp"
+#include "lbp16/lbp16_card.hpp"
+#include "lbpkit/encoders.hpp"
+#include "lbpkit/lbp16_transport.hpp"
+#include "lbpkit/servo_cycle.hpp"
+#include "lbpkit/sserial.hpp"
 #include "machine/machine.hpp"
-#include "support/running_card.hpp"
+#include "sim_card/sim_transport.hpp"
 #include "support/allocation_counter.hpp"
+#include "support/lossy_udp_card.hpp"
+#include "support/running_card.hpp"
 
 // The layers' namespaces this file names (docs/architecture.md).
 namespace hm2 = lbpkit::model::hm2;
@@ -46,11 +47,7 @@ TEST(RealTime, TheHostCycleDoesNotAllocate) {
   for (int i = 0; i < 1000; ++i) {
     ss.setRaw(out, static_cast<std::uint64_t>(i) & 0xFFFF);
     ss.set(a0, (i % 20) - 10.0);
-    ss.queueOutputs();
-    enc.queue();
-    (void)t.tryFlush();
-    ASSERT_TRUE(ss.collectInputs().ok);
-    enc.update();
+    ASSERT_TRUE(lbpkit::servoCycle(t, ss, &enc).ok);
     t.sleep(1ms);
   }
   EXPECT_EQ(gAllocations.load() - before, 0U);
@@ -68,11 +65,7 @@ TEST(RealTime, ACycleThatLosesItsReplyDoesNotAllocate) {
   unsigned lost = 0;
   for (int i = 0; i < 1000; ++i) {
     if (i % 10 == 0) t.dropNextReplies(1 + static_cast<unsigned>(i % 20 == 0));
-    ss.queueOutputs();
-    enc.queue();
-    (void)t.tryFlush();
-    if (ss.collectInputs().replyLost) ++lost;
-    enc.update();
+    if (lbpkit::servoCycle(t, ss, &enc).replyLost) ++lost;
     t.sleep(1ms);
   }
   EXPECT_EQ(gAllocations.load() - before, 0U);
@@ -96,11 +89,7 @@ TEST(RealTime, TheUdpCycleThatLosesItsReplyDoesNotAllocate) {
   for (int i = 0; i < 300; ++i) {
     if (i % 50 == 10) card.dropNextReplies(1);
     if (i % 50 == 30) card.delayNextReplies(1, 25ms);
-    ss.queueOutputs();
-    enc.queue();
-    (void)t.tryFlush();
-    (void)ss.collectInputs();
-    enc.update();
+    (void)lbpkit::servoCycle(t, ss, &enc);
     t.sleep(1ms);
   }
   EXPECT_EQ(tAllocations - before, 0U);

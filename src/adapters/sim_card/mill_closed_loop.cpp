@@ -5,6 +5,8 @@
 #include <string>
 #include <utility>
 
+#include "lbpkit/servo_cycle.hpp"
+
 namespace lbpkit {
 
 namespace {
@@ -72,11 +74,7 @@ CycleStatus MillClosedLoop::cycle() {
     const double pos = initial_[a] + enc.position(a) - offset_[a];
     ss.set(aout_[a], std::clamp(5.0 * (target - pos), -10.0, 10.0));
   }
-  ss.queueOutputs();
-  enc.queue();
-  t.flush();
-  status_ = ss.collectInputs();
-  enc.update();
+  status_ = servoCycle(t, ss, &enc);
   if (cycles_ == 0)
     for (unsigned a = 0; a < kAxes; ++a) offset_[a] = enc.position(a);
   machine_.advance(model::hm2::SimTime{start + 1ms});

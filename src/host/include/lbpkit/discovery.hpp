@@ -50,6 +50,22 @@ struct ProcessDataElement {
   [[nodiscard]] bool fromRemote() const { return direction != Direction::Output; }
   [[nodiscard]] bool toRemote() const { return direction != Direction::Input; }
   [[nodiscard]] bool numeric() const;
+  // The raw value: DATA_SIZE bits (the host keeps at most 64), two's
+  // complement when the DATA_TYPE is signed (Signed, NonVolSigned).
+  [[nodiscard]] unsigned width() const { return bits < 64 ? bits : 64; }
+  [[nodiscard]] std::uint64_t rawMask() const { return width() >= 64 ? ~0ULL : (1ULL << width()) - 1; }
+  [[nodiscard]] bool isSigned() const { return wire::lbp::isSigned(type); }
+  // The integers the raw value holds: -2^(N-1) .. 2^(N-1)-1 signed,
+  // 0 .. 2^N-1 unsigned; fits() is the range check.
+  [[nodiscard]] std::int64_t lowest() const;
+  [[nodiscard]] std::uint64_t highest() const { return isSigned() ? rawMask() >> 1 : rawMask(); }
+  [[nodiscard]] bool fits(std::int64_t v) const;
+  // An integer in range as the raw bits, and a raw value as an integer
+  // (sign-extended when the type is signed).
+  [[nodiscard]] std::uint64_t toRaw(std::int64_t v) const { return static_cast<std::uint64_t>(v) & rawMask(); }
+  [[nodiscard]] std::int64_t fromRaw(std::uint64_t raw) const {
+    return isSigned() ? wire::lbp::signExtend(raw, width()) : static_cast<std::int64_t>(raw);
+  }
   // NUMERIC PROCESS DATA SCALING. Unsigned: min at 0, max at 2^N-1. Signed:
   // 0 at 0 and max at 2^(N-1)-1 (what LinuxCNC does; the manual's formula
   // is garbled). Other types: the raw value.

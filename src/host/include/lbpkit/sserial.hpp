@@ -199,7 +199,8 @@ class SmartSerial {
   // Never throws: a lost reply is reported in the status (the cycle path
   // uses tryFlush(), waiting at most the transport's cycle timeout).
   CycleStatus collectInputs();
-  // Both, for a caller with nothing else to do.
+  // Both, for a caller with nothing else to do (servoCycle() in
+  // servo_cycle.hpp also reads the encoders in the same flush).
   CycleStatus cycle();
   // A channel that keeps failing is stopped and started again, at most once
   // per recoveryInterval; its fault count goes back to 0. Returns true when
