@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "hostmot2/terminals.hpp"
 #include "lbpkit/error.hpp"
 
 // The layers' namespaces this file names (docs/architecture.md).
@@ -64,17 +65,21 @@ unsigned VirtualSevenI76::channel() {
 void VirtualSevenI76::setInput(unsigned input, bool on) {
   auto l = card_->lock();
   checkInput(input);
-  auto& i = io();
-  const double volts = on ? i.fieldVoltage() : 0.0;
-  l.unlock();
-  setInputVoltage(input, volts);
+  checkVolts(io().fieldVoltage(), "input voltage");
+  checkUnwired(input);
+  hm2::Terminals(card_->board()).setInput(hm2::FieldIoAt::theSevenI76(), input, on);
 }
 
 void VirtualSevenI76::setInputVoltage(unsigned input, double volts) {
   auto l = card_->lock();
   checkInput(input);
   checkVolts(volts, "input voltage");
-  auto& i = io();
+  checkUnwired(input);
+  hm2::Terminals(card_->board()).setInputVoltage(hm2::FieldIoAt::theSevenI76(), input, volts);
+}
+
+void VirtualSevenI76::checkUnwired(unsigned input) {
+  (void)io();
   // The machine sets its switches' inputs at every plant span (as on the 7I77).
   if (const auto* m = card_->machine())
     for (const auto& s : m->description().switches)
@@ -82,7 +87,6 @@ void VirtualSevenI76::setInputVoltage(unsigned input, double volts) {
         throw Error(fmt::format("7I76 input {} is wired to the machine's switch \"{}\": trip it with "
                                 "machine.set_switch(\"{}\", True) instead",
                                 input, s.name, s.name));
-  i.setInputVoltage(input, volts);
 }
 
 bool VirtualSevenI76::input(unsigned input) {
@@ -111,8 +115,8 @@ double VirtualSevenI76::outputVoltage(unsigned output) {
 void VirtualSevenI76::setFieldVoltage(double volts) {
   auto l = card_->lock();
   checkVolts(volts, "field voltage");
-  auto& i = io();
-  i.setFieldVoltage(volts, card_->board().now());
+  (void)io();
+  hm2::Terminals(card_->board()).setFieldVoltage(hm2::FieldIoAt::theSevenI76(), volts);
 }
 double VirtualSevenI76::fieldVoltage() {
   auto l = card_->lock();
@@ -172,17 +176,18 @@ unsigned VirtualBoard::daughtercards() {
 
 void VirtualBoard::setInput(unsigned input, bool on, unsigned connector) {
   auto l = card_->lock();
-  auto& io = daughter(connector).fieldIo;
-  applyInput(input, on ? io.fieldVoltage() : 0.0, connector);
+  checkInputVoltage(input, daughter(connector).fieldIo.fieldVoltage(), connector);
+  hm2::Terminals(card_->board()).setInput(hm2::FieldIoAt::sevenI77On(connector), input, on);
 }
 
 void VirtualBoard::setInputVoltage(unsigned input, double volts, unsigned connector) {
   auto l = card_->lock();
-  applyInput(input, volts, connector);
+  checkInputVoltage(input, volts, connector);
+  hm2::Terminals(card_->board()).setInputVoltage(hm2::FieldIoAt::sevenI77On(connector), input, volts);
 }
 
-void VirtualBoard::applyInput(unsigned input, double volts, unsigned connector) {
-  auto& io = daughter(connector).fieldIo;
+void VirtualBoard::checkInputVoltage(unsigned input, double volts, unsigned connector) {
+  (void)daughter(connector);
   checkInput(input);
   checkVolts(volts, "input voltage");
   // The machine sets its switches' inputs at every plant span: a value
@@ -193,7 +198,6 @@ void VirtualBoard::applyInput(unsigned input, double volts, unsigned connector) 
         throw Error(fmt::format("input {} is wired to the machine's switch \"{}\": trip it with "
                                 "machine.set_switch(\"{}\", True) instead",
                                 input, s.name, s.name));
-  io.setInputVoltage(input, volts);
 }
 
 template <typename Read>
@@ -238,20 +242,23 @@ void VirtualBoard::setOutputLoad(unsigned output, double ohms, unsigned connecto
   checkOutput(output);
   if (std::isnan(ohms) || ohms < 0)
     throw std::invalid_argument(fmt::format("output {}: a load of {} ohms (0 is a short, inf an open output)", output, ohms));
-  daughter(connector).fieldIo.setOutputLoad(output, ohms);
+  (void)daughter(connector);
+  hm2::Terminals(card_->board()).setOutputLoad(hm2::FieldIoAt::sevenI77On(connector), output, ohms);
 }
 
 void VirtualBoard::setFieldVoltage(double volts, unsigned connector) {
   auto l = card_->lock();
   checkVolts(volts, "field voltage");
-  daughter(connector).fieldIo.setFieldVoltage(volts, card_->board().now());
+  (void)daughter(connector);
+  hm2::Terminals(card_->board()).setFieldVoltage(hm2::FieldIoAt::sevenI77On(connector), volts);
 }
 
 void VirtualBoard::setDriverOverTemperature(unsigned chip, bool hot, unsigned connector) {
   auto l = card_->lock();
   if (chip >= FieldIoProcessor::kChips)
     throw std::out_of_range(fmt::format("chip {}: the 7I77 has output driver chips 0..{}", chip, FieldIoProcessor::kChips - 1));
-  daughter(connector).fieldIo.setDriverOverTemperature(chip, hot);
+  (void)daughter(connector);
+  hm2::Terminals(card_->board()).setDriverOverTemperature(connector, chip, hot);
 }
 
 std::uint8_t VirtualBoard::analogFaults(unsigned connector) {
@@ -280,10 +287,10 @@ bool VirtualBoard::watchdogBitten() {
 
 void VirtualBoard::setCable(unsigned channel, bool connected) {
   auto l = card_->lock();
-  auto& ss = card_->board().part<hm2::Sslbp>();
-  if (channel >= ss.channels())
-    throw std::out_of_range(fmt::format("channel {}: the card has smart-serial channels 0..{}", channel, ss.channels() - 1));
-  ss.link(channel).setConnected(connected);
+  const unsigned channels = card_->board().part<hm2::Sslbp>().channels();
+  if (channel >= channels)
+    throw std::out_of_range(fmt::format("channel {}: the card has smart-serial channels 0..{}", channel, channels - 1));
+  hm2::Terminals(card_->board()).setCable(channel, connected);
 }
 
 void VirtualBoard::checkEncoder(unsigned encoder) {
@@ -305,9 +312,7 @@ void VirtualBoard::setEncoder(unsigned encoder, std::optional<double> countsPerS
   }
   if (countsPerSecond && (!std::isfinite(*countsPerSecond) || std::abs(*countsPerSecond) > 1e8))
     throw std::invalid_argument(fmt::format("encoder {}: {} counts per second", encoder, *countsPerSecond));
-  auto& b = card_->board();
-  if (countsPerRev) b.part<hm2::MuxedEncoder>().setIndexPeriod(encoder, *countsPerRev);
-  if (countsPerSecond) b.part<hm2::MuxedEncoder>().setVelocity(encoder, *countsPerSecond, b.now());
+  hm2::Terminals(card_->board()).setEncoder(encoder, countsPerSecond, countsPerRev);
 }
 
 std::uint16_t VirtualBoard::encoderCount(unsigned encoder) {

@@ -59,7 +59,9 @@ class VirtualBoard {
 
  private:
   lbpkit::model::hm2::SevenI77& daughter(unsigned connector);
-  void applyInput(unsigned input, double volts, unsigned connector);  // the lock held
+  // An input that may be set to `volts`: on a 7I77 there, in range, not a
+  // machine's switch (the lock held).
+  void checkInputVoltage(unsigned input, double volts, unsigned connector);
   // `read` of the field I/O processor on `connector`, under the card's lock.
   template <typename Read>
   auto readFieldIo(unsigned connector, Read&& read);
@@ -96,6 +98,8 @@ class VirtualSevenI76 {
 
  private:
   lbpkit::model::remote::SevenI76FieldIo& io();  // the lock held
+  // A 7I76 there and `input` not a machine's switch (the lock held).
+  void checkUnwired(unsigned input);
   void checkInput(unsigned input) const;
   void checkOutput(unsigned output) const;
   std::shared_ptr<Card> card_;

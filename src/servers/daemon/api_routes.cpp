@@ -2,8 +2,8 @@
 #include "daemon/api_routes.hpp"
 #include "daemon/api_http.hpp"
 
-#include <httplib.h>
 #include <fmt/format.h>
+#include <httplib.h>
 
 #include <algorithm>
 #include <chrono>
@@ -19,6 +19,7 @@
 #include "daemon/request_fields.hpp"
 #include "daemon/state_json.hpp"
 #include "daemon/web_view.hpp"
+#include "hostmot2/terminals.hpp"
 #include "lbpkit/wire/names.hpp"
 
 namespace lbpkit::server {
@@ -236,36 +237,39 @@ void machineRouteAction(const ApiTarget& t, const json& j) {
   machineAction(*t.machine, j);
 }
 
+// The field I/O "connector" names: the 7I76's, or the 7I77's there.
+model::hm2::FieldIoAt fieldIoAt(const json& j, model::hm2::HostMot2Card& card) {
+  return sevenI76At(j, card) != nullptr ? model::hm2::FieldIoAt::theSevenI76()
+                                        : model::hm2::FieldIoAt::sevenI77On(connector(j, card));
+}
+
 void inputAction(const ApiTarget& t, const json& j) {
   fields::onlyKnown(j, {"connector", "input", "volts", "on"});
-  if (auto* i76 = sevenI76At(j, t.card)) {
-    const auto n = index(j, "input", model::remote::SevenI76FieldIo::kInputs);
-    i76->setInputVoltage(n, j.contains("volts") ? number(j, "volts", 0, kMaxVolts, kVoltsRange)
-                                                : (flag(j, "on") ? i76->fieldVoltage() : 0.0));
-    return;
-  }
-  auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
-  const auto n = index(j, "input", model::remote::FieldIoProcessor::kInputs);
-  const double v = j.contains("volts") ? number(j, "volts", 0, kMaxVolts, kVoltsRange)
-                                       : (flag(j, "on") ? io.fieldVoltage() : 0.0);
-  io.setInputVoltage(n, v);
+  const auto at = fieldIoAt(j, t.card);
+  const auto n = index(j, "input", at.sevenI76 ? model::remote::SevenI76FieldIo::kInputs : model::remote::FieldIoProcessor::kInputs);
+  model::hm2::Terminals terminals(t.card);
+  if (j.contains("volts"))
+    terminals.setInputVoltage(at, n, number(j, "volts", 0, kMaxVolts, kVoltsRange));
+  else
+    terminals.setInput(at, n, flag(j, "on"));
 }
 
 void fieldAction(const ApiTarget& t, const json& j) {
   fields::onlyKnown(j, {"connector", "volts", "vin"});
-  if (auto* i76 = sevenI76At(j, t.card)) {
+  model::hm2::Terminals terminals(t.card);
+  const auto at = fieldIoAt(j, t.card);
+  if (at.sevenI76) {
     // Its processor runs from field power (seven_i76.hpp): it has no VIN.
     if (j.contains("vin")) throw std::invalid_argument("\"vin\": the 7I76 has no VIN (it runs from field power)");
-    i76->setFieldVoltage(number(j, "volts", 0, kMaxVolts, kVoltsRange), t.card.now());
+    terminals.setFieldVoltage(at, number(j, "volts", 0, kMaxVolts, kVoltsRange));
     return;
   }
-  auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
   // Both checked before either changes anything.
   const bool volts = j.contains("volts"), vin = j.contains("vin");
   const double v = volts ? number(j, "volts", 0, kMaxVolts, kVoltsRange) : 0;
   const double w = vin ? number(j, "vin", 0, kMaxVolts, kVoltsRange) : 0;
-  if (volts) io.setFieldVoltage(v, t.card.now());
-  if (vin) io.setVin(w, t.card.now());
+  if (volts) terminals.setFieldVoltage(at, v);
+  if (vin) terminals.setVin(at.connector, w);
 }
 
 void encoderAction(const ApiTarget& t, const json& j) {
@@ -281,24 +285,21 @@ void encoderAction(const ApiTarget& t, const json& j) {
                                 fmt::format("from {:g} to {:g} (counts per second)", -kMaxCountsPerSecond,
                                             kMaxCountsPerSecond))
                        : 0;
-  auto& enc = t.card.part<model::hm2::MuxedEncoder>();
-  if (cpr) enc.setIndexPeriod(n, static_cast<std::uint32_t>(c));
-  if (vel) enc.setVelocity(n, v, t.card.now());
+  model::hm2::Terminals(t.card).setEncoder(n, vel ? std::optional<double>(v) : std::nullopt,
+                                    cpr ? std::optional<std::uint32_t>(static_cast<std::uint32_t>(c)) : std::nullopt);
 }
 
 void cableAction(const ApiTarget& t, const json& j) {
   fields::onlyKnown(j, {"channel", "connected"});
   const auto ch = index(j, "channel", t.card.part<model::hm2::Sslbp>().channels());
-  t.card.part<model::hm2::Sslbp>().link(ch).setConnected(flag(j, "connected"));
+  model::hm2::Terminals(t.card).setCable(ch, flag(j, "connected"));
 }
 
 void outputAction(const ApiTarget& t, const json& j) {
   fields::onlyKnown(j, {"connector", "output", "ohms", "short"});
-  auto* i76 = sevenI76At(j, t.card);
-  auto* io = i76 != nullptr ? nullptr : &t.card.daughtercard(connector(j, t.card)).fieldIo;
+  const auto at = fieldIoAt(j, t.card);
   const auto n =
-      index(j, "output",
-            i76 != nullptr ? model::remote::SevenI76FieldIo::kOutputs : model::remote::FieldIoProcessor::kOutputs);
+      index(j, "output", at.sevenI76 ? model::remote::SevenI76FieldIo::kOutputs : model::remote::FieldIoProcessor::kOutputs);
   double ohms = std::numeric_limits<double>::infinity();  // {} or null: an open terminal
   if (flag(j, "short", false))
     ohms = 0;
@@ -307,16 +308,14 @@ void outputAction(const ApiTarget& t, const json& j) {
                   fmt::format("above 0 and at most {:g}, or null for an open output (\"short\": true "
                               "for a short)",
                               kMaxOhms));
-  if (i76 != nullptr)
-    i76->setOutputLoad(n, ohms);
-  else
-    io->setOutputLoad(n, ohms);
+  model::hm2::Terminals(t.card).setOutputLoad(at, n, ohms);
 }
 
 void overtempAction(const ApiTarget& t, const json& j) {
   fields::onlyKnown(j, {"connector", "chip", "hot"});
-  auto& io = t.card.daughtercard(connector(j, t.card)).fieldIo;
-  io.setDriverOverTemperature(index(j, "chip", model::remote::FieldIoProcessor::kChips), flag(j, "hot"));
+  const auto d = connector(j, t.card);
+  model::hm2::Terminals(t.card).setDriverOverTemperature(d, index(j, "chip", model::remote::FieldIoProcessor::kChips),
+                                                  flag(j, "hot"));
 }
 
 void timeAction(const ApiTarget& t, const json& j) {
