@@ -76,13 +76,6 @@ std::string commentText(const std::string& s) {
   return out;
 }
 
-std::optional<unsigned> digits(const std::string& s) {
-  if (s.empty() || s.size() > 3 ||
-      !std::all_of(s.begin(), s.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); }))
-    return std::nullopt;
-  return static_cast<unsigned>(std::stoul(s));
-}
-
 std::string lower(std::string s) {
   for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return s;
@@ -126,7 +119,7 @@ std::optional<FieldPin> fieldPin(const std::string& pin, const std::string& what
     f.inverted = true;
     rest.resize(rest.size() - 4);
   }
-  const auto n = digits(rest);
+  const auto n = hal_name::number(rest);
   if (!n) return std::nullopt;
   f.number = *n;
   return f;
@@ -142,7 +135,7 @@ std::optional<unsigned> analogOut(const std::string& pin, bool anyChannel) {
   const auto r = hal_name::parseRemote(pin);
   if (!r || r->remote != "7i77" || r->leaf.rfind("analogout", 0) != 0) return std::nullopt;
   if (!anyChannel && !offFirst7I77(pin).empty()) return std::nullopt;
-  return digits(r->leaf.substr(9));
+  return hal_name::number(r->leaf.substr(9));
 }
 
 std::string cardOf(const std::string& pin) {

@@ -22,8 +22,6 @@ std::vector<std::string> split(const std::string& s, char by);
 // A number as written, inf and nan included: the bounds each use puts on
 // it (Bound below) refuse those with the key that holds them.
 std::optional<double> number(const std::string& s);
-// One to three decimal digits, as a HAL name's instance number.
-std::optional<unsigned> digits(const std::string& s);
 std::string lower(std::string s);
 // An INI truth value: YES, TRUE or 1.
 bool yes(const std::string& s);

@@ -3,6 +3,8 @@
 // (hal_graph.hpp; LinuxCNC's halcmd(1) and src/hal/components/).
 #include "linuxcnc/hal_graph.hpp"
 
+#include "linuxcnc/hal_name.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -22,7 +24,7 @@ HalGraph::HalGraph(const HalConfig& hal, std::filesystem::path ini) : hal_(hal),
         for (const auto& n : split(a.substr(6), ',')) instances.push_back(n);
         named = true;
       } else if (a.rfind("count=", 0) == 0 || a.rfind("num_chan=", 0) == 0) {
-        const auto n = digits(a.substr(a.find('=') + 1)).value_or(1);
+        const auto n = hal_name::number(a.substr(a.find('=') + 1)).value_or(1);
         for (unsigned i = 0; i < n; ++i) instances.push_back(fmt::format("{}.{}", dashed, i));
         named = true;
       } else if (c.module == "debounce" && a.rfind("cfg=", 0) == 0) {
@@ -30,7 +32,7 @@ HalGraph::HalGraph(const HalConfig& hal, std::filesystem::path ini) : hal_(hal),
         // LinuxCNC's src/hal/components/debounce.c).
         const auto groups = split(a.substr(4), ',');
         for (std::size_t g = 0; g < std::min<std::size_t>(groups.size(), 8); ++g)
-          for (unsigned ch = 0; ch < std::min(digits(groups[g]).value_or(0), 50U); ++ch)
+          for (unsigned ch = 0; ch < std::min(hal_name::number(groups[g]).value_or(0), 50U); ++ch)
             instances.push_back(fmt::format("debounce.{}.{}", g, ch));
         named = true;
       } else if (a.rfind("personality=", 0) == 0) {

@@ -22,15 +22,14 @@ std::vector<std::string> split(std::string_view s) {
   }
 }
 
-// hostmot2's instance and channel numbers: one to three decimal digits.
+}  // namespace
+
 std::optional<unsigned> number(const std::string& s) {
   if (s.empty() || s.size() > 3 ||
       !std::all_of(s.begin(), s.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; }))
     return std::nullopt;
   return static_cast<unsigned>(std::stoul(s));
 }
-
-}  // namespace
 
 std::string Name::prefix() const { return hal_name::board(board, index); }
 

@@ -27,6 +27,10 @@ struct Name {
   std::vector<std::string> parts;  // what follows "hm2_7i92.0.", split at the dots
   [[nodiscard]] std::string prefix() const;  // "hm2_7i92.0"
 };
+// A HAL name's instance or channel number (hm2_7i92.<0>, joint.<2>,
+// spindle.<0>): one to three decimal digits; nothing for anything else.
+[[nodiscard]] std::optional<unsigned> number(const std::string& s);
+
 // "hm2_<board>.<index>[.<rest>]", <index> decimal digits; nothing for any
 // other name.
 [[nodiscard]] std::optional<Name> parse(std::string_view name);

@@ -4,6 +4,8 @@
 // parameters; pid(9)).
 #include "linuxcnc/joint_config.hpp"
 
+#include "linuxcnc/hal_name.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -17,7 +19,7 @@ unsigned jointCount(DeriveContext& c) {
   for (const char* pins : {"joint", "axis"}) {
     for (const auto& p : c.graph.pinSignal())
       if (p.first.rfind(std::string(pins) + ".", 0) == 0)
-        n = std::max(n, digits(split(p.first, '.')[1]).value_or(0) + 1);
+        n = std::max(n, hal_name::number(split(p.first, '.')[1]).value_or(0) + 1);
     if (n > 0) {
       c.jointPinsName = pins;
       break;
@@ -35,7 +37,7 @@ unsigned jointCount(DeriveContext& c) {
   }
   if (n > kMaxJoints) {
     const auto pin = std::find_if(c.graph.pinSignal().begin(), c.graph.pinSignal().end(), [&](const auto& p) {
-      return p.first.rfind(c.jointPinsName + ".", 0) == 0 && digits(split(p.first, '.')[1]).value_or(0) >= kMaxJoints;
+      return p.first.rfind(c.jointPinsName + ".", 0) == 0 && hal_name::number(split(p.first, '.')[1]).value_or(0) >= kMaxJoints;
     });
     c.error(c.where(pin->first), pin->first,
             fmt::format("{}: LinuxCNC has joints 0 to {} (EMCMOT_MAX_JOINTS)", pin->first, kMaxJoints - 1));

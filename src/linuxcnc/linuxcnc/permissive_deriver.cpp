@@ -4,6 +4,8 @@
 // iocontrol(1) pins and message(9)).
 #include "linuxcnc/permissive_deriver.hpp"
 
+#include "linuxcnc/hal_name.hpp"
+
 #include <fmt/format.h>
 
 #include <string>
@@ -34,11 +36,11 @@ void derivePermissives(DeriveContext& c) {
   // joint.N.amp-fault-in (axis.N. in 2.7), halui.spindle.N.stop.
   for (const auto& [pin, sig] : c.graph.pinSignal()) {
     const auto p = split(pin, '.');
-    if (p.size() == 3 && p[0] == "spindle" && digits(p[1]) && (p[2] == "inhibit" || p[2] == "at-speed"))
+    if (p.size() == 3 && p[0] == "spindle" && hal_name::number(p[1]) && (p[2] == "inhibit" || p[2] == "at-speed"))
       list.push_back(mustBe(pin, p[2] == "at-speed"));
-    else if (p.size() == 3 && (p[0] == "joint" || p[0] == "axis") && digits(p[1]) && p[2] == "amp-fault-in")
+    else if (p.size() == 3 && (p[0] == "joint" || p[0] == "axis") && hal_name::number(p[1]) && p[2] == "amp-fault-in")
       list.push_back(mustBe(pin, false));
-    else if (p.size() == 4 && p[0] == "halui" && p[1] == "spindle" && digits(p[2]) && p[3] == "stop")
+    else if (p.size() == 4 && p[0] == "halui" && p[1] == "spindle" && hal_name::number(p[2]) && p[3] == "stop")
       list.push_back(mustBe(pin, false));
   }
   // A message fires when its trigger reaches its edge's state (TRUE

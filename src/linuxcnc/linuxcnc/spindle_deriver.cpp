@@ -3,6 +3,7 @@
 // encoder scale; the 7I77 manual: analog output 5 and ENA5 for a spindle;
 // the 7I76 manual: SpinOut, SpinEna, SpinDir).
 #include "linuxcnc/spindle_deriver.hpp"
+#include "linuxcnc/hal_name.hpp"
 
 #include <fmt/format.h>
 
@@ -50,7 +51,7 @@ void deriveSpindle(DeriveContext& c) {
     for (const auto& p : c.graph.pinsOn(c.graph.signal(feedback))) {
       const auto parts = split(p, '.');
       if (parts.size() == 5 && parts[2] == "encoder" && !encoder) {
-        if (const auto e = digits(parts[3]); e && !c.claimedEncoders.count(*e)) {
+        if (const auto e = hal_name::number(parts[3]); e && !c.claimedEncoders.count(*e)) {
           encoder = *e;
           encoderPin = p;
           board = cardOf(p);
