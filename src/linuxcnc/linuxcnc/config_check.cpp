@@ -146,7 +146,7 @@ void evaluate(Checker& r, const std::vector<const Board*>& boards, const std::ma
                           ref.name.size(), kHalNameLen));
       continue;
     }
-    const bool hm2 = ref.name.rfind("hm2_", 0) == 0;
+    const bool hm2 = hal_name::isHostMot2(ref.name);
     if (ref.use == Use::Net || ref.use == Use::Link) {
       const auto [it, fresh] = pinSignal.emplace(ref.name, ref.signal);
       if (!fresh && it->second != ref.signal)
@@ -283,7 +283,7 @@ void evaluate(Checker& r, const std::vector<const Board*>& boards, const std::ma
     bool allKnown = true;
     for (const auto& pin : pins) {
       const auto bi = boardIndex.find(boardOf(pin));
-      const Item* item = bi == boardIndex.end() || pin.rfind("hm2_", 0) != 0 ? nullptr
+      const Item* item = bi == boardIndex.end() || !hal_name::isHostMot2(pin) ? nullptr
                                                                             : find(boards[bi->second]->items, pin);
       if (item && item->kind == Kind::Pin) known.emplace_back(pin, item);
       else allKnown = false;
@@ -429,7 +429,7 @@ CheckResult checkConfig(const std::filesystem::path& file, const BoardModel& mod
   // driver that loads that kind of card.
   std::set<std::string> prefixes;
   for (const auto& ref : r.hal.refs)
-    if (ref.name.rfind("hm2_", 0) == 0 && !boardOf(ref.name).empty()) prefixes.insert(boardOf(ref.name));
+    if (hal_name::isHostMot2(ref.name) && !boardOf(ref.name).empty()) prefixes.insert(boardOf(ref.name));
   std::map<std::string, std::size_t> boardIndex;
   std::vector<std::vector<Board>> candidates;  // per board, what it may be
   std::set<std::string> unknownBoards;

@@ -34,7 +34,7 @@ std::optional<unsigned> number(const std::string& s) {
 std::string Name::prefix() const { return hal_name::board(board, index); }
 
 std::optional<Name> parse(std::string_view name) {
-  if (name.substr(0, 4) != "hm2_") return std::nullopt;
+  if (!isHostMot2(name)) return std::nullopt;
   auto p = split(name.substr(4));
   if (p.size() < 2 || p[0].empty()) return std::nullopt;
   const auto index = number(p[1]);

@@ -34,6 +34,9 @@ struct Name {
 // "hm2_<board>.<index>[.<rest>]", <index> decimal digits; nothing for any
 // other name.
 [[nodiscard]] std::optional<Name> parse(std::string_view name);
+// Whether `name` is in hostmot2's part of HAL's names ("hm2_..."), whether
+// or not the rest parses: what check-config reports a mistake in.
+[[nodiscard]] inline bool isHostMot2(std::string_view name) { return name.starts_with("hm2_"); }
 
 // A HostMot2 module's pin or parameter: hm2_<board>.<index>.<module>.<instance>.<leaf>.
 struct ModuleName {

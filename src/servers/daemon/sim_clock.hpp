@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The clock of `lbpkit sim`: the one place it ties simulated time to a clock.
 //
 // The models run in simulated time only and never read a clock; `lbpkit sim`
