@@ -19,14 +19,14 @@ namespace lbpkit::model::hm2 {
 // Whose field I/O: the 7I77 on a connector, or the card's 7I76.
 struct FieldIoAt {
   bool sevenI76 = false;
-  unsigned connector = 0; // the 7I77's
+  unsigned connector = 0;  // the 7I77's
   static FieldIoAt sevenI77On(unsigned connector) { return {false, connector}; }
   static FieldIoAt theSevenI76() { return {true, 0}; }
 };
 
 class Terminals {
-public:
-  explicit Terminals(HostMot2Card &card) : card_(card) {}
+ public:
+  explicit Terminals(HostMot2Card& card) : card_(card) {}
 
   // A field input switched to field power (on) or left open; a voltage on it.
   void setInput(FieldIoAt at, unsigned input, bool on);
@@ -41,14 +41,14 @@ public:
   void setDriverOverTemperature(unsigned connector, unsigned chip, bool hot);
   // Muxed encoder `encoder` turning at countsPerSecond, with an index every
   // countsPerRev counts (0: none); what is not given is left as it is.
-  void setEncoder(unsigned encoder, std::optional<double> countsPerSecond,
-                  std::optional<std::uint32_t> countsPerRev);
+  void setEncoder(unsigned encoder, std::optional<double> countsPerSecond, std::optional<std::uint32_t> countsPerRev);
   // The smart-serial cable of `channel` plugged in or pulled.
   void setCable(unsigned channel, bool connected);
 
-private:
-  template <typename Action> void onFieldIo(FieldIoAt at, Action &&action);
-  HostMot2Card &card_;
+ private:
+  template <typename Action>
+  void onFieldIo(FieldIoAt at, Action&& action);
+  HostMot2Card& card_;
 };
 
 }  // namespace lbpkit::model::hm2
