@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "lbpkit/sserial.hpp"
 
+#include "lbpkit/servo_cycle.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -455,11 +457,7 @@ void SmartSerial::countFaults(CycleStatus& st) {
   }
 }
 
-CycleStatus SmartSerial::cycle() {
-  queueOutputs();
-  (void)t_.tryFlush();  // a failure shows in the counters, which collectInputs() reads
-  return collectInputs();
-}
+CycleStatus SmartSerial::cycle() { return servoCycle(t_, *this, nullptr); }
 
 bool SmartSerial::recover(unsigned slot) {
   auto& s = slots_.at(slot);
