@@ -52,14 +52,15 @@
 #include "lbpkit/error.hpp"
 #include "linuxcnc/board_address.hpp"
 #include "linuxcnc/config_check.hpp"
-#include "process/process.hpp"
 #include "linuxcnc/hal_config.hpp"
 #include "linuxcnc/hal_name.hpp"
 #include "linuxcnc/linuxcnc_root.hpp"
-#include "linuxcnc_host.hpp"
-#include "linuxcnc_run.hpp"
+#include "linuxcnc/namespace_processes.hpp"
 #include "linuxcnc/network_namespace.hpp"
 #include "linuxcnc/servo_priority.hpp"
+#include "linuxcnc_host.hpp"
+#include "linuxcnc_run.hpp"
+#include "process/process.hpp"
 
 // The layers' namespaces this file names (docs/architecture.md).
 namespace app = lbpkit::app;
@@ -905,6 +906,8 @@ int LinuxCncRun::watch(const LinuxCncLaunch& launch) {
   // Its servo thread SCHED_FIFO below the card thread, as on a real-time
   // kernel (linuxcnc/servo_priority.hpp).
   lbpkit::linuxcnc::ServoThreadPriority servoPriority(ns_->inode());
+  bool errorWindowShown = false;
+  unsigned looks = 0;
   while (true) {
     if (app::gStop) {
       fmt::print("lbpkit linuxcnc: stopping LinuxCNC and the sim\n");
@@ -934,6 +937,19 @@ int LinuxCncRun::watch(const LinuxCncLaunch& launch) {
     }
     readSim(100);
     log.poll();
+    // LinuxCNC that ended with an error at start-up waits in its window
+    // (linuxcnc/namespace_processes.hpp) for the user to close it: what it
+    // says is printed here too, where the user typed the command, once.
+    if (!errorWindowShown && ++looks % 10 == 0 && lbpkit::linuxcnc::errorWindowIsOpen(ns_->inode())) {
+      errorWindowShown = true;
+      log.poll();
+      fmt::print(
+          "lbpkit linuxcnc: LinuxCNC ended with an error; its window \"LinuxCNC Errors\" waits on the desktop "
+          "(closing it, or Ctrl-C here, ends the run):\n");
+      log.printEnd(30, "print");
+      log.printEnd(30, "debug");
+      std::fflush(stdout);
+    }
   }
 }
 

@@ -156,6 +156,16 @@ class LinuxCncCommand : public ::testing::Test {
                                  fs::perms::others_read | fs::perms::others_exec);
     setLine("DISPLAY = ", display.string());
   }
+  // A display program that says why on standard output and standard
+  // error, then ends with status 3.
+  void displayFailing() {
+    const auto display = dir_.path() / "failing_display";
+    std::ofstream(display) << "#!/bin/sh\necho 'the display: no tool table here'\n"
+                              "echo 'the display: giving up' >&2\nexit 3\n";
+    fs::permissions(display, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                                 fs::perms::others_read | fs::perms::others_exec);
+    setLine("DISPLAY = ", display.string());
+  }
   // In a forked child: lbpkit linuxcnc on the example mill as a user calls
   // it (the machine auto, the CPU last), its output in log_; the sim's
   // state in the test's folder and on the host clock.
@@ -671,12 +681,7 @@ TEST_F(LinuxCncCommand, OnARealTimePcItRunsAsWritten) {
 // When LinuxCNC stops with an error, what it printed is printed: here its
 // display's words on standard output and standard error, before it ended.
 TEST_F(LinuxCncCommand, WhenLinuxCncFailsWhatItPrintedIsShown) {
-  const auto display = dir_.path() / "failing_display";
-  std::ofstream(display) << "#!/bin/sh\necho 'the display: no tool table here'\n"
-                            "echo 'the display: giving up' >&2\nexit 3\n";
-  fs::permissions(display, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
-                               fs::perms::others_read | fs::perms::others_exec);
-  setLine("DISPLAY = ", display.string());
+  displayFailing();
   log_ = dir_.path() / "linuxcnc.log";
   pid_ = ::fork();
   if (pid_ == 0) execAsAUser();
@@ -717,6 +722,41 @@ class AxisGui : public LinuxCncCommand {
   test_support::Xvfb desktop_;
   std::string display_;
 };
+
+// On a desktop, LinuxCNC that fails shows what it printed in a window of its
+// own and waits there (the linuxcnc script's show_errors.tcl): the terminal
+// the command was typed in says so, with LinuxCNC's words, while the window
+// waits; closing it ends the run with LinuxCNC's status, nothing left.
+TEST_F(AxisGui, LinuxCncsErrorWindowIsNamedWhereTheCommandWasTyped) {
+  displayFailing();
+  log_ = dir_.path() / "linuxcnc.log";
+  pid_ = ::fork();
+  if (pid_ == 0) {
+    ::setenv("DISPLAY", display_.c_str(), 1);
+    execAsAUser();
+  }
+  id_ = std::to_string(pid_);
+  ASSERT_TRUE(test_support::waitFor(
+      [&] {
+        const auto text = slurp(log_);
+        return text.find("  | the display: giving up") != std::string::npos;
+      },
+      60s, 250ms))
+      << slurp(log_);
+  const auto text = slurp(log_);
+  EXPECT_NE(text.find("LinuxCNC ended with an error; its window \"LinuxCNC Errors\" waits on the desktop"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("  | the display: no tool table here"), std::string::npos) << text;
+  // The window is there, and the run waits for it.
+  const auto window = x("xdotool search --name '^LinuxCNC Errors$'").out;
+  ASSERT_FALSE(window.empty()) << sh("ps -ef").out;
+  EXPECT_TRUE(::kill(pid_, 0) == 0 && ::waitpid(pid_, nullptr, WNOHANG) == 0);
+  // Closed, as its Close button does.
+  EXPECT_EQ(x("xdotool windowclose " + window.substr(0, window.find('\n'))).exit, 0);
+  EXPECT_EQ(end(), 3) << slurp(log_);
+  EXPECT_EQ(leftOf(std::stoi(id_), kCardAddress), "");
+}
 
 TEST_F(AxisGui, AxisHomesTheMillThroughItsOwnControls) {
   ASSERT_TRUE(start(display_)) << slurp(log_);

@@ -1,34 +1,19 @@
 // SPDX-License-Identifier: MIT
 #include "linuxcnc/servo_priority.hpp"
 
-#include <sched.h>
-#include <sys/stat.h>
+#include "linuxcnc/namespace_processes.hpp"
 
-#include <cctype>
+#include <sched.h>
+
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <set>
 #include <string>
 
 namespace lbpkit::linuxcnc {
 
-namespace {
 namespace fs = std::filesystem;
-
-unsigned long networkNamespaceOf(const fs::path& proc) {
-  struct stat st {};
-  return ::stat((proc / "ns/net").c_str(), &st) == 0 ? static_cast<unsigned long>(st.st_ino) : 0;
-}
-
-std::string commandOf(const fs::path& proc) {
-  std::ifstream comm(proc / "comm");
-  std::string c;
-  std::getline(comm, c);
-  return c;
-}
-}  // namespace
 
 ServoThreadPriority::ServoThreadPriority(unsigned long networkNamespace)
     : networkNamespace_(networkNamespace), thread_([this] { run(); }) {}
@@ -41,13 +26,11 @@ ServoThreadPriority::~ServoThreadPriority() {
 void ServoThreadPriority::run() {
   std::set<long> done;
   while (!stop_) {
-    std::error_code ec;
-    for (const auto& p : fs::directory_iterator("/proc", ec)) {
-      const auto name = p.path().filename().string();
-      if (name.empty() || std::isdigit(static_cast<unsigned char>(name[0])) == 0) continue;
-      if (commandOf(p.path()) != "rtapi_app" || networkNamespaceOf(p.path()) != networkNamespace_) continue;
-      const long pid = std::atol(name.c_str());
-      for (const auto& t : fs::directory_iterator(p.path() / "task", ec)) {
+    forEachProcessIn(networkNamespace_, [&](const fs::path& proc) {
+      if (commandOf(proc) != "rtapi_app") return;
+      const long pid = std::atol(proc.filename().c_str());
+      std::error_code ec;
+      for (const auto& t : fs::directory_iterator(proc / "task", ec)) {
         const long tid = std::atol(t.path().filename().c_str());
         if (done.count(tid) != 0) continue;
         // A new thread is "rtapi_app" until it names itself: the tasks and
@@ -66,7 +49,7 @@ void ServoThreadPriority::run() {
         }
         if (::sched_setscheduler(static_cast<pid_t>(tid), policy, &sp) == 0) done.insert(tid);
       }
-    }
+    });
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
 }
