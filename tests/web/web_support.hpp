@@ -194,6 +194,12 @@ inline const char* kChromedriver = "/usr/bin/chromedriver";
 
 inline bool browserPresent() { return ::access(kChromium, X_OK) == 0 && ::access(kChromedriver, X_OK) == 0; }
 
+// In a test: skips it, saying why, without the browser.
+#define SKIP_WITHOUT_BROWSER()                                                                       \
+  if (!webtest::browserPresent())                                                                    \
+  GTEST_SKIP() << "no headless browser: " << webtest::kChromium << " and " << webtest::kChromedriver \
+               << " are needed (Debian's chromium and chromium-driver: scripts/deps --test installs them)"
+
 inline int freeTcpPort() {
   const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
   sockaddr_in sa{};

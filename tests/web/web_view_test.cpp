@@ -16,11 +16,6 @@ using namespace std::chrono_literals;
 
 using namespace webtest;
 
-#define SKIP_WITHOUT_BROWSER()                                                                          \
-  if (!browserPresent())                                                                                \
-  GTEST_SKIP() << "no headless browser: " << kChromium << " and " << kChromedriver                      \
-               << " are needed (Debian's chromium and chromium-driver: scripts/deps --test installs them)"
-
 // The page has drawn the board from its first frames.
 constexpr const char* kBoardDrawn = "return !!document.getElementById('in-0-0') && (window.lbpkit.frames || 0) > 3;";
 
