@@ -398,7 +398,9 @@ void bindMachine(py::module_& m) {
       .def_readonly("encoder_input", &State::Drive::encoderInput)
       .def_readonly("encoder_count", &State::Drive::encoderCount)
       .def_readonly("true_counts", &State::Drive::trueCounts)
-      .def_property_readonly("encoder_broken", [](const State::Drive& d) { return channelNames(d.encoderBroken); });
+      .def_property_readonly("encoder_broken", [](const State::Drive& d) { return channelNames(d.encoderBroken); })
+      .def_readonly("encoder_reversed", &State::Drive::encoderReversed, "A and B swapped: the count runs backwards")
+      .def_readonly("enable_ignored", &State::Drive::enableIgnored, "The amplifier runs whatever its ENA says");
   py::class_<State::Axis>(m, "AxisState")
       .def_readonly("name", &State::Axis::name)
       .def_readonly("position", &State::Axis::position)

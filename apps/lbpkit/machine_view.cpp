@@ -70,6 +70,9 @@ std::string drive(const json& d) {
   std::string broken;
   for (const auto& channel : list(d, "encoder_broken"))
     if (channel.is_string()) broken += (broken.empty() ? " broken: " : ",") + channel.get<std::string>();
+  // Its encoder's A and B swapped, its amplifier deaf to ENA (faults to rehearse).
+  if (flag(d, "encoder_reversed").value_or(false)) broken += "  encoder reversed";
+  if (flag(d, "enable_ignored").value_or(false)) broken += "  ENA ignored";
   const auto count = number(d, "encoder_count");
   // The ENA number is the drive's own when the API says it (ENA0..4 switch
   // together anyway: manual, SERVO ENABLE OUTPUTS).

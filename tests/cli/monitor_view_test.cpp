@@ -62,6 +62,8 @@ json cannedMill() {
             {"drives", {drive(2, 0.0, false, 7)}},
             {"switches", {sw("z-home", "home", 6, false)}}};
   z["drives"][0]["encoder_broken"] = {"A", "index"};
+  z["drives"][0]["encoder_reversed"] = true;
+  z["drives"][0]["enable_ignored"] = true;
   json m = {{"name", "mill"},
             {"time_s", 12.3456},
             {"axes", {x, z}},
@@ -99,8 +101,9 @@ TEST(MonitorView, ShowsAxesSwitchesSpindleAndTheEstopChain) {
   EXPECT_TRUE(has(s, "probe: TOUCHING")) << s;
   // Per axis: name, position (3 decimals), velocity, drive volts and enable.
   EXPECT_TRUE(has(s, "  x         402.123     -1.500  AOUT0  -0.250 V  ENA on  enabled   enc0  1234  pushed\n")) << s;
-  EXPECT_TRUE(has(s, "  z         -75.000      0.000  AOUT2  +0.000 V  ENA off disabled  enc2     7 broken: A,index"
-                     "  brake on  JAMMED\n"))
+  EXPECT_TRUE(has(s,
+                  "  z         -75.000      0.000  AOUT2  +0.000 V  ENA off disabled  enc2     7 broken: A,index"
+                  "  encoder reversed  ENA ignored  brake on  JAMMED\n"))
       << s;
   EXPECT_TRUE(has(s, "switches: x-home TRIPPED  x-min -  x-max TRIPPED\n")) << s;
   EXPECT_TRUE(has(s, "switches: z-home -\n")) << s;

@@ -13,6 +13,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -21,6 +22,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
+#include <tuple>
 
 #include "lbpkit/hostmot2.hpp"
 #include "lbpkit/lbp16_transport.hpp"
@@ -113,6 +115,20 @@ TEST_F(StepperAnd7I76Api, AStepperAxisHasAStepperObjectAndNoDrives) {
   ASSERT_TRUE(s["machine"].is_object());
   EXPECT_EQ(s["machine"]["axes"][1]["stepper"]["stepgen"], 0);
   EXPECT_TRUE(s["machine"]["axes"][0]["stepper"].is_null());
+  // A stepper has no encoder to reverse and no amplifier to miswire; the
+  // servo axis has both. The trace has no z_enabled.
+  auto [code, body] = post("/api/machine", {{"action", "encoder"}, {"axis", "z"}, {"reversed", true}});
+  EXPECT_EQ(code, 400);
+  EXPECT_EQ(body["error"], "\"axis\": z is a stepper axis: it has no encoder");
+  std::tie(code, body) = post("/api/machine", {{"action", "amplifier"}, {"axis", "z"}, {"enable_ignored", true}});
+  EXPECT_EQ(code, 400);
+  EXPECT_EQ(body["error"], "\"axis\": z is a stepper axis: it has no amplifier");
+  std::tie(code, body) = post("/api/machine", {{"action", "amplifier"}, {"axis", "x"}, {"enable_ignored", true}});
+  EXPECT_EQ(code, 200) << body.dump();
+  EXPECT_TRUE(body["axes"][0]["drives"][0]["enable_ignored"].get<bool>());
+  const auto columns = get("/api/machine/trace")["columns"];
+  EXPECT_NE(std::find(columns.begin(), columns.end(), "x_enabled"), columns.end()) << columns.dump();
+  EXPECT_EQ(std::find(columns.begin(), columns.end(), "z_enabled"), columns.end()) << columns.dump();
 }
 
 TEST_F(StepperAnd7I76Api, StepsLostStepsAndAStallShowAsTheStepGenRuns) {

@@ -82,9 +82,11 @@ TEST(SimMachine, GetMachineShowsTheMillAndItsActionsWork) {
   EXPECT_EQ(m["axes"][1]["position"].get<double>(), 150.0);
   EXPECT_EQ(m["axes"][2]["position"].get<double>(), -75.0);
   const auto& drive = m["axes"][0]["drives"][0];
-  for (const auto* key : {"analog_output", "command_volts", "ena", "enabled", "torque", "encoder_input", "encoder_count",
-                          "true_counts", "encoder_broken"})
+  for (const auto* key : {"analog_output", "command_volts", "ena", "enabled", "torque", "encoder_input",
+                          "encoder_count", "true_counts", "encoder_broken", "encoder_reversed", "enable_ignored"})
     EXPECT_TRUE(drive.contains(key)) << key;
+  EXPECT_FALSE(drive["encoder_reversed"].get<bool>());
+  EXPECT_FALSE(drive["enable_ignored"].get<bool>());
   EXPECT_EQ(m["axes"][0]["switches"].size(), 3U);
   EXPECT_EQ(m["axes"][0]["switches"][2]["name"], "x-max");
   EXPECT_EQ(m["axes"][0]["switches"][2]["kind"], "max_limit");
@@ -139,6 +141,31 @@ TEST(SimMachine, GetMachineShowsTheMillAndItsActionsWork) {
   EXPECT_EQ(r.body["spindle"]["encoder_broken"], json::array({"index"}));
   r = sim.get();
   EXPECT_EQ(r.body["daughtercards"][0]["encoders"][5]["counts_per_rev"].get<int>(), 0);  // no index pulses
+  // A and B swapped, and put right; the spindle's too.
+  r = sim.post("/api/machine", {{"action", "encoder"}, {"axis", "x"}, {"reversed", true}});
+  ASSERT_EQ(r.status, 200) << r.raw;
+  EXPECT_TRUE(axisNamed(r.body, "x")["drives"][0]["encoder_reversed"].get<bool>());
+  EXPECT_FALSE(axisNamed(r.body, "y")["drives"][0]["encoder_reversed"].get<bool>());
+  EXPECT_EQ(axisNamed(r.body, "x")["drives"][0]["encoder_broken"], json::array());
+  r = sim.post("/api/machine", {{"action", "encoder"}, {"axis", "spindle"}, {"reversed", true}});
+  ASSERT_EQ(r.status, 200) << r.raw;
+  EXPECT_TRUE(r.body["spindle"]["encoder_reversed"].get<bool>());
+  r = sim.post("/api/machine", {{"action", "encoder"}, {"axis", "x"}, {"drive", 0}, {"reversed", false}});
+  ASSERT_EQ(r.status, 200) << r.raw;
+  EXPECT_FALSE(axisNamed(r.body, "x")["drives"][0]["encoder_reversed"].get<bool>());
+  // An amplifier deaf to its enable: enabled with ENA off; put right, off.
+  r = sim.post("/api/machine", {{"action", "amplifier"}, {"axis", "y"}, {"enable_ignored", true}});
+  ASSERT_EQ(r.status, 200) << r.raw;
+  auto y = axisNamed(r.body, "y")["drives"][0];
+  EXPECT_TRUE(y["enable_ignored"].get<bool>());
+  EXPECT_FALSE(y["ena"].get<bool>());
+  EXPECT_TRUE(y["enabled"].get<bool>());
+  EXPECT_FALSE(axisNamed(r.body, "x")["drives"][0]["enable_ignored"].get<bool>());
+  r = sim.post("/api/machine", {{"action", "amplifier"}, {"axis", "y"}, {"drive", 0}, {"enable_ignored", false}});
+  ASSERT_EQ(r.status, 200) << r.raw;
+  y = axisNamed(r.body, "y")["drives"][0];
+  EXPECT_FALSE(y["enable_ignored"].get<bool>());
+  EXPECT_FALSE(y["enabled"].get<bool>());
   EXPECT_EQ(sim.stopWithin(2000ms), 0);
 }
 
@@ -152,7 +179,7 @@ TEST(SimMachine, BadMachineActionsAreRefusedNamingTheField) {
   const std::vector<Case> cases = {
       {json::object(), "missing \"action\""},
       {{{"action", 3}}, "\"action\" must be a string"},
-      {{{"action", "fly"}}, "\"action\" must be one of push, jam, encoder, estop, probe, switch"},
+      {{{"action", "fly"}}, "\"action\" must be one of push, jam, encoder, amplifier, estop, probe, switch"},
       {{{"action", "push"}, {"distance", 1.0}}, "missing \"axis\""},
       {{{"action", "push"}, {"axis", "y"}, {"distance", 1.0}}, "this machine has no axis \"y\" (it has x, z)"},
       {{{"action", "push"}, {"axis", "x"}}, "missing \"distance\""},
@@ -168,6 +195,21 @@ TEST(SimMachine, BadMachineActionsAreRefusedNamingTheField) {
       {{{"action", "encoder"}, {"axis", "x"}, {"drive", 1}, {"channel", "A"}, {"broken", true}},
        "\"drive\" must be a whole number below 1"},
       {{{"action", "encoder"}, {"axis", "x"}, {"channel", "A"}}, "missing \"broken\""},
+      {{{"action", "encoder"}, {"axis", "x"}}, "missing \"channel\" and \"broken\" (a broken wire) or \"reversed\""},
+      {{{"action", "encoder"}, {"axis", "x"}, {"channel", "A"}, {"broken", true}, {"reversed", true}},
+       "\"reversed\" goes alone: give either \"channel\" and \"broken\""},
+      {{{"action", "encoder"}, {"axis", "x"}, {"broken", false}, {"reversed", true}}, "\"reversed\" goes alone"},
+      {{{"action", "encoder"}, {"axis", "x"}, {"reversed", "yes"}}, "\"reversed\" must be true or false"},
+      {{{"action", "encoder"}, {"axis", "x"}, {"drive", 1}, {"reversed", true}},
+       "\"drive\" must be a whole number below 1"},
+      {{{"action", "encoder"}, {"axis", "q"}, {"reversed", true}}, "no axis \"q\""},
+      {{{"action", "amplifier"}, {"axis", "x"}}, "missing \"enable_ignored\""},
+      {{{"action", "amplifier"}, {"axis", "x"}, {"enable_ignored", 1}}, "\"enable_ignored\" must be true or false"},
+      {{{"action", "amplifier"}, {"axis", "spindle"}, {"enable_ignored", true}},
+       "this machine has no axis \"spindle\""},
+      {{{"action", "amplifier"}, {"axis", "z"}, {"drive", 1}, {"enable_ignored", true}},
+       "\"drive\" must be a whole number below 1"},
+      {{{"action", "amplifier"}, {"axis", "x"}, {"reversed", true}}, "unknown key \"reversed\""},
       {{{"action", "estop"}}, "missing \"pressed\""},
       {{{"action", "probe"}, {"touching", "yes"}}, "\"touching\" must be true or false"},
       {{{"action", "switch"}, {"name", "nope"}, {"tripped", true}}, "this machine has no switch \"nope\""},
@@ -189,6 +231,9 @@ TEST(SimMachine, BadMachineActionsAreRefusedNamingTheField) {
   const auto m = sim.get("/api/machine").body;
   EXPECT_EQ(axisNamed(m, "x")["position"].get<double>(), 50.0);
   EXPECT_FALSE(axisNamed(m, "x")["jammed"].get<bool>());
+  EXPECT_FALSE(axisNamed(m, "x")["drives"][0]["encoder_reversed"].get<bool>());
+  EXPECT_EQ(axisNamed(m, "x")["drives"][0]["encoder_broken"], json::array());
+  EXPECT_FALSE(axisNamed(m, "z")["drives"][0]["enable_ignored"].get<bool>());
   EXPECT_TRUE(m["estop_ok"].get<bool>());
   EXPECT_EQ(sim.stopWithin(2000ms), 0);
 }
@@ -317,8 +362,8 @@ TEST(SimMachine, RecordsEveryServoCycle) {
     ASSERT_TRUE(ss.cycle().ok);
     EXPECT_EQ(sim.stopWithin(2000ms), 0);
   }
-  const std::vector<std::string> columns{"time_s", "x_command_volts", "x_command_velocity", "x_position",
-                                         "x_velocity", "x_following_error"};
+  const std::vector<std::string> columns{"time_s",     "x_command_volts",   "x_command_velocity", "x_position",
+                                         "x_velocity", "x_following_error", "x_enabled",          "y_command_volts"};
   for (std::size_t i = 0; i < columns.size(); ++i) EXPECT_EQ(trace["columns"][i], columns[i]);
   EXPECT_EQ(trace["columns"].back(), "spindle_rpm");
   // The CSV: the same columns, a row per cycle, numbers that make sense.
@@ -351,15 +396,23 @@ TEST(SimMachine, RecordsEveryServoCycle) {
     EXPECT_LE(row[4], 60.0);  // the drive's velocity loop overshoots a little, then settles
     EXPECT_GT(row[5], -0.05);  // it lags its command, a little, and catches up
     EXPECT_LT(row[5], 0.5);
+    EXPECT_EQ(row[6], 1.0);  // ENA on: the drive enabled
   }
   EXPECT_GE(moving, cycles - 5);
   // The last row at 2 V (the rows after it follow the 0 V that ended the
   // test, and how far X has slowed by then depends on when they were taken).
   const auto lastMoving = std::find_if(rows.rbegin(), rows.rend(), [](const auto& row) { return row[1] >= 1.99; });
   ASSERT_NE(lastMoving, rows.rend());
+  // The rows after it that have the 0 V have ENA off with it (one process
+  // data write carries both): the drive disabled.
+  for (auto row = rows.rbegin(); row != lastMoving; ++row) {
+    if ((*row)[1] == 0.0) {
+      EXPECT_EQ((*row)[6], 0.0);
+    }
+  }
   EXPECT_NEAR((*lastMoving)[4], 50.0, 0.5);
   EXPECT_GT((*lastMoving)[3], 210.0);  // 400 ms at up to 50 mm/s
-  EXPECT_NEAR(rows.back()[8], 150.0, 1e-9);  // Y stayed
+  EXPECT_NEAR(rows.back()[9], 150.0, 1e-9);  // Y stayed
 }
 
 }  // namespace

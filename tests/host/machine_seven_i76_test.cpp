@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "support/allocation_counter.hpp"
 #include "config/machine_toml.hpp"
@@ -309,6 +310,21 @@ TEST_F(SevenI76Machine, AdvancingDoesNotAllocate) {
   EXPECT_EQ(testing_alloc::tAllocations - before, 0U);
   EXPECT_GE(m.position(kZ), -70.0);  // the switch changed on the way
   EXPECT_TRUE(board.input(0));
+}
+
+// The trace: a stepper axis has no amplifier, so no <a>_enabled column;
+// the servo axes have theirs.
+TEST_F(SevenI76Machine, AStepperAxisHasNoEnabledColumnInTheTrace) {
+  const auto columns = m.traceColumns();
+  ASSERT_EQ(columns.size(), 1U + 6U + 6U + 5U + 1U);
+  EXPECT_EQ(columns[6], "x_enabled");
+  EXPECT_EQ(columns[12], "y_enabled");
+  EXPECT_EQ(columns[13], "z_command_volts");
+  EXPECT_EQ(columns[17], "z_following_error");
+  EXPECT_EQ(columns[18], "spindle_rpm");
+  std::vector<double> row(columns.size());
+  m.traceRow(row);
+  EXPECT_EQ(row[6], 0.0);  // ENA off
 }
 
 // The 7I76's processor runs from field power as the 7I77's does (their

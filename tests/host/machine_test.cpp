@@ -502,6 +502,160 @@ TEST(MachineFaults, ABrokenIndexGivesNoIndexPulse) {
   EXPECT_THROW(r.m.setEncoderBroken(0, 1, machine::EncoderChannel::A, true), std::out_of_range);
 }
 
+// A and B swapped (the encoder reversed): from the change on the count runs
+// against the motion, going on from where it was (no jump); put right, it
+// runs with the motion again.
+TEST(MachineFaults, AReversedEncoderCountsAgainstTheMotionWithoutAJump) {
+  Rig r;
+  r.setEnable(true);
+  r.setVolts(0, 0.4);  // 10 mm/s: 16 counts a cycle
+  for (int i = 0; i < 100; ++i) r.cycle();
+  // The counts each cycle adds.
+  auto steps = [&](int cycles) {
+    std::vector<double> out;
+    for (int i = 0; i < cycles; ++i) {
+      const auto before = r.enc.counts(0);
+      r.cycle();
+      out.push_back(static_cast<double>(r.enc.counts(0) - before));
+    }
+    return out;
+  };
+  for (const auto d : steps(10)) EXPECT_NEAR(d, 16, 1);
+  r.m.setEncoderReversed(0, 0, true);
+  EXPECT_TRUE(r.m.state().axes[0].drives[0].encoderReversed);
+  const auto counted = r.enc.counts(0);
+  const double from = r.m.axis(0).position();
+  auto after = steps(200);
+  for (std::size_t i = 0; i < after.size(); ++i) ASSERT_LE(std::abs(after[i]), 17.0) << "cycle " << i;
+  for (std::size_t i = 2; i < after.size(); ++i) ASSERT_NEAR(after[i], -16, 1) << "cycle " << i;
+  // Two cycles' motion at most counted forward: the span the encoder was
+  // already aimed over when it changed, and the cycle the host reads behind.
+  const double moved = r.m.axis(0).position() - from;
+  EXPECT_NEAR(moved, 2.0, 0.02);
+  EXPECT_NEAR(static_cast<double>(r.enc.counts(0) - counted), -moved * kCountsPerMm, 2 * 16 + 2);
+  r.m.setEncoderReversed(0, 0, false);
+  EXPECT_FALSE(r.m.state().axes[0].drives[0].encoderReversed);
+  after = steps(20);
+  for (std::size_t i = 0; i < after.size(); ++i) ASSERT_LE(std::abs(after[i]), 17.0) << "cycle " << i;
+  for (std::size_t i = 2; i < after.size(); ++i) ASSERT_NEAR(after[i], 16, 1) << "cycle " << i;
+  // The spindle's encoder too; a drive the axis lacks is out of range.
+  EXPECT_TRUE(r.m.setSpindleEncoderReversed(true));
+  EXPECT_TRUE(r.m.state().spindle->encoderReversed);
+  EXPECT_THROW(r.m.setEncoderReversed(0, 1, true), std::out_of_range);
+}
+
+// The index track is on the shaft: reversed, the encoder's index comes at
+// the same shaft angle, so homing to it lands a whole motor revolution
+// from where it did.
+TEST(MachineFaults, AReversedEncoderLeavesTheIndexWhereItWas) {
+  Rig r;
+  r.setEnable(true);
+  r.setVolts(0, 0.2);  // 5 mm/s
+  // Where the axis was when the index cleared the count; `direction`: the
+  // count's, +1 or -1 a forward count.
+  auto indexPosition = [&](double direction) {
+    r.enc.enableIndex(0);
+    for (int i = 0; i < 1100 && r.enc.indexEnabled(0); ++i) r.cycle();
+    EXPECT_FALSE(r.enc.indexEnabled(0));
+    return r.m.axis(0).position() - direction * static_cast<double>(r.enc.counts(0)) / kCountsPerMm;
+  };
+  const double before = indexPosition(1.0);
+  for (int i = 0; i < 333; ++i) r.cycle();  // a third of a revolution on
+  r.m.setEncoderReversed(0, 0, true);
+  const double reversed = indexPosition(-1.0);
+  for (int i = 0; i < 150; ++i) r.cycle();
+  r.m.setEncoderReversed(0, 0, false);
+  const double mended = indexPosition(1.0);
+  for (const double at : {reversed, mended}) {
+    const double revolutions = (at - before) / 5.0;  // one index a motor revolution, 5 mm
+    EXPECT_GE(revolutions, 0.5);
+    EXPECT_NEAR(revolutions, std::round(revolutions), 2 * kOneCount / 5.0) << before << " then " << at;
+  }
+}
+
+// Reversed, the encoder turns the position loop into positive feedback: the
+// axis a P loop held runs away from its target (manual: CAUTION).
+TEST(MachineFaults, AReversedEncoderMakesThePositionLoopRunAway) {
+  Rig r;
+  constexpr double initial = 200.0, kp = 5.0;  // V per mm
+  double target = initial;
+  r.setEnable(true);
+  auto loop = [&](int cycles) {
+    for (int i = 0; i < cycles; ++i) {
+      r.setVolts(0, clampVolts(kp * (target - r.counted(0, initial))));
+      r.cycle();
+    }
+  };
+  loop(200);
+  EXPECT_NEAR(r.m.axis(0).position(), initial, kOneCount);
+  r.m.setEncoderReversed(0, 0, true);
+  target = initial + 1.0;
+  loop(200);
+  EXPECT_GT(r.m.axis(0).position(), initial + 20.0);  // 10 V, 250 mm/s, away
+  EXPECT_LT(r.counted(0, initial), initial - 20.0);   // counted the other way
+}
+
+// An amplifier whose enable input does nothing (a jumpered enable): with
+// ENA off it still follows its analog command and holds still at 0 V; put
+// right, ENA rules it again and the axis coasts to a stop.
+TEST(MachineFaults, AnAmplifierIgnoringItsEnableRunsWithEnaOff) {
+  Rig r;
+  r.setEnable(false);
+  r.setVolts(0, 0.4);  // 10 mm/s
+  for (int i = 0; i < 100; ++i) r.cycle();
+  EXPECT_EQ(r.m.axis(0).velocity(), 0.0);
+  EXPECT_FALSE(r.m.state().axes[0].drives[0].enabled);
+  r.m.setEnableIgnored(0, 0, true);
+  for (int i = 0; i < 300; ++i) r.cycle();
+  auto s = r.m.state();
+  EXPECT_FALSE(s.axes[0].drives[0].enaOn);
+  EXPECT_TRUE(s.axes[0].drives[0].enabled);
+  EXPECT_TRUE(s.axes[0].drives[0].enableIgnored);
+  EXPECT_FALSE(s.axes[1].drives[0].enableIgnored);
+  EXPECT_NEAR(s.axes[0].velocity, 10.0, 0.1);
+  EXPECT_NEAR(r.m.commandVelocity(0), 10.0, 0.05);  // the 7I77 DAC's steps
+  r.setVolts(0, 0.0);
+  for (int i = 0; i < 300; ++i) r.cycle();
+  const double held = r.m.axis(0).position();
+  for (int i = 0; i < 300; ++i) r.cycle();
+  EXPECT_NEAR(r.m.axis(0).velocity(), 0.0, 1e-3);
+  EXPECT_NEAR(r.m.axis(0).position(), held, 1e-3);
+  EXPECT_FALSE(r.m.resting());  // powered, holding
+  r.setVolts(0, 0.4);
+  for (int i = 0; i < 100; ++i) r.cycle();
+  EXPECT_NEAR(r.m.axis(0).velocity(), 10.0, 0.1);
+  r.m.setEnableIgnored(0, 0, false);
+  for (int i = 0; i < 1000; ++i) r.cycle();
+  s = r.m.state();
+  EXPECT_FALSE(s.axes[0].drives[0].enabled);
+  EXPECT_FALSE(s.axes[0].drives[0].enableIgnored);
+  EXPECT_EQ(s.axes[0].velocity, 0.0);  // coasted to a stop
+  EXPECT_THROW(r.m.setEnableIgnored(0, 1, true), std::out_of_range);
+}
+
+// The host stops with such a drive commanded to move: 50 ms later the
+// 7I77's watchdog drops ENA and takes AOUT to 0 V (manual: ANALOG SECTION
+// WATCHDOG). ENA does nothing to the drive; the 0 V stops it, and it holds
+// the axis there, powered.
+TEST(MachineFaults, AnAmplifierIgnoringItsEnableStopsOnTheWatchdogsZeroVolts) {
+  Rig r;
+  r.setEnable(true);
+  r.setVolts(0, 4.0);  // 100 mm/s
+  r.m.setEnableIgnored(0, 0, true);
+  for (int i = 0; i < 300; ++i) r.cycle();
+  EXPECT_NEAR(r.m.axis(0).velocity(), 100.0, 0.5);
+  for (int i = 0; i < 1000; ++i) {  // no host cycles: only time passes
+    r.m.advance(hm2::SimTime{r.rc.t.now() + 1ms});
+    r.rc.t.sleep(1ms);
+  }
+  const auto s = r.m.state();
+  EXPECT_FALSE(s.axes[0].drives[0].enaOn);
+  EXPECT_TRUE(s.axes[0].drives[0].enabled);
+  EXPECT_EQ(s.axes[0].drives[0].commandVolts, 0.0);
+  EXPECT_NEAR(s.axes[0].velocity, 0.0, 1e-3);
+  EXPECT_FALSE(r.m.resting());
+}
+
 // The E-stop button opens the chain's normally closed input; the probe closes its own.
 TEST(MachineFaults, EstopAndProbeByKind) {
   Rig r;
@@ -530,15 +684,18 @@ TEST(MachineFaults, EstopAndProbeByKind) {
 TEST(MachineTrace, ARowHoldsEveryAxisCommandPositionAndFollowingError) {
   Rig r;
   const auto columns = r.m.traceColumns();
-  ASSERT_EQ(columns.size(), 1U + 3U * 5U + 1U);
+  ASSERT_EQ(columns.size(), 1U + 3U * 6U + 1U);
   EXPECT_EQ(columns[0], "time_s");
   EXPECT_EQ(columns[1], "x_command_volts");
   EXPECT_EQ(columns[2], "x_command_velocity");
   EXPECT_EQ(columns[3], "x_position");
   EXPECT_EQ(columns[4], "x_velocity");
   EXPECT_EQ(columns[5], "x_following_error");
-  EXPECT_EQ(columns[15], "z_following_error");
-  EXPECT_EQ(columns[16], "spindle_rpm");
+  EXPECT_EQ(columns[6], "x_enabled");
+  EXPECT_EQ(columns[7], "y_command_volts");
+  EXPECT_EQ(columns[17], "z_following_error");
+  EXPECT_EQ(columns[18], "z_enabled");
+  EXPECT_EQ(columns[19], "spindle_rpm");
   r.setEnable(true);
   r.setVolts(0, 2.0);  // 50 mm/s
   for (int i = 0; i < 300; ++i) r.cycle();
@@ -552,12 +709,21 @@ TEST(MachineTrace, ARowHoldsEveryAxisCommandPositionAndFollowingError) {
   // The drive lags its command while it accelerates, then keeps pace.
   EXPECT_LT(row[5], 0.5);
   EXPECT_GT(row[5], 0.0);
-  EXPECT_EQ(row[10], 0.0);  // Y: enabled, told 0 V, holding: no error
+  EXPECT_EQ(row[6], 1.0);   // enabled
+  EXPECT_EQ(row[11], 0.0);  // Y: enabled, told 0 V, holding: no error
+  EXPECT_EQ(row[12], 1.0);
   r.setEnable(false);
   r.cycle();
   r.m.traceRow(row);
   EXPECT_EQ(row[2], 0.0);
   EXPECT_EQ(row[5], 0.0);  // disabled: nothing asked
+  EXPECT_EQ(row[6], 0.0);
+  EXPECT_EQ(row[12], 0.0);
+  // The amplifier as it runs: one ignoring its enable is enabled with ENA off.
+  r.m.setEnableIgnored(1, 0, true);
+  r.m.traceRow(row);
+  EXPECT_EQ(row[6], 0.0);
+  EXPECT_EQ(row[12], 1.0);
 }
 
 }  // namespace

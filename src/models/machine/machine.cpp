@@ -223,9 +223,24 @@ void Machine::setEncoderBroken(std::size_t axis, std::size_t drive, EncoderChann
   a.drives.at(drive).encoder.setBroken(channel, broken, a.axis.motorRevs(), card_->now());
 }
 
+void Machine::setEncoderReversed(std::size_t axis, std::size_t drive, bool reversed) {
+  AxisPlant& a = axes_.at(axis);
+  a.drives.at(drive).encoder.setReversed(reversed, a.axis.motorRevs());
+}
+
+void Machine::setEnableIgnored(std::size_t axis, std::size_t drive, bool ignored) {
+  axes_.at(axis).drives.at(drive).amplifier.setEnableIgnored(ignored);
+}
+
 bool Machine::setSpindleEncoderBroken(EncoderChannel channel, bool broken) {
   if (!spindleEncoder_) return false;
   spindleEncoder_->setBroken(channel, broken, spindle_->revolutions(), card_->now());
+  return true;
+}
+
+bool Machine::setSpindleEncoderReversed(bool reversed) {
+  if (!spindleEncoder_) return false;
+  spindleEncoder_->setReversed(reversed, spindle_->revolutions());
   return true;
 }
 
@@ -254,9 +269,12 @@ double Machine::followingError(std::size_t axis) const {
 
 std::vector<std::string> Machine::traceColumns() const {
   std::vector<std::string> c{"time_s"};
-  for (const auto& a : d_.axes)
+  for (std::size_t i = 0; i < axes_.size(); ++i) {
+    const std::string& name = d_.axes[i].name;
     for (const char* what : {"command_volts", "command_velocity", "position", "velocity", "following_error"})
-      c.push_back(a.name + "_" + what);
+      c.push_back(name + "_" + what);
+    if (!axes_[i].drives.empty()) c.push_back(name + "_enabled");
+  }
   if (spindle_) c.emplace_back("spindle_rpm");
   return c;
 }
@@ -275,6 +293,10 @@ void Machine::traceRow(std::span<double> row) const {
     put(position(a));
     put(velocity(a));
     put(followingError(i));
+    if (!a.drives.empty()) {
+      const Drive& first = a.drives.front();
+      put(first.amplifier.enabled(board_->analog.enable(first.d.enable)) ? 1.0 : 0.0);
+    }
   }
   if (spindle_) put(spindle_->rpm());
 }
@@ -429,11 +451,10 @@ Machine::State Machine::state() const {
     out.followingError = followingError(i);
     for (const Drive& drive : a.drives) {
       const bool ena = analog.enable(drive.d.enable);
-      out.drives.push_back(State::Drive{drive.d.analogOutput, analog.outputVoltage(drive.d.analogOutput), ena,
-                                        drive.amplifier.enabled(ena), drive.torque, drive.d.encoderInput,
-                                        drive.encoder.count(),
-                                        drive.encoder.shaftCounts(a.axis.motorRevs()),
-                                        brokenChannels(drive.encoder)});
+      out.drives.push_back(State::Drive{
+          drive.d.analogOutput, analog.outputVoltage(drive.d.analogOutput), ena, drive.amplifier.enabled(ena),
+          drive.torque, drive.d.encoderInput, drive.encoder.count(), drive.encoder.shaftCounts(a.axis.motorRevs()),
+          brokenChannels(drive.encoder), drive.encoder.reversed(), drive.amplifier.enableIgnored()});
     }
     if (a.stepper)
       out.stepper = State::Stepper{a.stepper->parameters().stepGen, a.stepper->steps(), a.stepper->lostSteps(),
@@ -452,6 +473,7 @@ Machine::State Machine::state() const {
     if (spindleEncoder_) {
       sp.encoderCount = spindleEncoder_->count();
       sp.encoderBroken = brokenChannels(*spindleEncoder_);
+      sp.encoderReversed = spindleEncoder_->reversed();
     }
     s.spindle = sp;
   }

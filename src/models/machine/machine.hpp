@@ -59,6 +59,8 @@ class Machine {
       std::uint16_t encoderCount = 0;  // the card's count register
       double trueCounts = 0.0;         // where a perfect counter would be (from shaft revolution 0)
       std::vector<EncoderChannel> encoderBroken;  // channels cut (setEncoderBroken)
+      bool encoderReversed = false;               // setEncoderReversed
+      bool enableIgnored = false;                 // setEnableIgnored
       bool operator==(const Drive&) const = default;
     };
     // A stepper axis' motor (StepperMotor): the StepGen's steps since the
@@ -94,6 +96,7 @@ class Machine {
       bool running = false;  // the VFD's run input
       std::optional<std::uint16_t> encoderCount;
       std::vector<EncoderChannel> encoderBroken;
+      bool encoderReversed = false;
       bool operator==(const Spindle&) const = default;
     };
     struct Output {
@@ -145,14 +148,21 @@ class Machine {
 
   // Faults to rehearse, on axis `axis` (an index; see axisIndex):
   // an outside force pushing it (Axis::push), a jam (Axis::setJammed), a
-  // broken encoder channel of drive `drive` (QuadratureEncoder::setBroken).
-  // The card's time is now. Out of range: std::out_of_range. A stepper axis
+  // broken encoder channel of drive `drive` (QuadratureEncoder::setBroken),
+  // that encoder's A and B swapped (QuadratureEncoder::setReversed: the
+  // count goes on from where it is, the other way), or that drive's
+  // amplifier ignoring its enable input (ServoAmplifier::setEnableIgnored:
+  // it runs whatever ENA says). The card's time is now. Out of range:
+  // std::out_of_range (a stepper axis has no drives). A stepper axis
   // cannot be pushed (std::invalid_argument); jammed, it loses its steps.
   void push(std::size_t axis, double distance, double speed);
   void setJammed(std::size_t axis, bool jammed);
   void setEncoderBroken(std::size_t axis, std::size_t drive, EncoderChannel channel, bool broken);
+  void setEncoderReversed(std::size_t axis, std::size_t drive, bool reversed);
+  void setEnableIgnored(std::size_t axis, std::size_t drive, bool ignored);
   // The spindle's encoder; false when there is none.
   bool setSpindleEncoderBroken(EncoderChannel channel, bool broken);
+  bool setSpindleEncoderReversed(bool reversed);
   [[nodiscard]] std::optional<std::size_t> axisIndex(std::string_view name) const;
   [[nodiscard]] std::size_t drives(std::size_t axis) const { return axes_.at(axis).drives.size(); }
 
@@ -168,7 +178,9 @@ class Machine {
 
   // One row of the servo-cycle trace: time_s, then per axis
   // <a>_command_volts, <a>_command_velocity, <a>_position, <a>_velocity,
-  // <a>_following_error (drive 0's amplifier), then spindle_rpm with a
+  // <a>_following_error (drive 0's amplifier) and, on a servo axis,
+  // <a>_enabled (1 while drive 0's amplifier is enabled, after its enable
+  // polarity and setEnableIgnored; else 0), then spindle_rpm with a
   // spindle. traceRow fills `row` (traceColumns().size() values) without
   // allocating: it is taken on the card thread at every host cycle.
   [[nodiscard]] std::vector<std::string> traceColumns() const;

@@ -15,8 +15,8 @@ QuadratureEncoder::QuadratureEncoder(EncoderParameters parameters, hm2::MuxedEnc
   // The signal goes on from where it is; the counter model puts the index at
   // multiples of countsPerRev of the signal, so it comes once a revolution
   // at a fixed shaft angle, as on a real encoder.
-  origin_ = encoders.signal(input).position - (p_.reversed ? -1.0 : 1.0) * revs * countsPerRev();
-  encoders.setIndexPeriod(input, p_.index ? countsPerRev() : 0);
+  origin_ = encoders.signal(input).position - direction() * revs * countsPerRev();
+  placeIndex();
 }
 
 void QuadratureEncoder::setBroken(EncoderChannel channel, bool broken, double revs, SimTime now) {
@@ -32,10 +32,26 @@ void QuadratureEncoder::setBroken(EncoderChannel channel, bool broken, double re
     encoders_->advance(now);
     const double slip = encoders_->signal(input_).position - trueCounts(revs);
     origin_ += slip;
-    slipped_ += slip;
+    indexAt_ += slip;
   }
-  encoders_->setIndexPeriod(input_, p_.index && !this->broken(EncoderChannel::Index) ? countsPerRev() : 0,
-                            std::llround(slipped_));
+  placeIndex();
+}
+
+void QuadratureEncoder::setReversed(bool reversed, double revs) {
+  if (reversed == swapped_) return;
+  const double cpr = countsPerRev();
+  // The index's shaft angle (revolutions), from where it comes along the signal now.
+  const double indexRevs = (indexAt_ - origin_) / (direction() * cpr);
+  const double counts = trueCounts(revs);
+  swapped_ = reversed;
+  origin_ = counts - direction() * revs * cpr;  // trueCounts(revs) is where it was
+  indexAt_ = std::fmod(origin_ + direction() * indexRevs * cpr, cpr);
+  placeIndex();
+}
+
+void QuadratureEncoder::placeIndex() {
+  encoders_->setIndexPeriod(input_, p_.index && !broken(EncoderChannel::Index) ? countsPerRev() : 0,
+                            std::llround(indexAt_));
 }
 
 }  // namespace lbpkit::model::machine

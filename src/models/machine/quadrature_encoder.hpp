@@ -79,11 +79,21 @@ class QuadratureEncoder {
   [[nodiscard]] bool broken(EncoderChannel channel) const {
     return (broken_ >> static_cast<unsigned>(channel)) & 1U;
   }
+  // A and B swapped at the connector, or the encoder mounted the other way
+  // (a fault to rehearse, on top of parameters().reversed): the count runs
+  // the other way from the motion, and a position loop closed through it
+  // is positive feedback, the runaway the manual warns of (manual: CAUTION,
+  // "motor position versus analog output drive"). The count goes on from
+  // where it is: trueCounts(revs), with the shaft at `revs` (the plant's,
+  // at its time), keeps its value across the change, so nothing jumps. The
+  // index stays at its shaft angle.
+  void setReversed(bool reversed, double revs);
+  [[nodiscard]] bool reversed() const { return swapped_; }
 
   [[nodiscard]] std::uint32_t countsPerRev() const { return 4 * p_.linesPerRev; }
   // Counts the shaft is at: what a perfect counter would show.
   [[nodiscard]] double trueCounts(double revs) const {
-    return origin_ + (p_.reversed ? -1.0 : 1.0) * revs * static_cast<double>(countsPerRev());
+    return origin_ + direction() * revs * static_cast<double>(countsPerRev());
   }
   // The same from the shaft's revolution 0 (the count a counter cleared there shows).
   [[nodiscard]] double shaftCounts(double revs) const { return trueCounts(revs) - origin_; }
@@ -95,6 +105,13 @@ class QuadratureEncoder {
   [[nodiscard]] const EncoderParameters& parameters() const { return p_; }
 
  private:
+  // Counts per shaft revolution's sign: -1 when reversed by the
+  // description or by the fault, not both.
+  [[nodiscard]] double direction() const { return p_.reversed != swapped_ ? -1.0 : 1.0; }
+  // The counter's index pulses where indexAt_ says, if the encoder has an
+  // index and it is not broken.
+  void placeIndex();
+
   // Within this of the shaft, a standing signal stays put: a shaft at rest
   // costs the counters nothing.
   static constexpr double kAtRest = 1e-6;  // counts
@@ -103,11 +120,13 @@ class QuadratureEncoder {
   hm2::MuxedEncoder* encoders_;
   unsigned input_;
   double origin_;  // signal counts at shaft revolution 0
-  // How far the A/B count has slipped against the shaft (counts missed
-  // while a channel was broken): the index track has not, so its pulses
-  // are set this far along the signal.
-  double slipped_ = 0.0;
+  // Where along the signal the index pulses come (modulo countsPerRev):
+  // the index track is fixed to the shaft, so this moves as the A/B count
+  // slips against the shaft (counts missed while a channel was broken) and
+  // when the count is reversed.
+  double indexAt_ = 0.0;
   std::uint8_t broken_ = 0;  // bit per EncoderChannel
+  bool swapped_ = false;     // setReversed
 };
 
 }  // namespace lbpkit::model::machine

@@ -50,8 +50,19 @@ class ServoAmplifier {
 
   // Whether the drive is enabled, from the state of its ENA switch.
   [[nodiscard]] bool enabled(bool enaOn) const {
+    if (enableIgnored_) return true;
     return p_.enablePolarity == EnablePolarity::ActiveHigh ? enaOn : !enaOn;
   }
+  // A fault to rehearse: the enable input does nothing (a jumpered or
+  // miswired enable), so the drive runs whatever its ENA switch says,
+  // following its analog input. The host taking its command to 0 V, or
+  // the 7I77's watchdog doing so when the host stops (manual: ANALOG
+  // SECTION WATCHDOG), then holds the motor at a standstill rather than
+  // letting it go; only an E-stop circuit that removes servo power stops
+  // such a drive (manual: CAUTION, "NEVER depend on software commands to
+  // disable a motor"; the watchdog "is not a replacement for ESTOP").
+  void setEnableIgnored(bool ignored) { enableIgnored_ = ignored; }
+  [[nodiscard]] bool enableIgnored() const { return enableIgnored_; }
   // The command the drive makes of `volts` at its input: rev/s or Nm, after
   // offset, deadband and saturation.
   [[nodiscard]] double command(double volts) const {
@@ -91,6 +102,7 @@ class ServoAmplifier {
   AmplifierParameters p_;
   double integral_ = 0.0;  // Nm, the velocity loop's integrator
   double velocityCommand_ = 0.0;
+  bool enableIgnored_ = false;
 };
 
 }  // namespace lbpkit::model::machine

@@ -103,6 +103,12 @@ std::string axisNames(const model::machine::Machine& m) {
   return listed(names);
 }
 
+// Why an "encoder" action on the spindle cannot be done.
+std::string noSpindleEncoder(const model::machine::Machine& m) {
+  return m.spindle() != nullptr ? "\"axis\": this machine's spindle has no encoder"
+                                : "\"axis\": this machine has no spindle";
+}
+
 // The outside world's reach: a push as far as any machine travels, as fast
 // as any axis could be shoved.
 constexpr double kMaxPush = 1e6;
@@ -133,7 +139,7 @@ void machineAction(model::machine::Machine& m, const json& j) {
     const auto a = axis();
     m.setJammed(a, flag(j, "jammed"));
   } else if (action == "encoder") {
-    fields::onlyKnown(j, {"action", "axis", "drive", "channel", "broken"});
+    fields::onlyKnown(j, {"action", "axis", "drive", "channel", "broken", "reversed"});
     const std::string name = text(j, "axis");
     const auto a = m.axisIndex(name);
     if (!a && name != "spindle")
@@ -145,6 +151,23 @@ void machineAction(model::machine::Machine& m, const json& j) {
       throw std::invalid_argument(fmt::format("\"axis\": {} is a stepper axis: it has no encoder", name));
     const unsigned drives = a ? static_cast<unsigned>(m.drives(*a)) : 1U;
     const unsigned drive = j.contains("drive") ? index(j, "drive", drives) : 0U;
+    // One fault a request: a channel broken or mended, or A and B swapped.
+    const bool reversing = j.contains("reversed");
+    if (reversing && (j.contains("channel") || j.contains("broken")))
+      throw std::invalid_argument(
+          "\"reversed\" goes alone: give either \"channel\" and \"broken\" (a broken wire) or \"reversed\" (A and B "
+          "swapped), not both");
+    if (!reversing && !j.contains("channel") && !j.contains("broken"))
+      throw std::invalid_argument(
+          "missing \"channel\" and \"broken\" (a broken wire) or \"reversed\" (A and B swapped)");
+    if (reversing) {
+      const bool reversed = flag(j, "reversed");
+      if (a)
+        m.setEncoderReversed(*a, drive, reversed);
+      else if (!m.setSpindleEncoderReversed(reversed))
+        throw std::invalid_argument(noSpindleEncoder(m));
+      return;
+    }
     const std::string channelName = text(j, "channel");
     model::machine::EncoderChannel channel{};
     if (channelName == "A")
@@ -159,8 +182,16 @@ void machineAction(model::machine::Machine& m, const json& j) {
     if (a)
       m.setEncoderBroken(*a, drive, channel, broken);
     else if (!m.setSpindleEncoderBroken(channel, broken))
-      throw std::invalid_argument(m.spindle() ? "\"axis\": this machine's spindle has no encoder"
-                                              : "\"axis\": this machine has no spindle");
+      throw std::invalid_argument(noSpindleEncoder(m));
+  } else if (action == "amplifier") {
+    fields::onlyKnown(j, {"action", "axis", "drive", "enable_ignored"});
+    const auto a = axis();
+    // A stepper axis has no amplifier on the 7I77: its StepGen drives it.
+    if (m.stepper(a) != nullptr)
+      throw std::invalid_argument(
+          fmt::format("\"axis\": {} is a stepper axis: it has no amplifier", m.description().axes[a].name));
+    const unsigned drive = j.contains("drive") ? index(j, "drive", static_cast<unsigned>(m.drives(a))) : 0U;
+    m.setEnableIgnored(a, drive, flag(j, "enable_ignored"));
   } else if (action == "estop") {
     fields::onlyKnown(j, {"action", "pressed"});
     const bool pressed = flag(j, "pressed");
@@ -182,7 +213,7 @@ void machineAction(model::machine::Machine& m, const json& j) {
           fmt::format("\"name\": this machine has no switch \"{}\" (it has {})", name, listed(names)));
     }
   } else {
-    throw std::invalid_argument("\"action\" must be one of push, jam, encoder, estop, probe, switch");
+    throw std::invalid_argument("\"action\" must be one of push, jam, encoder, amplifier, estop, probe, switch");
   }
 }
 

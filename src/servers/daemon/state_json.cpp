@@ -227,7 +227,9 @@ json toJson(const model::machine::Machine::State& s) {
                         {"encoder_input", d.encoderInput},
                         {"encoder_count", d.encoderCount},
                         {"true_counts", d.trueCounts},
-                        {"encoder_broken", channelNames(d.encoderBroken)}});
+                        {"encoder_broken", channelNames(d.encoderBroken)},
+                        {"encoder_reversed", d.encoderReversed},
+                        {"enable_ignored", d.enableIgnored}});
     // A stepper axis (no drives): its StepGen's steps, those the motor lost,
     // whether it is out of step, and where the steps say the axis is (its
     // following error is the lost steps in machine units). null on a servo axis.
@@ -260,6 +262,7 @@ json toJson(const model::machine::Machine::State& s) {
                {"running", sp.running},
                {"encoder_count", sp.encoderCount ? json(*sp.encoderCount) : json(nullptr)},
                {"encoder_broken", channelNames(sp.encoderBroken)},
+               {"encoder_reversed", sp.encoderReversed},
                {"daughtercard", model::machine::daughtercardName(sp.daughtercard)}};
   }
   json outputs = json::array();

@@ -92,6 +92,12 @@
   // What is wired to the 7I76 rather than the 7I77 says so.
   const on76 = (part) => (part.daughtercard === "7I76" ? " (7I76)" : "");
 
+  // A drive's amplifier and the faults on it and its encoder.
+  const driveText = (d) => (d.enabled ? "enabled" : "off") +
+    (d.enable_ignored ? " (ENA ignored)" : "") +
+    (d.encoder_broken.length ? ` (encoder ${d.encoder_broken.join("+")} broken)` : "") +
+    (d.encoder_reversed ? " (encoder reversed)" : "");
+
   function updateMachine(m) {
     const chain = document.getElementById("estop-chain");
     chain.textContent = m.estop_ok ? "E-stop chain closed (ok)" : "E-stop chain OPEN";
@@ -114,7 +120,7 @@
         stall.classList.toggle("stalled", st.stalled);
         stall.dataset.stalled = String(st.stalled);
       } else {
-        L.setText(`amp-${n}`, a.drives.map((d) => (d.enabled ? "enabled" : "off") + (d.encoder_broken.length ? ` (encoder ${d.encoder_broken.join("+")} broken)` : "")).join(", ") + (a.jammed ? " JAMMED" : ""));
+        L.setText(`amp-${n}`, a.drives.map(driveText).join(", ") + (a.jammed ? " JAMMED" : ""));
       }
       L.setText(`sw-${n}`, a.switches.map((s) => s.name + on76(s) + (s.tripped ? " TRIPPED" : "")).join(", "));
       document.getElementById(`jam-${n}`).dataset.jammed = String(a.jammed);
