@@ -88,3 +88,4 @@ void addCheckConfigCommand(CLI::App& app);
 void addBenchCommand(CLI::App& app);
 void addLinuxCncCommand(CLI::App& app);  // cmd_linuxcnc.cpp
 void addMachineCommand(CLI::App& app);   // cmd_machine.cpp
+void addRehearseCommand(CLI::App& app);  // cmd_rehearse.cpp

@@ -37,6 +37,7 @@ int main(int argc, char** argv) {
   addDecodeCommand(app);
   addLinuxCncCommand(app);
   addMachineCommand(app);
+  addRehearseCommand(app);
   CLI11_PARSE(app, argc, argv);
   try {
     return app::gRun ? app::gRun() : 0;

@@ -125,21 +125,7 @@ class ConfigDisplay(display.Display):
         self.c.wait_complete()
         started = time.monotonic()
         j = range(self.joints)
-        done = lambda k: self.s.homed[k] and not self.s.joint[k]["homing"]  # noqa: E731
-        if all(self.ini.find("JOINT_%d" % k, "HOME_SEQUENCE") is not None for k in j):
-            # Home All, as AXIS offers it when every joint has a sequence.
-            self.c.home(-1)
-            self.c.wait_complete()
-            ok = self.wait(lambda: all(done(k) for k in j), 120)
-        else:
-            # Without HOME_SEQUENCE, Home All does nothing: one joint at a
-            # time, as a user of AXIS does.
-            ok = True
-            for k in j:
-                self.c.home(k)
-                self.c.wait_complete()
-                ok = self.wait(lambda: done(k), 60) and ok  # noqa: B023
-        
+        ok = self.home_all()
         took = time.monotonic() - started
         self.wait(self.idle, 5)
         self.report("home", ok=ok, seconds=round(took, 2), homed=[bool(self.s.homed[k]) for k in j],

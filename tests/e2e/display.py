@@ -15,22 +15,26 @@ Runs under the /usr/bin/python3 that has LinuxCNC's module (Debian's, or
 another release's in its root).
 """
 import json
+import os
 import subprocess
 import sys
 import time
 import traceback
 
-import hal
 import linuxcnc
 
+# lbpkit rehearse's driver (apps/lbpkit/rehearse_driver.py), copied beside
+# this file by the tests: LinuxCNC as a display sees it.
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from rehearse_driver import Driver  # noqa: E402
 
-class Display:
+
+class Display(Driver):
     def __init__(self, args, name):
+        super().__init__(args.ini, name)
         self.out = open(args.out, "a", buffering=1)
         self.args = args
         self.name = name
-        self.ini = linuxcnc.ini(args.ini)
-        self.joints = int(float(self.ini.find("KINS", "JOINTS") or self.ini.find("TRAJ", "AXES") or 3))
         # One count of each joint's feedback: an encoder count on a servo
         # joint (ENCODER_SCALE), a step on a stepper joint (SCALE).
         self.unit = []
@@ -41,14 +45,7 @@ class Display:
                 if scale:
                     break
             self.unit.append(1.0 / abs(float(scale or 1.0)))
-        self.s = linuxcnc.stat()
-        self.c = linuxcnc.command()
-        self.e = linuxcnc.error_channel()
-        self.messages = []  # every error/message LinuxCNC sent, in order
         self.t0 = time.monotonic()
-        # A HAL component of its own, so that hal.get_value can read pins.
-        self.halcomp = hal.component(name)
-        self.halcomp.ready()
 
     # -- reporting -------------------------------------------------------
     def report(self, step, **fields):
@@ -61,43 +58,9 @@ class Display:
         return {}
 
     # -- LinuxCNC --------------------------------------------------------
-    def poll(self):
-        self.s.poll()
-        while True:
-            m = self.e.poll()
-            if not m:
-                break
-            self.messages.append(m[1].strip())
-
-    def wait(self, predicate, timeout, period=0.005):
-        """Polls LinuxCNC until predicate() holds; False after timeout s."""
-        end = time.monotonic() + timeout
-        while True:
-            self.poll()
-            if predicate():
-                return True
-            if time.monotonic() > end:
-                return False
-            time.sleep(period)
-
+    # poll, wait, set_mode, set_state and idle: the driver's.
     def messages_since(self, n):
         return self.messages[n:]
-
-    def set_mode(self, mode):
-        self.poll()
-        if self.s.task_mode != mode:
-            self.c.mode(mode)
-            self.c.wait_complete(5)
-        return self.wait(lambda: self.s.task_mode == mode, 5)
-
-    def set_state(self, state, timeout=5):
-        self.c.state(state)
-        self.c.wait_complete(timeout)
-        return self.wait(lambda: self.s.task_state == state, timeout)
-
-    def idle(self):
-        return (self.s.interp_state == linuxcnc.INTERP_IDLE and self.s.inpos and self.s.queue == 0
-                and self.s.state != linuxcnc.RCS_EXEC)
 
     def mdi(self, command, timeout=30):
         if not self.set_mode(linuxcnc.MODE_MDI):
@@ -115,12 +78,9 @@ class Display:
         files = self.ini.findall("HAL", "POSTGUI_HALFILE") or []
         results = []
         for f in files:
-            r = subprocess.run(["halcmd", "-i", self.ini_path(), "-f", f], capture_output=True, text=True)
+            r = subprocess.run(["halcmd", "-i", self.ini_path, "-f", f], capture_output=True, text=True)
             results.append({"file": f, "exit": r.returncode, "output": (r.stdout + r.stderr)[-500:]})
         self.report("postgui", files=results, ok=all(r["exit"] == 0 for r in results))
-
-    def ini_path(self):
-        return sys.argv[sys.argv.index("-ini") + 1]
 
 
 def run_reporting(d):

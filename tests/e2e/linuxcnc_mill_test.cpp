@@ -168,6 +168,7 @@ class LinuxCncRun {
     fs::create_directories(tmp / "e2e");
     fs::copy_file(source / "tests/e2e/mill_display.py", tmp / "e2e/mill_display.py");
     fs::copy_file(source / "tests/e2e/display.py", tmp / "e2e/display.py");  // the general display it builds on
+    fs::copy_file(source / "apps/lbpkit/rehearse_driver.py", tmp / "e2e/rehearse_driver.py");  // and that on
     fs::copy_file(source / "tests/e2e/mill_program.ngc", tmp / "e2e/mill_program.ngc");
     fs::permissions(tmp / "e2e/mill_display.py", fs::perms::owner_all | fs::perms::group_read |
                                                       fs::perms::group_exec | fs::perms::others_read |

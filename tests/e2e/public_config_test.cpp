@@ -100,10 +100,12 @@ TEST_P(PublicConfigRun, HomesMovesAndRunsAProgram) {
   fs::copy(source(c), config, fs::copy_options::recursive);
   for (const auto& l : c.leftOut) leaveOut(config, l);
   fs::create_directories(dir.path() / "e2e");
-  for (const char* script : {"config_display.py", "display.py"}) {
-    fs::copy_file(fs::path(LBPKIT_SOURCE_DIR) / "tests/e2e" / script, dir.path() / "e2e" / script);
-    fs::permissions(dir.path() / "e2e" / script, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
-                                                     fs::perms::others_read | fs::perms::others_exec);
+  // The displays and the driver of lbpkit rehearse's they build on.
+  for (const char* script : {"tests/e2e/config_display.py", "tests/e2e/display.py", "apps/lbpkit/rehearse_driver.py"}) {
+    fs::copy_file(fs::path(LBPKIT_SOURCE_DIR) / script, dir.path() / "e2e" / fs::path(script).filename());
+    fs::permissions(dir.path() / "e2e" / fs::path(script).filename(),
+                    fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec | fs::perms::others_read |
+                        fs::perms::others_exec);
   }
   const auto results = dir.path() / "results.jsonl";
   std::ofstream(results).close();

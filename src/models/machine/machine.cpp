@@ -391,8 +391,12 @@ void Machine::span(SimTime t1) {
     const std::size_t n = a.drives.size();
     for (std::size_t k = 0; k < n; ++k) {
       Drive& drive = a.drives[k];
-      drives[k] = ServoDrive{&drive.amplifier, analog.outputVoltage(drive.d.analogOutput),
-                             analog.enable(drive.d.enable), a.inertiaShare, 0.0};
+      const bool ena = analog.enable(drive.d.enable);
+      if (ena != drive.ena) {
+        drive.ena = ena;
+        drive.enaChangedAt = t0;
+      }
+      drives[k] = ServoDrive{&drive.amplifier, analog.outputVoltage(drive.d.analogOutput), ena, a.inertiaShare, 0.0};
     }
     a.motion.advance(a.axis, std::span(drives.data(), n), brake, t1 - t0);
     for (std::size_t k = 0; k < n; ++k) a.drives[k].torque = drives[k].torque;
@@ -451,10 +455,11 @@ Machine::State Machine::state() const {
     out.followingError = followingError(i);
     for (const Drive& drive : a.drives) {
       const bool ena = analog.enable(drive.d.enable);
-      out.drives.push_back(State::Drive{
-          drive.d.analogOutput, analog.outputVoltage(drive.d.analogOutput), ena, drive.amplifier.enabled(ena),
-          drive.torque, drive.d.encoderInput, drive.encoder.count(), drive.encoder.shaftCounts(a.axis.motorRevs()),
-          brokenChannels(drive.encoder), drive.encoder.reversed(), drive.amplifier.enableIgnored()});
+      out.drives.push_back(State::Drive{drive.d.analogOutput, analog.outputVoltage(drive.d.analogOutput), ena,
+                                        drive.amplifier.enabled(ena), drive.torque, drive.d.encoderInput,
+                                        drive.encoder.count(), drive.encoder.shaftCounts(a.axis.motorRevs()),
+                                        brokenChannels(drive.encoder), drive.encoder.reversed(),
+                                        drive.amplifier.enableIgnored(), drive.enaChangedAt});
     }
     if (a.stepper)
       out.stepper = State::Stepper{a.stepper->parameters().stepGen, a.stepper->steps(), a.stepper->lostSteps(),

@@ -61,6 +61,11 @@ class Machine {
       std::vector<EncoderChannel> encoderBroken;  // channels cut (setEncoderBroken)
       bool encoderReversed = false;               // setEncoderReversed
       bool enableIgnored = false;                 // setEnableIgnored
+      // When ENAn last changed, as the plant met it (at the start of the
+      // span it first held over, so within a span of the change; 0 if never):
+      // how long the analog watchdog took to drop it, read after the fact
+      // (manual: ANALOG SECTION WATCHDOG).
+      SimTime enaChangedAt{};
       bool operator==(const Drive&) const = default;
     };
     // A stepper axis' motor (StepperMotor): the StepGen's steps since the
@@ -212,6 +217,8 @@ class Machine {
     ServoAmplifier amplifier;
     QuadratureEncoder encoder;
     double torque = 0.0;
+    bool ena = false;        // ENAn as the last span met it
+    SimTime enaChangedAt{};  // State::Drive::enaChangedAt
   };
   struct AxisPlant {
     Axis axis;

@@ -223,6 +223,7 @@ json toJson(const model::machine::Machine::State& s) {
                         {"command_volts", d.commandVolts},
                         {"ena", d.enaOn},
                         {"enabled", d.enabled},
+                        {"ena_changed_s", std::chrono::duration<double>(d.enaChangedAt).count()},
                         {"torque", d.torque},
                         {"encoder_input", d.encoderInput},
                         {"encoder_count", d.encoderCount},
