@@ -28,13 +28,13 @@ class Scenario : public LinuxCnc {
  public:
   // What LinuxCNC showed across the scenario's first fault.
   struct Seen {
-    long long packetErrors = 0;  // hm2_eth's packet-error-total, from 4.5 s to 6.5 s
+    long long packetErrors = 0;  // hm2_eth's packet-error-total, from 4.5 s to after the network's counts
     std::string ioError;         // hm2_eth's io_error at 6.5 s
     bool inputSeen = false;      // input 5, switched on at 6 s, read through the smart-serial port
     int faultCountMax = 0;       // the smart-serial port's highest fault-count of any cycle
     std::string portState;       // its port_state at 6.5 s (3: running)
     std::string messages;        // hostmot2's and hm2_eth's messages from loading on
-    nlohmann::json network;      // /api/network's counts at 6.5 s
+    nlohmann::json network;      // /api/network's counts at 6.5 s, before packetErrors
   };
 
  protected:
@@ -66,13 +66,17 @@ class Scenario : public LinuxCnc {
     const long long before = packetErrors();
     EXPECT_EQ(getp("hm2_7i92.0.7i77.0.0.input-05"), "FALSE");
     EXPECT_TRUE(untilSim(6.5));
+    // The card's counts first: a fault it made just now is in hm2_eth's
+    // count once hm2_eth has finished that cycle, which on the host clock
+    // is before simulated time has moved on two periods.
+    seen.network = sim_->get("/api/network")["did"];
+    EXPECT_TRUE(untilSim(simSeconds() + 0.005));
     seen.packetErrors = packetErrors() - before;
     seen.ioError = getp("hm2_7i92.0.io_error");
     seen.inputSeen = getp("hm2_7i92.0.7i77.0.0.input-05") == "TRUE";
     seen.faultCountMax = std::atoi(getp("minmax.0.max").c_str());
     seen.portState = getp("hm2_7i92.0.sserial.port-0.port_state");
     seen.messages = messages();
-    seen.network = sim_->get("/api/network")["did"];
     std::printf("%s (LinuxCNC running from %.2f s): packet-error-total +%lld, io_error %s, input 5 %s, "
                 "sserial fault-count up to %d, port_state %s, network %s\nmessages:\n%s\n",
                 file.c_str(), loadedAt, seen.packetErrors, seen.ioError.c_str(), seen.inputSeen ? "seen" : "not seen",
