@@ -115,6 +115,72 @@ TEST_F(HostClockTest, TimeTheCardWasHeldBackIsNoSilenceOfTheHost) {
   EXPECT_EQ(c.now(), back + 45ms);
 }
 
+// A servo thread without real-time scheduling, kept 300 ms from its CPU:
+// seen runnable every 5 ms, it is late, not stopped, and its next cycle is
+// one period on, as on an on-time machine. A second after its last cycle a
+// host still seen runnable is silent all the same, from that cycle.
+TEST_F(HostClockTest, AHostSeenRunnableIsLateNotSilentForUpToASecond) {
+  SimClock c(server::HostClock{1ms, 40ms}, false, &testWall);
+  c.hostCycle();
+  const SimTime atCycle = c.now();
+  for (int i = 0; i < 60; ++i) {
+    pass(5ms);
+    c.hostRunning(wall);
+  }
+  EXPECT_TRUE(c.drivenByHost());
+  EXPECT_EQ(c.now(), atCycle);
+  c.hostCycle();
+  EXPECT_EQ(c.now(), atCycle + 1ms);
+  EXPECT_EQ(c.silences(), 0U);
+  EXPECT_EQ(c.runningHolds(), 1U);
+  const SimTime last = c.now();
+  for (int i = 0; i < 200; ++i) {
+    pass(5ms);
+    c.hostRunning(wall);
+  }
+  pass(40ms);
+  EXPECT_TRUE(c.drivenByHost()) << "seen runnable 1 s after its cycle: 40 ms more";
+  pass(1ms);
+  EXPECT_FALSE(c.drivenByHost());
+  EXPECT_EQ(c.now(), last + 1041ms);
+  c.hostCycle();
+  EXPECT_EQ(c.silences(), 1U);
+  EXPECT_EQ(c.runningHolds(), 1U);
+}
+
+// A host never seen runnable (stopped, killed, or asleep by its own
+// choice) is silent at the bound; one seen runnable only after that does
+// not take time back; and a host whose requests the network lost is silent
+// at the bound however it runs (the card heard nothing of it).
+TEST_F(HostClockTest, AHostSeenRunnableTooLateOrUnheardIsSilentAtTheBound) {
+  SimClock c(server::HostClock{1ms, 40ms}, false, &testWall);
+  c.hostCycle();
+  const SimTime atCycle = c.now();
+  pass(41ms);
+  c.hostRunning(wall);
+  EXPECT_FALSE(c.drivenByHost());
+  EXPECT_EQ(c.now(), atCycle + 41ms);
+  c.hostCycle();
+  EXPECT_EQ(c.silences(), 1U);
+  const SimTime back = c.now();
+  pass(20ms);
+  c.hostUnheard();
+  c.hostRunning(wall);
+  pass(21ms);
+  c.hostRunning(wall);
+  EXPECT_FALSE(c.drivenByHost());
+  EXPECT_EQ(c.now(), back + 41ms);
+  // The next cycle hears the host again: a sighting holds once more.
+  c.hostCycle();
+  const SimTime again = c.now();
+  pass(30ms);
+  c.hostRunning(wall);
+  pass(30ms);
+  EXPECT_TRUE(c.drivenByHost());
+  EXPECT_EQ(c.now(), again);
+  EXPECT_EQ(c.runningHolds(), 0U);
+}
+
 TEST_F(HostClockTest, ADoItTakenLateIsTakenAtWhenItCame) {
   // The card thread got to a DoIt 24 ms after it came, 1 ms after the last
   // cycle (the kernel held the sim back): the host was on time, and the

@@ -129,12 +129,11 @@ inline std::string patientDeadlines(const std::string& board) {
 // The 7I77's own watchdog (50 ms, manual: WATCHDOG AND FAULTS) bites when
 // its processor hears nothing from the host for that long, and LinuxCNC's
 // hostmot2 does not start the port again: outputs stay off. On the sim's
-// host clock a host silent past 40 ms of wall clock has stopped
-// (docs/clocks.md), so a servo thread this kernel holds back 50 ms lets it
-// bite, LinuxCNC's lateness and not the card's (seen once in a CI run:
-// inputs read, outputs refused with WatchdogFault; a SCHED_FIFO task taking
-// the CPU for 60 ms every 400 ms while LinuxCNC runs does it in one run of
-// six). The tests that drive outputs and are not about that watchdog give
+// host clock a host silent past 40 ms of wall clock has stopped, unless the
+// sim sees its process runnable, kept from its CPU (docs/clocks.md); a
+// servo thread held back 50 ms otherwise (asleep in a system call, or a
+// process the sim cannot look into) lets it bite, LinuxCNC's lateness and
+// not the card's. The tests that drive outputs and are not about that watchdog give
 // each processor's working WATCHDOGTIME 500 ms through LBP before LinuxCNC
 // loads (hostmot2 leaves it as it is), as the HostMot2 watchdog gets 200 ms
 // in patientDeadlines (test_support::kPatient7i77WatchdogMs).

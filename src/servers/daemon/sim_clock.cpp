@@ -52,8 +52,14 @@ void SimClock::hostCycle(std::chrono::nanoseconds wallAgo) {
   // the kernel held back must not make a host on time look silent.
   const auto wall = std::max(wallBase_, wallNow_() - wallAgo);
   const model::lbp::SimTime t = at(wall);
-  if (hostCycles_ > 0 && !leftCycle_ && silent(wall)) ++silences_;
+  if (hostCycles_ > 0 && !leftCycle_) {
+    if (silent(wall))
+      ++silences_;
+    else if (wall - wallBase_ > silence_)
+      ++runningHolds_;
+  }
   leftCycle_ = false;
+  unheard_ = false;
   if (period_.count() == 0) learn(wall);
   lastCycleWall_ = wall;
   ++hostCycles_;
@@ -68,6 +74,12 @@ void SimClock::hostLeftItsCycle() {
   if (source_ != Source::Host || paused_ || leftCycle_) return;
   leftCycle_ = true;
   ++cyclesLeft_;
+}
+
+void SimClock::hostRunning(Wall::time_point wall) {
+  if (source_ != Source::Host || paused_ || period_.count() == 0 || hostCycles_ == 0 || unheard_ || silent(wall))
+    return;
+  runningSeen_ = std::max(runningSeen_, wall);
 }
 
 void SimClock::heldBack(std::chrono::nanoseconds late) {

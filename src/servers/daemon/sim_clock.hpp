@@ -14,9 +14,10 @@
 //   write once a cycle), so a host whose servo thread runs late on a kernel
 //   without real-time scheduling still meets the plant one period after its
 //   last cycle, exactly as an on-time real-time machine would. A host silent
-//   for longer than a bound well under the 7I77's 50 ms watchdog hands time
-//   back to the wall clock from its last cycle on, so a killed host still
-//   trips every watchdog on time.
+//   for longer than a bound well under the 7I77's 50 ms watchdog (and not
+//   seen runnable meanwhile: host_watch.hpp) hands time back to the wall
+//   clock from its last cycle on, so a killed host still trips every
+//   watchdog on time.
 //
 // Used on the card thread only.
 #pragma once
@@ -111,6 +112,32 @@ class SimClock {
   // silent before the card was held back stays silent; a stopped host's
   // silence is only counted later by as long as the card was held back.
   void heldBack(std::chrono::nanoseconds late);
+  // The host's process was seen runnable at `wall` (process::threadsState:
+  // a thread of it running or waiting for a CPU): a host that has not
+  // cycled since is late, not stopped. A servo thread without real-time
+  // scheduling waits for its CPU behind other work, 50 ms and more on a
+  // busy PC; an on-time machine never does, and its 7I77 never sees the
+  // gap. So while the host is seen runnable, its silence counts from the
+  // sighting, for up to kRunningHostBound after its last cycle: a host
+  // stopped (SIGSTOP), killed, or alive but no longer cycling is never
+  // seen runnable, and is silent at the bound as ever. Ignored when the
+  // host is silent already (time has run on: it is not taken back), and
+  // after hostUnheard() until the next cycle.
+  void hostRunning(Wall::time_point wall);
+  // A datagram of the host's was lost on its way to the card (a network
+  // fault: dropped, silenced, corrupted): the card hears nothing of the
+  // host, however it runs, and its silence counts from its last cycle.
+  void hostUnheard() { unheard_ = true; }
+  // How long a host seen runnable may stay silent (docs/clocks.md): over
+  // the longest wait for a CPU a servo thread meets on a loaded PC without
+  // real-time scheduling, and short enough that a host which hangs while
+  // runnable still meets its watchdogs, in simulated time as ever, a
+  // second late on the wall clock.
+  static constexpr std::chrono::milliseconds kRunningHostBound{1000};
+  // How many times a host came back after a silence beyond the bound that
+  // was held because it was seen runnable (for /api/state): each a time
+  // a host without real-time scheduling would have been taken as stopped.
+  [[nodiscard]] std::uint64_t runningHolds() const { return runningHolds_; }
   // How long a host-driven card has been held back in all, and how often
   // (for /api/state).
   [[nodiscard]] std::chrono::nanoseconds heldBackFor() const { return heldBackFor_; }
@@ -172,7 +199,12 @@ class SimClock {
   void fallBackTo(model::lbp::SimTime t);
   [[nodiscard]] model::lbp::SimTime at(Wall::time_point wall) const;  // simulated time at a wall-clock moment
   void learn(Wall::time_point wall);
-  [[nodiscard]] bool silent(Wall::time_point wall) const { return leftCycle_ || wall - wallBase_ > silence_; }
+  // The host's last sign of life: its last cycle, or a later sighting of
+  // it runnable within kRunningHostBound of that.
+  [[nodiscard]] Wall::time_point lastSign() const {
+    return unheard_ ? wallBase_ : std::max(wallBase_, std::min(runningSeen_, wallBase_ + kRunningHostBound));
+  }
+  [[nodiscard]] bool silent(Wall::time_point wall) const { return leftCycle_ || wall - lastSign() > silence_; }
 
   WallNow wallNow_;
   Source source_ = Source::Wall;
@@ -191,6 +223,9 @@ class SimClock {
   std::uint64_t hostCycles_ = 0;
   std::uint64_t silences_ = 0;
   bool leftCycle_ = false;  // hostLeftItsCycle() since the last cycle
+  bool unheard_ = false;    // hostUnheard() since the last cycle
+  Wall::time_point runningSeen_{};  // hostRunning()'s latest sighting
+  std::uint64_t runningHolds_ = 0;
   std::uint64_t cyclesLeft_ = 0;
   std::chrono::nanoseconds heldBackFor_{0};
   std::uint64_t heldBackTimes_ = 0;

@@ -19,6 +19,7 @@
 #include <stdexcept>
 
 #include "daemon/api_routes.hpp"
+#include "daemon/host_watch.hpp"
 #include "daemon/state_json.hpp"
 #include "lbp16/udp_server.hpp"
 #include "process/process.hpp"
@@ -52,6 +53,7 @@ SimDaemon::SimDaemon(SimOptions options)
     throw std::invalid_argument("a trace needs a machine to record");
   }
   udp_ = std::make_unique<UdpServer>(options_.bindAddress, options_.port);
+  if (options_.hostClock) hostWatch_ = std::make_unique<HostWatch>();
   jobsReady_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
   if (jobsReady_ < 0) throw std::runtime_error("cannot create an eventfd for the card thread's jobs");
   udp_->alsoWakeOn(jobsReady_);
@@ -202,11 +204,20 @@ SimState SimDaemon::state() {
   const auto now = catchUp(clock_.paused() ? std::chrono::microseconds(200'000) : SimClock::kBudget);
   SimState s;
   s.time = now;
-  s.clock = {clock_.speed(),       clock_.paused(),       clock_.behind(),
-             clock_.slips(),       clock_.source() == SimClock::Source::Host,
-             clock_.period(),      clock_.drivenByHost(), clock_.hostCycles(),
-             clock_.silences(),    clock_.heldBackFor(),  clock_.heldBackTimes(),
-             clock_.cyclesLeft()};
+  s.clock = {clock_.speed(),
+             clock_.paused(),
+             clock_.behind(),
+             clock_.slips(),
+             clock_.source() == SimClock::Source::Host,
+             clock_.period(),
+             clock_.drivenByHost(),
+             clock_.hostCycles(),
+             clock_.silences(),
+             clock_.heldBackFor(),
+             clock_.heldBackTimes(),
+             clock_.cyclesLeft(),
+             clock_.runningHolds(),
+             hostWatch_ ? hostWatch_->pid() : 0};
   const auto& id = lbp16_->identity();
   s.card = {id.name, options_.bindAddress, udp_->port(), id.mac, lbp16_->eeprom()};
   s.lbp16 = lbp16_->counters();
@@ -506,12 +517,14 @@ void SimDaemon::serve(std::chrono::milliseconds wait) {
   // (SimClock::hostLeftItsCycle): the wall clock again.
   const auto until = NetworkFaults::Clock::now() + wait;
   const bool served = udp_->serveOnce(wait, [&](std::span<const std::uint8_t> req, std::span<std::uint8_t> reply) {
+    watchHost();
     const auto before = card_.part<model::hm2::Sslbp>().counters();
     const std::size_t n = lbp16_->handle(req, reply, catchUpTo(clock_.ago(udp_->sinceReceived()), budget()));
     const auto& after = card_.part<model::hm2::Sslbp>().counters();
-    if (after.doits != before.doits)
+    if (after.doits != before.doits) {
       clock_.hostCycle(udp_->sinceReceived());
-    else if (after.commands != before.commands)
+      if (hostWatch_) hostWatch_->cycled(udp_->peer());
+    } else if (after.commands != before.commands)
       clock_.hostLeftItsCycle();
     if (packetTrace_) traceDatagram(req, reply.first(n));
     return n;
@@ -527,6 +540,7 @@ void SimDaemon::serve(std::chrono::milliseconds wait) {
   // host (SimClock::heldBack). Its own work is not counted: a datagram the
   // host sends meanwhile has its kernel time, and a stopped host's silence
   // must not wait for the API's requests.
+  watchHost();
   clock_.heldBack(served ? udp_->lastQueueing()
                          : std::max(std::chrono::nanoseconds{0}, NetworkFaults::Clock::now() - until));
   // A reply the network would not take: the card's TX error (space 6).
@@ -573,6 +587,23 @@ void SimDaemon::serve(std::chrono::milliseconds wait) {
   }
 }
 
+void SimDaemon::watchHost() {
+  if (!hostWatch_) return;
+  // A request the network lost: the card heard nothing of the host then,
+  // however its process ran.
+  const auto& r = udp_->faults().counters().request;
+  const std::uint64_t lost = r.dropped + r.silenced + r.corrupted + r.overflowed;
+  if (lost != requestsLostSeen_) {
+    requestsLostSeen_ = lost;
+    clock_.hostUnheard();
+  }
+  const auto seen = hostWatch_->runningAt();
+  if (seen != hostSeenTaken_) {
+    hostSeenTaken_ = seen;
+    clock_.hostRunning(SimClock::Wall::time_point{seen});
+  }
+}
+
 void SimDaemon::run(const std::atomic<bool>& stop, int stopFd) {
   SimDaemon* self = this;
   runAll(std::span<SimDaemon* const>(&self, 1), stop, stopFd);
@@ -613,7 +644,10 @@ void SimDaemon::runAll(std::span<SimDaemon* const> cards, const std::atomic<bool
       const int ready = ::ppoll(fds.data(), fds.size(), &ts, nullptr);
       if (ready == 0) {  // the timer: how late it woke this thread (SimClock::heldBack)
         const auto late = NetworkFaults::Clock::now() - (now + wait);
-        for (SimDaemon* d : cards) d->clock_.heldBack(std::max(std::chrono::nanoseconds{0}, late));
+        for (SimDaemon* d : cards) {
+          d->watchHost();
+          d->clock_.heldBack(std::max(std::chrono::nanoseconds{0}, late));
+        }
       }
       for (std::size_t i = 0; i < cards.size(); ++i) {
         SimDaemon& d = *cards[i];

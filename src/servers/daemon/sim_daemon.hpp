@@ -27,6 +27,7 @@
 
 #include "daemon/api_routes.hpp"
 #include "daemon/fault_script.hpp"
+#include "daemon/host_watch.hpp"
 #include "daemon/pcap_recorder.hpp"
 #include "daemon/sim_clock.hpp"
 #include "daemon/trace_file.hpp"
@@ -142,6 +143,9 @@ class SimDaemon {
   // One round of the card thread: waits up to `wait` for a datagram and
   // answers it, then lets time pass, runs what is due and the API's jobs.
   void serve(std::chrono::milliseconds wait);
+  // Hands the clock what the host watch saw (a sighting of the host's
+  // process runnable) and what the network lost of the host's requests.
+  void watchHost();
   // The card thread has stopped: queued jobs get their answers at once.
   void closeJobs();
   void drainJobs();
@@ -206,6 +210,11 @@ class SimDaemon {
   std::uint64_t errorsSeen_ = 0;  // bad datagrams logged so far
   std::function<void(const std::string&)> scriptLog_;
   SimClock clock_;
+  // On the host clock: the watch on the host's process, and what of it the
+  // clock has taken (watchHost(), on the card thread).
+  std::unique_ptr<HostWatch> hostWatch_;
+  HostWatch::Clock::duration hostSeenTaken_{0};
+  std::uint64_t requestsLostSeen_ = 0;
   std::string interface_;
   std::string schedule_ = "normal scheduling";
   bool macFromInterface_ = false;

@@ -298,6 +298,8 @@ json toJson(const SimState& s) {
     j["clock"]["held_back_ms"] = std::chrono::duration<double, std::milli>(s.clock.heldBack).count();
     j["clock"]["held_back_times"] = s.clock.heldBackTimes;
     j["clock"]["host_left_cycle"] = s.clock.cyclesLeft;
+    j["clock"]["host_late_held"] = s.clock.runningHolds;
+    j["clock"]["host_pid"] = s.clock.hostPid;
   }
   const auto& e = s.card.eeprom;
   j["card"] = {{"name", s.card.name},

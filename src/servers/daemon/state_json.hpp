@@ -44,7 +44,9 @@ struct SimState {
     // silent beyond the bound); silences: returns after such a silence;
     // cyclesLeft: times the host left its cycle for another command;
     // heldBack: how long (and how often) the card thread itself was held
-    // back while a host drove time, which no silence counts.
+    // back while a host drove time, which no silence counts; runningHolds:
+    // silences beyond the bound held because the host's process was seen
+    // runnable (late, not stopped), and hostPid that process (0: not found).
     bool host = false;
     model::lbp::SimTime period{0};
     bool driven = false;
@@ -53,6 +55,8 @@ struct SimState {
     std::chrono::nanoseconds heldBack{0};
     std::uint64_t heldBackTimes = 0;
     std::uint64_t cyclesLeft = 0;
+    std::uint64_t runningHolds = 0;
+    int hostPid = 0;
   } clock;
   // Who the card says it is on the network, and where it listens.
   struct Card {
