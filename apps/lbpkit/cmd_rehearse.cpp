@@ -158,7 +158,9 @@ bool Session::mdi(const std::string& command, double timeoutS) {
       .value("ok", false);
 }
 
-bool Session::wanted(const std::string& id) const {
+bool Session::wanted(const std::string& id) const { return wantedBy(only, id); }
+
+bool wantedBy(const std::vector<std::string>& only, const std::string& id) {
   if (only.empty()) return true;
   // One is the other's beginning, at a dot or the end: "runaway" asks for
   // "runaway.x..." and "runaway.x.jammed.moving" for the group "runaway.x".
@@ -295,6 +297,196 @@ std::vector<std::string> words(const std::string& text) {
   return out;
 }
 
+// What one rehearsal needs from the command line and the configuration.
+struct Context {
+  const RehearseOptions& options;
+  app::linuxcnc_run::RunAs user;
+  fs::path ini, report, machinePath, logPath;
+  lbpkit::model::machine::MachineDescription machine;
+  std::vector<std::string> only;
+};
+
+using Check = void (*)(rehearse::Session&, rehearse::Results&);
+
+// What a LinuxCNC session of the rehearsal left besides its results.
+struct Outcome {
+  std::string failure;   // why it stopped before its last check; empty: it did not
+  json clock = nullptr;  // the sim's clock at its end (/api/state)
+  std::string units;
+  std::vector<std::string> said;  // what LinuxCNC said
+};
+
+// The last 25 lines of lbpkit linuxcnc's output.
+std::string tail(const fs::path& logPath) {
+  std::ifstream in(logPath);
+  std::vector<std::string> lines;
+  for (std::string l; std::getline(in, l);) lines.push_back(l);
+  std::string out;
+  for (std::size_t i = lines.size() > 25 ? lines.size() - 25 : 0; i < lines.size(); ++i)
+    out += "  | " + lines[i] + "\n";
+  return out;
+}
+
+// One LinuxCNC session: lbpkit linuxcnc started with the driver as its
+// display, `checks` run in it (those --only asks for), LinuxCNC stopped.
+Outcome rehearseIn(const Context& c, std::span<const std::pair<const char*, Check>> checks,
+                   rehearse::Results& results) {
+  DriverFolder folder(c.user);
+  const auto& logPath = c.logPath;
+  const auto& ini = c.ini;
+  const auto& machinePath = c.machinePath;
+  const auto& o = c.options;
+  Fd log(::open(logPath.c_str(), O_WRONLY | O_APPEND | O_NOFOLLOW | O_CLOEXEC));
+  int readyPipe[2];
+  if (::pipe2(readyPipe, O_CLOEXEC) != 0) throw lbpkit::Error("cannot make a pipe");
+  Fd readyRead(readyPipe[0]), readyWrite(readyPipe[1]);
+
+  const std::string display = fmt::format("{} --requests {} --answers {}", folder.driver().string(),
+                                          folder.requests().string(), folder.answers().string());
+  const std::string self = fs::read_symlink("/proc/self/exe").string();
+  lbpkit::process::SpawnOptions so;
+  so.out = log.fd;
+  so.ready = readyWrite.fd;
+  so.ownProcessGroup = true;
+  so.deathSignal = SIGTERM;
+  std::vector<std::string> argv = {self,        "linuxcnc", ini.string(), "--machine", machinePath.string(),
+                                   "--display", display,    "--ready-fd", "3"};
+  if (!o.card.empty()) argv.insert(argv.end(), {"--card", o.card});
+  const pid_t runPid = lbpkit::process::spawn(argv, so);
+  ::close(readyWrite.fd);
+  readyWrite.fd = -1;
+
+  // Whatever happens below, the run is stopped as Ctrl-C would stop it.
+  struct Stopper {
+    pid_t pid;
+    bool reaped = false;
+    ~Stopper() {
+      if (!reaped) lbpkit::process::stopWithGrace(pid, 30s, SIGINT, true);
+    }
+  } stopper{runPid};
+
+  // The run's greeting: the sim's API and the namespace.
+  std::string greeting;
+  const auto until = std::chrono::steady_clock::now() + 180s;
+  while (greeting.find('\n') == std::string::npos) {
+    int status = 0;
+    if (::waitpid(runPid, &status, WNOHANG) == runPid) {
+      stopper.reaped = true;
+      throw lbpkit::Error(fmt::format("lbpkit linuxcnc ended before LinuxCNC started; the end of {}:\n{}",
+                                      logPath.string(), tail(logPath)));
+    }
+    if (app::gStop || std::chrono::steady_clock::now() > until)
+      throw lbpkit::Error(app::gStop ? "stopped (Ctrl-C)" : "LinuxCNC did not start within 180 s");
+    pollfd p{readyRead.fd, POLLIN, 0};
+    if (::poll(&p, 1, 200) > 0) {
+      char buf[4096];
+      const ssize_t n = ::read(readyRead.fd, buf, sizeof buf);
+      if (n > 0) greeting.append(buf, static_cast<std::size_t>(n));
+    }
+  }
+  const auto g = json::parse(greeting.substr(0, greeting.find('\n')), nullptr, false);
+  if (g.is_discarded()) throw lbpkit::Error("lbpkit linuxcnc's greeting is not JSON");
+  const std::string url = g["sim"]["cards"][0]["api"]["url"].get<std::string>();
+  const auto address = app::parseApiAddress(url.substr(url.find("//") + 2), "127.0.0.1");
+  rehearse::Api api(address.host, address.port);
+
+  Fd answers(::open(folder.answers().c_str(), O_RDWR | O_CLOEXEC));
+  Fd requests(::open(folder.requests().c_str(), O_RDWR | O_CLOEXEC));
+  rehearse::Driver driver(requests.fd, answers.fd, runPid);
+  try {
+    driver.greeting(120s);
+  } catch (const lbpkit::Error& e) {
+    if (driver.ended()) stopper.reaped = true;
+    throw lbpkit::Error(fmt::format("{}; the end of {}:\n{}", e.what(), logPath.string(), tail(logPath)));
+  }
+  const auto described = driver.ask({{"op", "describe"}});
+
+  rehearse::Session s{driver,
+                      api,
+                      c.machine,
+                      {},
+                      described.value("linear_units", std::string("mm")),
+                      ini.string(),
+                      g.value("network_namespace", std::string()),
+                      configuredWatchdog(ini.string()),
+                      {},
+                      0.0,
+                      c.only};
+  if (described.contains("spindle_max_rpm") && described["spindle_max_rpm"].is_number())
+    s.spindleMaxRpm = described["spindle_max_rpm"].get<double>();
+  if (described.contains("default_jog_velocity") && described["default_jog_velocity"].is_number())
+    s.jogVelocity = described["default_jog_velocity"].get<double>();
+  for (const auto& [name, value] : described["params"].items())
+    if (name.size() > 20 && name.compare(name.size() - 20, 20, ".watchdog.timeout_ns") == 0)
+      s.watchdogParameters.push_back(name);
+  for (const auto& j : described["joints"]) {
+    rehearse::Joint joint;
+    joint.joint = j["joint"].get<unsigned>();
+    joint.letter = j["letter"].get<std::string>().at(0);
+    auto number = [&](const char* key, double otherwise) {
+      return j[key].is_number() ? j[key].get<double>() : otherwise;
+    };
+    joint.ferror = number("ferror", 1.0);
+    joint.minFerror = number("min_ferror", joint.ferror);
+    joint.maxVelocity = number("max_velocity", 0.0);
+    joint.maxAcceleration = number("max_acceleration", 0.0);
+    joint.minLimit = number("min_limit", -1e9);
+    joint.maxLimit = number("max_limit", 1e9);
+    joint.home = number("home", 0.0);
+    const std::string axisName(1, static_cast<char>(std::tolower(static_cast<unsigned char>(joint.letter))));
+    for (const auto& a : c.machine.axes)
+      if (a.name == axisName) {
+        joint.axis = a.name;
+        joint.servo = !a.drives.empty() && !a.stepper;
+        const double scale = number(joint.servo ? "encoder_scale" : "step_scale", 0.0);
+        joint.count = scale != 0.0 ? 1.0 / std::abs(scale) : 0.0;
+        joint.hardStopMin = a.travelMin - a.overtravel;
+        joint.hardStopMax = a.travelMax + a.overtravel;
+      }
+    s.joints.push_back(joint);
+  }
+
+  const auto wanted = [&](const std::string& name) { return s.wanted(name); };
+  auto show = [&](std::size_t from) {
+    for (std::size_t i = from; i < results.size(); ++i) fmt::print("  {}\n", rehearse::checkLine(results[i], s.units));
+    std::fflush(stdout);
+  };
+  const auto start = driver.ask({{"op", "start"}}, 60s);
+  if (!start.value("ok", false))
+    throw lbpkit::Error(fmt::format("LinuxCNC would not leave E-stop and turn the machine on: {}", start.dump()));
+  s.ready();
+  Outcome out;
+  try {
+    for (const auto& [name, check] : checks) {
+      if (!wanted(name)) continue;
+      const auto n = results.size();
+      check(s, results);
+      show(n);
+    }
+  } catch (const lbpkit::Error& e) {
+    out.failure = e.what();
+  }
+  // How the sim's clock followed LinuxCNC's servo thread over the
+  // rehearsal: its silences (a servo thread held back past 40 ms meets the
+  // 7I77's own watchdog: docs/clocks.md) and the times the card was held
+  // back.
+  try {
+    out.clock = api.get("/api/state").at("clock");
+  } catch (const std::exception&) {
+  }
+  if (!driver.ended()) {
+    try {
+      driver.ask({{"op", "quit"}}, 10s);
+    } catch (const lbpkit::Error&) {
+    }
+  }
+  stopper.reaped = true;
+  lbpkit::process::stopWithGrace(runPid, 30s, SIGINT, true);
+  out.units = s.units;
+  out.said = driver.messages();
+  return out;
+}
+
 int run(const RehearseOptions& o) {
   if (::geteuid() != 0)
     throw lbpkit::Error(
@@ -328,173 +520,40 @@ int run(const RehearseOptions& o) {
     writeFile(machinePath, derived.toml, user, 0644);
   }
   auto machine = lbpkit::config::loadMachineFile(machinePath.string());
-
-  DriverFolder folder(user);
   const auto logPath = report / "linuxcnc.log";
   writeFile(logPath, "", user, 0644);
-  Fd log(::open(logPath.c_str(), O_WRONLY | O_APPEND | O_NOFOLLOW | O_CLOEXEC));
-  int readyPipe[2];
-  if (::pipe2(readyPipe, O_CLOEXEC) != 0) throw lbpkit::Error("cannot make a pipe");
-  Fd readyRead(readyPipe[0]), readyWrite(readyPipe[1]);
-
-  const std::string display = fmt::format("{} --requests {} --answers {}", folder.driver().string(),
-                                          folder.requests().string(), folder.answers().string());
-  const std::string self = fs::read_symlink("/proc/self/exe").string();
-  lbpkit::process::SpawnOptions so;
-  so.out = log.fd;
-  so.ready = readyWrite.fd;
-  so.ownProcessGroup = true;
-  so.deathSignal = SIGTERM;
-  std::vector<std::string> argv = {self,        "linuxcnc", ini.string(), "--machine", machinePath.string(),
-                                   "--display", display,    "--ready-fd", "3"};
-  if (!o.card.empty()) argv.insert(argv.end(), {"--card", o.card});
-  const pid_t runPid = lbpkit::process::spawn(argv, so);
-  ::close(readyWrite.fd);
-  readyWrite.fd = -1;
+  const Context c{o, user, ini, report, machinePath, logPath, machine, only};
   fmt::print("lbpkit rehearse: {} through lbpkit linuxcnc (its output: {}), the machine {}\n", o.ini, logPath.string(),
              machinePath.string());
   std::fflush(stdout);
 
-  // Whatever happens below, the run is stopped as Ctrl-C would stop it.
-  struct Stopper {
-    pid_t pid;
-    bool reaped = false;
-    ~Stopper() {
-      if (!reaped) lbpkit::process::stopWithGrace(pid, 30s, SIGINT, true);
-    }
-  } stopper{runPid};
-  auto tail = [&]() {
-    std::ifstream in(logPath);
-    std::vector<std::string> lines;
-    for (std::string l; std::getline(in, l);) lines.push_back(l);
-    std::string out;
-    for (std::size_t i = lines.size() > 25 ? lines.size() - 25 : 0; i < lines.size(); ++i)
-      out += "  | " + lines[i] + "\n";
-    return out;
-  };
-
-  // The run's greeting: the sim's API and the namespace.
-  std::string greeting;
-  const auto until = std::chrono::steady_clock::now() + 180s;
-  while (greeting.find('\n') == std::string::npos) {
-    int status = 0;
-    if (::waitpid(runPid, &status, WNOHANG) == runPid) {
-      stopper.reaped = true;
-      throw lbpkit::Error(
-          fmt::format("lbpkit linuxcnc ended before LinuxCNC started; the end of {}:\n{}", logPath.string(), tail()));
-    }
-    if (app::gStop || std::chrono::steady_clock::now() > until)
-      throw lbpkit::Error(app::gStop ? "stopped (Ctrl-C)" : "LinuxCNC did not start within 180 s");
-    pollfd p{readyRead.fd, POLLIN, 0};
-    if (::poll(&p, 1, 200) > 0) {
-      char buf[4096];
-      const ssize_t n = ::read(readyRead.fd, buf, sizeof buf);
-      if (n > 0) greeting.append(buf, static_cast<std::size_t>(n));
-    }
-  }
-  const auto g = json::parse(greeting.substr(0, greeting.find('\n')), nullptr, false);
-  if (g.is_discarded()) throw lbpkit::Error("lbpkit linuxcnc's greeting is not JSON");
-  const std::string url = g["sim"]["cards"][0]["api"]["url"].get<std::string>();
-  const auto address = app::parseApiAddress(url.substr(url.find("//") + 2), "127.0.0.1");
-  rehearse::Api api(address.host, address.port);
-
-  Fd answers(::open(folder.answers().c_str(), O_RDWR | O_CLOEXEC));
-  Fd requests(::open(folder.requests().c_str(), O_RDWR | O_CLOEXEC));
-  rehearse::Driver driver(requests.fd, answers.fd, runPid);
-  try {
-    driver.greeting(120s);
-  } catch (const lbpkit::Error& e) {
-    if (driver.ended()) stopper.reaped = true;
-    throw lbpkit::Error(fmt::format("{}; the end of {}:\n{}", e.what(), logPath.string(), tail()));
-  }
-  const auto described = driver.ask({{"op", "describe"}});
-
-  rehearse::Session s{driver,
-                      api,
-                      machine,
-                      {},
-                      described.value("linear_units", std::string("mm")),
-                      ini.string(),
-                      g.value("network_namespace", std::string()),
-                      configuredWatchdog(ini.string()),
-                      {},
-                      0.0,
-                      only};
-  for (const auto& [name, value] : described["params"].items())
-    if (name.size() > 20 && name.compare(name.size() - 20, 20, ".watchdog.timeout_ns") == 0)
-      s.watchdogParameters.push_back(name);
-  for (const auto& j : described["joints"]) {
-    rehearse::Joint joint;
-    joint.joint = j["joint"].get<unsigned>();
-    joint.letter = j["letter"].get<std::string>().at(0);
-    auto number = [&](const char* key, double otherwise) {
-      return j[key].is_number() ? j[key].get<double>() : otherwise;
-    };
-    joint.ferror = number("ferror", 1.0);
-    joint.minFerror = number("min_ferror", joint.ferror);
-    joint.maxVelocity = number("max_velocity", 0.0);
-    joint.maxAcceleration = number("max_acceleration", 0.0);
-    joint.minLimit = number("min_limit", -1e9);
-    joint.maxLimit = number("max_limit", 1e9);
-    const std::string axisName(1, static_cast<char>(std::tolower(static_cast<unsigned char>(joint.letter))));
-    for (const auto& a : machine.axes)
-      if (a.name == axisName) {
-        joint.axis = a.name;
-        joint.servo = !a.drives.empty() && !a.stepper;
-        joint.hardStopMin = a.travelMin - a.overtravel;
-        joint.hardStopMax = a.travelMax + a.overtravel;
-      }
-    s.joints.push_back(joint);
-  }
-
-  const auto wanted = [&](const std::string& name) { return s.wanted(name); };
+  // The checks, in checkNames()'s order, in three LinuxCNC sessions: the
+  // field power's may leave LinuxCNC's smart-serial port unusable, and the
+  // host's stops LinuxCNC's real-time part; each of those starts from a
+  // LinuxCNC of its own.
+  const std::vector<std::vector<std::pair<const char*, Check>>> sessions = {{{"runaway", rehearse::runaway},
+                                                                             {"estop", rehearse::estopChain},
+                                                                             {"limits", rehearse::limits},
+                                                                             {"spindle", rehearse::spindle}},
+                                                                            {{"field", rehearse::fieldPower}},
+                                                                            {{"host", rehearse::losingTheHost}}};
   rehearse::Results results;
-  auto show = [&](std::size_t from) {
-    for (std::size_t i = from; i < results.size(); ++i) fmt::print("  {}\n", rehearse::checkLine(results[i], s.units));
-    std::fflush(stdout);
-  };
-  const auto start = driver.ask({{"op", "start"}}, 60s);
-  if (!start.value("ok", false))
-    throw lbpkit::Error(fmt::format("LinuxCNC would not leave E-stop and turn the machine on: {}", start.dump()));
-  s.ready();
   std::string failure;
-  try {
-    if (wanted("runaway")) {
-      const auto n = results.size();
-      rehearse::runaway(s, results);
-      show(n);
-    }
-    if (wanted("estop")) {
-      const auto n = results.size();
-      rehearse::estopChain(s, results);
-      show(n);
-    }
-    // Last: it kills LinuxCNC's real-time part.
-    if (wanted("host")) {
-      const auto n = results.size();
-      rehearse::losingTheHost(s, results);
-      show(n);
-    }
-  } catch (const lbpkit::Error& e) {
-    failure = e.what();
-  }
-  // How the sim's clock followed LinuxCNC's servo thread over the
-  // rehearsal: its silences (a servo thread held back past 40 ms meets the
-  // 7I77's own watchdog: docs/clocks.md) and the times the card was held
-  // back.
   json clock = nullptr;
-  try {
-    clock = api.get("/api/state").at("clock");
-  } catch (const std::exception&) {
-  }
-  if (!driver.ended()) {
-    try {
-      driver.ask({{"op", "quit"}}, 10s);
-    } catch (const lbpkit::Error&) {
+  std::string units = "mm";
+  std::vector<std::string> said;
+  for (const auto& checks : sessions) {
+    if (!std::any_of(checks.begin(), checks.end(), [&](const auto& k) { return rehearse::wantedBy(only, k.first); }))
+      continue;
+    const auto outcome = rehearseIn(c, checks, results);
+    units = outcome.units;
+    clock = outcome.clock;
+    said.insert(said.end(), outcome.said.begin(), outcome.said.end());
+    if (!outcome.failure.empty()) {
+      failure = outcome.failure;
+      break;
     }
   }
-  stopper.reaped = true;
-  lbpkit::process::stopWithGrace(runPid, 30s, SIGINT, true);
 
   bool failed = !failure.empty();
   for (const auto& r : results) failed = failed || r.value("verdict", std::string()) == "fail";
@@ -502,17 +561,17 @@ int run(const RehearseOptions& o) {
       {"lbpkit", "rehearse"},
       {"configuration", ini.string()},
       {"machine", o.machine == "auto" ? machine.name + " (derived from the configuration)" : machinePath.string()},
-      {"linear_units", s.units},
+      {"linear_units", units},
       {"verdict", failed ? "fail" : "pass"},
       {"checks", results},
-      {"linuxcnc_said", driver.messages()},
+      {"linuxcnc_said", said},
       {"sim_clock", clock}};
   if (!failure.empty()) doc["stopped"] = failure;
   writeFile(report / "report.json", doc.dump(2) + "\n", user, 0644);
   writeFile(report / "report.html", rehearse::reportHtml(doc), user, 0644);
   if (!failure.empty())
     fmt::print(stderr, "lbpkit rehearse: stopped before the end: {}; the end of {}:\n{}", failure, logPath.string(),
-               tail());
+               tail(logPath));
   fmt::print("lbpkit rehearse: {}: {} (report: {}, {})\n", o.ini, failed ? "FAIL" : "pass",
              (report / "report.html").string(), (report / "report.json").string());
   return failed ? 1 : 0;

@@ -84,6 +84,8 @@ struct Joint {
   bool servo = false;  // the axis has drives (a 7I77 analog output and an encoder)
   double ferror = 0, minFerror = 0, maxVelocity = 0, maxAcceleration = 0, minLimit = 0, maxLimit = 0;
   double hardStopMin = 0, hardStopMax = 0;  // the machine's mechanics end there
+  double home = 0;                          // [JOINT_n]HOME: where homing leaves it
+  double count = 0;                         // one encoder count (or step) in units, from the INI's scale; 0: not given
   // The room past the soft limits before the hard stops: what a runaway at
   // the end of the travel has before it crashes.
   [[nodiscard]] double room() const { return std::min(hardStopMax - maxLimit, minLimit - hardStopMin); }
@@ -104,6 +106,10 @@ struct Session {
   // "runaway.x", "runaway.x.reversed-encoder.moving", "estop", "host");
   // none: every check.
   std::vector<std::string> only;
+  double spindleMaxRpm = 0;  // [SPINDLE_0]MAX_FORWARD_VELOCITY; 0: not given
+  double jogVelocity = 0;    // [DISPLAY]DEFAULT_LINEAR_VELOCITY (units/s); 0: not given
+  // The FPGA cards' HAL names ("hm2_7i92.0"), from their watchdog parameters.
+  [[nodiscard]] std::vector<std::string> boards() const;
   // Whether the check `id` (or a group of them, such as "runaway.x") is
   // one --only asks for.
   [[nodiscard]] bool wanted(const std::string& id) const;
@@ -116,16 +122,23 @@ struct Session {
   json machineState() const { return api.get("/api/machine"); }
 };
 
+// Whether --only's list asks for the check `id` or a group of them: one
+// is the other's beginning, at a dot or the end (the list empty: all).
+[[nodiscard]] bool wantedBy(const std::vector<std::string>& only, const std::string& id);
+
 // Each check adds its results (the report's "checks" entries,
 // rehearse_report.hpp) to `out`.
 using Results = std::vector<json>;
 void runaway(Session& s, Results& out);
 void estopChain(Session& s, Results& out);
+void limits(Session& s, Results& out);
+void fieldPower(Session& s, Results& out);
+void spindle(Session& s, Results& out);
 void losingTheHost(Session& s, Results& out);
 
 // The checks, in the order they run: the first word of every check id.
 inline const std::vector<std::string>& checkNames() {
-  static const std::vector<std::string> names = {"runaway", "estop", "host"};
+  static const std::vector<std::string> names = {"runaway", "estop", "limits", "spindle", "field", "host"};
   return names;
 }
 

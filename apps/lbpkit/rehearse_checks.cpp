@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <thread>
 
 #include "lbpkit/error.hpp"
@@ -79,16 +80,24 @@ json plotOf(const Trace& t, const std::string& axis, double t0, const json& even
 
 // The first trace time at or after t0 when `axis`'s drive is no longer
 // enabled; negative when it never was off. With `atZeroVolts` (a drive
-// whose enable does nothing), when its analog command first reads 0 V
-// instead: what disables such a drive.
+// whose enable does nothing), when its analog command went to 0 V for good
+// instead (the row after its last one off 0 V): what disables such a
+// drive. A command held at rest reads 0 V before anything happened.
 double disabledAt(const Trace& t, const std::string& axis, double t0, bool atZeroVolts = false) {
   const auto column = axis + (atZeroVolts ? "_command_volts" : "_enabled");
   if (!t.has(column)) return -1;
   const auto& ts = t.column("time_s");
   const auto& v = t.column(column);
+  if (!atZeroVolts) {
+    for (std::size_t i = 0; i < ts.size(); ++i)
+      if (ts[i] >= t0 && v[i] < 0.5) return ts[i];
+    return -1;
+  }
+  std::optional<std::size_t> lastDriven;
   for (std::size_t i = 0; i < ts.size(); ++i)
-    if (ts[i] >= t0 && (atZeroVolts ? std::abs(v[i]) < 1e-3 : v[i] < 0.5)) return ts[i];
-  return -1;
+    if (ts[i] >= t0 && std::abs(v[i]) >= 1e-3) lastDriven = i;
+  if (!lastDriven) return t0;
+  return *lastDriven + 1 < ts.size() ? ts[*lastDriven + 1] : -1;
 }
 
 // Where `axis` was at trace time `t` (the last row at or before it).
@@ -383,6 +392,350 @@ void estopChain(Session& s, Results& out) {
     }
     out.push_back(r);
   }
+}
+
+namespace {
+
+const char* kLimitsCites =
+    "LinuxCNC [JOINT_n]MIN_LIMIT/MAX_LIMIT (soft limits), HOME and HOME_OFFSET (where homing leaves the joint), "
+    "joint.N.neg-lim-sw-in/pos-lim-sw-in (the limit switches that stop it); 7I77 manual, FIELD I/O: the "
+    "inputs they are wired to";
+
+json result(const std::string& id, const std::string& check, const std::string& title, const char* cites) {
+  return {{"id", id},       {"check", check}, {"title", title},
+          {"cites", cites}, {"reason", ""},   {"figures", json::object()}};
+}
+
+// G53 G0 of joint `j` to `to`, by MDI: whether LinuxCNC refused it (its
+// commanded position stayed on this side of the limit).
+json softLimitCase(Session& s, const Joint& j, bool max) {
+  const std::string L(1, j.letter);
+  const double span = j.maxLimit - j.minLimit;
+  const double margin = std::max(span * 0.01, 10 * j.count);
+  const double target = max ? j.maxLimit + margin : j.minLimit - margin;
+  const double limit = max ? j.maxLimit : j.minLimit;
+  const auto before = s.driver.messages().size();
+  s.driver.ask({{"op", "mdi"}, {"command", fmt::format("G53 G0 {}{:.4f}", L, target)}, {"timeout", 10}});
+  const auto st = s.driver.ask({{"op", "status"}});
+  const double commanded = st.at("commanded").at(j.joint).get<double>();
+  const bool beyond = max ? commanded > limit + 1e-6 : commanded < limit - 1e-6;
+  std::vector<std::string> said(s.driver.messages().begin() + static_cast<std::ptrdiff_t>(before),
+                                s.driver.messages().end());
+  s.driver.ask({{"op", "abort"}});
+  return {{"target", round3(target)}, {"commanded", round3(commanded)}, {"refused", !beyond}, {"said", said}};
+}
+
+json homeCase(Session& s, const Joint& j) {
+  json r = result(fmt::format("limits.{}.home", j.axis), "limits",
+                  fmt::format("{}: homing lands where HOME and HOME_OFFSET say", upper(j.axis)), kLimitsCites);
+  s.ready();
+  const auto m = atRest(s, j);
+  const auto st = s.driver.ask({{"op", "status"}});
+  const double linuxcnc = st.at("feedback").at(j.joint).get<double>();
+  const double machine = axisOf(m, j.axis).at("position").get<double>();
+  const double tolerance = j.count > 0 ? j.count : 0.001;
+  const double diff = std::abs(linuxcnc - machine);
+  r["figures"] = {{"linuxcnc_position", round3(linuxcnc)},
+                  {"machine_position", round3(machine)},
+                  {"difference", std::round(diff * 1e6) / 1e6},
+                  {"one_count", tolerance},
+                  {"home", j.home}};
+  if (diff > tolerance + 1e-9) {
+    r["verdict"] = "fail";
+    r["reason"] = fmt::format(
+        "LinuxCNC has the joint at {:.4f} {} where the machine is at {:.4f}: {:.4f} {} apart, more than one count "
+        "({:g} {}{})",
+        linuxcnc, s.units, machine, diff, s.units, tolerance, s.units, j.count > 0 ? "" : ", the INI giving no scale");
+  } else {
+    r["verdict"] = "pass";
+  }
+  return r;
+}
+
+json softLimitsCase(Session& s, const Joint& j) {
+  json r = result(fmt::format("limits.{}.soft", j.axis), "limits",
+                  fmt::format("{}: MDI past the soft limits is refused", upper(j.axis)), kLimitsCites);
+  s.ready();
+  const auto high = softLimitCase(s, j, true);
+  s.ready();
+  const auto low = softLimitCase(s, j, false);
+  r["figures"] = {{"max_limit", j.maxLimit},
+                  {"min_limit", j.minLimit},
+                  {"asked_past_max", high.at("target")},
+                  {"asked_past_min", low.at("target")},
+                  {"refused_past_max", high.at("refused")},
+                  {"refused_past_min", low.at("refused")}};
+  json said = high.at("said");
+  for (const auto& m : low.at("said")) said.push_back(m);
+  r["linuxcnc_said"] = said;
+  if (!high.at("refused").get<bool>() || !low.at("refused").get<bool>()) {
+    r["verdict"] = "fail";
+    r["reason"] = fmt::format("LinuxCNC took a G53 G0 to {:.4f} {}, past its {} limit",
+                              (high.at("refused").get<bool>() ? low : high).at("target").get<double>(), s.units,
+                              high.at("refused").get<bool>() ? "MIN_LIMIT" : "MAX_LIMIT");
+  } else {
+    r["verdict"] = "pass";
+  }
+  return r;
+}
+
+// Joint `j` jogged, unhomed (no soft limits then), into limit switch `sw`
+// at the jog speed AXIS starts with ([DISPLAY]DEFAULT_LINEAR_VELOCITY, at
+// most the joint's MAX_VELOCITY; a tenth of that without one).
+json limitSwitchCase(Session& s, const Joint& j, const model::machine::SwitchParameters& sw) {
+  const bool up = sw.kind == model::machine::SwitchKind::MaxLimit;
+  const double speed = s.jogVelocity > 0 ? std::min(s.jogVelocity, j.maxVelocity) : j.maxVelocity / 10;
+  json r = result(fmt::format("limits.{}.{}", j.axis, sw.name), "limits",
+                  fmt::format("{}: jogged at {:g} {}/s into its {} limit switch {} (field input {})", upper(j.axis),
+                              speed, s.units, up ? "positive" : "negative", sw.name, sw.input),
+                  kLimitsCites);
+  s.ready();
+  const double span = j.maxLimit - j.minLimit;
+  s.mdi(fmt::format("G53 G0 {}{:.4f}", std::string(1, j.letter), j.minLimit + span / 2));
+  s.driver.ask({{"op", "unhome"}, {"joint", j.joint}});
+  const auto before = s.machineState();
+  const double p0 = axisOf(before, j.axis).at("position").get<double>();
+  const double t0 = before.at("time_s").get<double>();
+  const double stop = up ? j.hardStopMax : j.hardStopMin;
+  const double timeout = std::abs(stop - p0) / std::max(speed, 1e-6) + 3.0;
+  const auto jog =
+      s.driver.ask({{"op", "jog"}, {"joint", j.joint}, {"velocity", (up ? 1 : -1) * speed}, {"timeout", timeout}},
+                   std::chrono::milliseconds(static_cast<long>(timeout * 1000) + 30000));
+  const auto after = atRest(s, j);
+  const auto t = s.trace(t0);
+  const double p1 = axisOf(after, j.axis).at("position").get<double>();
+  const bool hit = axisOf(after, j.axis).at("at_hard_stop").get<bool>();
+  // When the switch tripped: the first row at or past its position.
+  double tripped = -1;
+  const auto& ts = t.column("time_s");
+  const auto& ps = t.column(j.axis + "_position");
+  for (std::size_t i = 0; i < ts.size() && tripped < 0; ++i)
+    if (up ? ps[i] >= sw.position : ps[i] <= sw.position) tripped = ts[i];
+  const double past = up ? p1 - sw.position : sw.position - p1;
+  const double room = up ? j.hardStopMax - sw.position : sw.position - j.hardStopMin;
+  const bool seen = jog.value("limit", 0) != 0 || jog.value("task_state", 0) != 4;  // linuxcnc.STATE_ON
+  r["figures"] = {{"jog_velocity", speed},
+                  {"distance_past_switch", round3(std::max(0.0, past))},
+                  {"room_past_switch", round3(room)},
+                  {"peak_velocity", round3(peakSpeed(t, j.axis, t0))},
+                  {"linuxcnc_limit_mask", jog.value("limit", 0)},
+                  {"hit_hard_stop", hit}};
+  if (tripped >= 0) {
+    r["plot"] = plotOf(t, j.axis, tripped, json::array({{{"t", 0.0}, {"what", sw.name + " tripped"}}}));
+    r["plot"]["units"] = {{"command", s.units}, {"position", s.units}, {"following_error", s.units}, {"enabled", ""}};
+  }
+  r["linuxcnc_said"] = jog.value("messages", json::array());
+  if (tripped < 0) {
+    r["verdict"] = "fail";
+    r["reason"] =
+        fmt::format("the axis never reached the switch at {:.4f} {} (it stopped at {:.4f})", sw.position, s.units, p1);
+  } else if (hit) {
+    r["verdict"] = "fail";
+    r["reason"] = "the axis ran through the switch into its hard stop";
+  } else if (!seen) {
+    r["verdict"] = "fail";
+    r["reason"] = fmt::format("LinuxCNC did not see the switch: the jog ran on {:.3f} {} past it", past, s.units);
+  } else {
+    r["verdict"] = "pass";
+  }
+  // Off the switch as an operator gets off it, and homed again by the
+  // next check (the joint was unhomed for the jog).
+  const auto off = s.driver.ask(
+      {{"op", "jog_off_limit"}, {"joint", j.joint}, {"velocity", (up ? -1 : 1) * speed / 2}, {"timeout", 10}});
+  if (!off.value("ok", false))
+    throw lbpkit::Error(
+        fmt::format("could not jog {} off its limit switch {}: {}", upper(j.axis), sw.name, off.dump()));
+  return r;
+}
+
+}  // namespace
+
+void limits(Session& s, Results& out) {
+  for (const auto& j : s.joints) {
+    if (j.axis.empty()) continue;
+    if (s.wanted(fmt::format("limits.{}.home", j.axis))) out.push_back(homeCase(s, j));
+    if (s.wanted(fmt::format("limits.{}.soft", j.axis))) out.push_back(softLimitsCase(s, j));
+    for (const auto& sw : s.machine.switches) {
+      if (sw.axis != j.axis ||
+          (sw.kind != model::machine::SwitchKind::MinLimit && sw.kind != model::machine::SwitchKind::MaxLimit))
+        continue;
+      if (s.wanted(fmt::format("limits.{}.{}", j.axis, sw.name))) out.push_back(limitSwitchCase(s, j, sw));
+    }
+  }
+}
+
+std::vector<std::string> Session::boards() const {
+  std::vector<std::string> out;
+  constexpr std::string_view kWatchdog = ".watchdog.timeout_ns";
+  for (const auto& p : watchdogParameters)
+    if (p.size() > kWatchdog.size() && p.ends_with(kWatchdog)) out.push_back(p.substr(0, p.size() - kWatchdog.size()));
+  return out;
+}
+
+namespace {
+
+// Every smart-serial port of the run's cards stopped and started again
+// through its run pin (hostmot2: NAME.sserial.port-N.run), as an operator
+// recovers a port hostmot2 stopped, and waited for until running: whether
+// every port came back.
+bool restartSmartSerial(Session& s) {
+  bool all = true;
+  for (const auto& board : s.boards())
+    for (int port = 0; port < 4; ++port) {
+      const auto run = fmt::format("{}.sserial.port-{}.run", board, port);
+      if (!s.driver.ask({{"op", "setp"}, {"name", run}, {"value", 0}}).value("ok", false)) continue;
+      std::this_thread::sleep_for(100ms);
+      s.driver.ask({{"op", "setp"}, {"name", run}, {"value", 1}});
+      all = s.driver
+                .ask({{"op", "wait_pin"},
+                      {"name", fmt::format("{}.sserial.port-{}.port_state", board, port)},
+                      {"value", 3},
+                      {"timeout", 5}})
+                .value("ok", false) &&
+            all;
+    }
+  return all;
+}
+
+}  // namespace
+
+void fieldPower(Session& s, Results& out) {
+  const char* cites =
+      "7I77 manual, FIELD POWER and FIELD I/O: the field inputs and outputs run from field power; without it the "
+      "inputs read off and the outputs are dead";
+  const auto state = s.api.get("/api/state");
+  for (std::size_t d = 0; d < state.at("daughtercards").size(); ++d) {
+    const auto& card = state["daughtercards"][d];
+    if (!card.contains("field_io")) continue;
+    const std::string id = fmt::format("field.{}", d);
+    if (!s.wanted(id)) continue;
+    json r = result(id, "field", fmt::format("Field power of daughtercard {} lost for 1 s, then restored", d), cites);
+    s.ready();
+    const double volts = card["field_io"].value("field_voltage", 24.0);
+    const json at = card.contains("connector") ? json{{"connector", card["connector"]}} : json::object();
+    json off = at, on = at;
+    off["volts"] = 0.0;
+    on["volts"] = volts;
+    const auto before = s.driver.messages().size();
+    s.api.post("/api/field", off);
+    const auto taken = s.driver.ask({{"op", "wait_off"}, {"timeout", 1}});
+    const auto st = s.driver.ask({{"op", "status"}});
+    s.api.post("/api/field", on);
+    std::vector<std::string> said(s.driver.messages().begin() + static_cast<std::ptrdiff_t>(before),
+                                  s.driver.messages().end());
+    // The 7I77's field I/O processor runs from VIN, normally field power
+    // (manual: VIN AND FIELD POWER SUPPLY): without it the processor is
+    // silent and hostmot2 may have stopped the smart-serial port. Started
+    // again as an operator would, through its run pin, for the checks after.
+    bool stopped = false;
+    for (const auto& m : said) stopped = stopped || m.find("will be stopped") != std::string::npos;
+    const bool restarted = stopped && restartSmartSerial(s);
+    const int task = st.value("task_state", 0);
+    const std::string did = task == kStateEstop        ? "went to E-stop"
+                            : taken.value("ok", false) ? "turned the machine off"
+                                                       : "did nothing: the machine stayed on";
+    r["figures"] = {{"field_volts", volts},
+                    {"linuxcnc_did", did},
+                    {"smart_serial_port_stopped", stopped},
+                    {"smart_serial_port_restarted", restarted},
+                    {"time_to_react_s", taken.value("ok", false) ? json(taken.value("after_s", 0.0)) : json(nullptr)}};
+    r["linuxcnc_said"] = said;
+    if (taken.value("ok", false)) {
+      r["verdict"] = "pass";
+    } else {
+      r["verdict"] = "fail";
+      r["reason"] = stopped
+                        ? "LinuxCNC ran on with field power gone: the 7I77's field I/O processor fell silent, hostmot2 "
+                          "stopped its smart-serial port (its inputs, the E-stop's among them, then stand where they "
+                          "were), and nothing in the configuration took the machine off"
+                        : "LinuxCNC ran on with field power gone: every field input read off and every field output "
+                          "was dead, and nothing in the configuration took the machine off";
+    }
+    out.push_back(r);
+  }
+}
+
+void spindle(Session& s, Results& out) {
+  const char* cites =
+      "LinuxCNC spindle.0.at-speed (motion waits for it before cutting), spindle.0.on and the E-stop chain; 7I77 "
+      "manual, SPINDLE INTERFACE (AOUT5, ENA5 from SpinEna)";
+  if (!s.machine.spindle) {
+    if (s.wanted("spindle"))
+      out.push_back({{"id", "spindle"},
+                     {"check", "spindle"},
+                     {"title", "Spindle"},
+                     {"verdict", "not applicable"},
+                     {"reason", "the machine has no spindle"},
+                     {"cites", cites},
+                     {"figures", json::object()}});
+    return;
+  }
+  // Half the lower of the VFD's top speed and the configuration's.
+  const double top =
+      s.spindleMaxRpm > 0 ? std::min(s.spindleMaxRpm, s.machine.spindle->vfd.maxRpm) : s.machine.spindle->vfd.maxRpm;
+  const double rpm = std::max(100.0, std::round(top / 2));
+  if (s.wanted("spindle.at-speed")) {
+    json r = result("spindle.at-speed", "spindle", fmt::format("Spindle: M3 S{:g} reaches its speed", rpm), cites);
+    s.ready();
+    const double t0 = s.machineState().at("time_s").get<double>();
+    s.driver.ask({{"op", "spindle"}, {"rpm", rpm}});
+    const auto at =
+        s.driver.ask({{"op", "wait_pin"}, {"name", "spindle.0.at-speed"}, {"value", true}, {"timeout", 20}});
+    const auto m = s.machineState();
+    const double actual = m.at("spindle").is_null() ? 0.0 : m["spindle"].value("rpm", 0.0);
+    r["figures"] = {
+        {"commanded_rpm", rpm},
+        {"rpm_at_at_speed", std::round(actual)},
+        {"time_to_at_speed_s", at.value("ok", false) ? json(round3(m.at("time_s").get<double>() - t0)) : json(nullptr)},
+        {"error_percent", std::round(std::abs(actual - rpm) / rpm * 1000) / 10}};
+    if (!at.value("ok", false)) {
+      r["verdict"] = "fail";
+      r["reason"] = "spindle.0.at-speed never came within 20 s: LinuxCNC would wait before every cut";
+    } else if (std::abs(actual - rpm) > 0.1 * rpm) {
+      r["verdict"] = "fail";
+      r["reason"] = fmt::format("spindle.0.at-speed came at {:.0f} rpm of the {:g} asked for", actual, rpm);
+    } else {
+      r["verdict"] = "pass";
+    }
+    out.push_back(r);
+  }
+  std::vector<const model::machine::SwitchParameters*> chain;
+  for (const auto& sw : s.machine.switches)
+    if (sw.kind == model::machine::SwitchKind::Estop) chain.push_back(&sw);
+  if (chain.empty() || !s.wanted("spindle.estop")) return;
+  json r = result(
+      "spindle.estop", "spindle",
+      fmt::format("Spindle: E-stop ({}) while it runs at {:g} rpm drops its enable", chain.front()->name, rpm), cites);
+  s.ready();
+  s.driver.ask({{"op", "spindle"}, {"rpm", rpm}});
+  s.driver.ask({{"op", "wait_pin"}, {"name", "spindle.0.at-speed"}, {"value", true}, {"timeout", 20}});
+  const double t0 = s.api.post("/api/machine", {{"action", "switch"}, {"name", chain.front()->name}, {"tripped", true}})
+                        .at("time_s")
+                        .get<double>();
+  s.driver.ask({{"op", "wait_off"}, {"timeout", 2}});
+  // The VFD's run input (ENA5, or the 7I76's SpinEna): when the machine's
+  // spindle stopped being driven.
+  double stoppedAt = -1;
+  const auto end = std::chrono::steady_clock::now() + 3s;
+  while (std::chrono::steady_clock::now() < end) {
+    const auto m = s.machineState();
+    if (!m.at("spindle").value("running", true)) {
+      stoppedAt = m.at("time_s").get<double>();
+      break;
+    }
+    std::this_thread::sleep_for(5ms);
+  }
+  s.api.post("/api/machine", {{"action", "switch"}, {"name", chain.front()->name}, {"tripped", false}});
+  s.driver.ask({{"op", "machine_on"}});
+  s.driver.ask({{"op", "spindle"}, {"rpm", 0}});
+  r["figures"] = {{"time_to_enable_off_s", stoppedAt >= 0 ? json(round3(stoppedAt - t0)) : json(nullptr)}};
+  if (stoppedAt < 0) {
+    r["verdict"] = "fail";
+    r["reason"] = "the spindle was still driven 3 s after the E-stop opened";
+  } else {
+    r["verdict"] = "pass";
+  }
+  out.push_back(r);
 }
 
 void losingTheHost(Session& s, Results& out) {

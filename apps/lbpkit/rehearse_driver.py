@@ -119,6 +119,10 @@ class Driver:
                 "max_limit": self.number(sec, "MAX_LIMIT") if self.number(sec, "MAX_LIMIT") is not None
                 else self.number(axis, "MAX_LIMIT"),
                 "home_sequence": self.ini.find(sec, "HOME_SEQUENCE"),
+                "home": self.number(sec, "HOME"),
+                # Counts (steps) per unit: PNCconf's names, then the older ones.
+                "encoder_scale": self.number(sec, "ENCODER_SCALE") or self.number(sec, "INPUT_SCALE"),
+                "step_scale": self.number(sec, "STEP_SCALE") or self.number(sec, "SCALE"),
             })
         params = {}
         names = subprocess.run(["halcmd", "list", "param"], capture_output=True, text=True).stdout.split()
@@ -127,6 +131,9 @@ class Driver:
                 got = subprocess.run(["halcmd", "getp", n], capture_output=True, text=True)
                 params[n] = got.stdout.strip()
         return {"joints": joints, "linear_units": self.ini.find("TRAJ", "LINEAR_UNITS") or "mm",
+                "spindle_max_rpm": self.number("SPINDLE_0", "MAX_FORWARD_VELOCITY"),
+                # AXIS's jog speed until the operator moves its slider (units/s).
+                "default_jog_velocity": self.number("DISPLAY", "DEFAULT_LINEAR_VELOCITY"),
                 "servo_period_ns": self.number("EMCMOT", "SERVO_PERIOD"), "params": params}
 
     def op_start(self, r):
@@ -200,6 +207,56 @@ class Driver:
         k, speed = r["joint"], r["speed"]
         ok = self.wait(lambda: abs(self.s.joint[k]["velocity"]) >= speed, r.get("timeout", 10), 0.001)
         return {"ok": ok}
+
+    def op_jog(self, r):
+        """Joint `joint` jogged as an operator jogs it in joint mode, on and
+        on at `velocity` units/s (its sign the direction), until LinuxCNC
+        has it on a limit, the machine is no longer on, or `timeout` s
+        pass; then the jog is stopped."""
+        k, v = r["joint"], r["velocity"]
+        self.set_mode(linuxcnc.MODE_MANUAL)
+        self.c.teleop_enable(0)
+        self.c.wait_complete()
+        self.c.jog(linuxcnc.JOG_CONTINUOUS, True, k, v)
+        ok = self.wait(lambda: self.s.limit[k] != 0 or self.s.task_state != linuxcnc.STATE_ON,
+                       r.get("timeout", 10), 0.001)
+        self.c.jog(linuxcnc.JOG_STOP, True, k)
+        self.poll()
+        return {"ok": ok, "limit": self.s.limit[k], "task_state": self.s.task_state}
+
+    def op_jog_off_limit(self, r):
+        """Joint `joint`, on a limit switch, jogged off it as an operator
+        does: Override Limits (as AXIS's checkbox), Machine On, a jog at
+        `velocity` units/s until LinuxCNC no longer has it on a limit, then
+        `beyond` s more."""
+        k, v = r["joint"], r["velocity"]
+        self.c.override_limits()
+        self.c.wait_complete()
+        on = self.op_machine_on({"timeout": 5})
+        self.set_mode(linuxcnc.MODE_MANUAL)
+        self.c.teleop_enable(0)
+        self.c.wait_complete()
+        self.c.override_limits()
+        self.c.wait_complete()
+        self.c.jog(linuxcnc.JOG_CONTINUOUS, True, k, v)
+        ok = self.wait(lambda: self.s.limit[k] == 0, r.get("timeout", 10), 0.001)
+        time.sleep(r.get("beyond", 0.2))
+        self.c.jog(linuxcnc.JOG_STOP, True, k)
+        self.poll()
+        return {"ok": bool(ok and on["ok"]), "limit": self.s.limit[k], "task_state": self.s.task_state}
+
+    def op_spindle(self, r):
+        """Spindle 0 at `rpm` (negative: reverse) by MDI, as a program's
+        M3/M4 S would; 0 stops it (M5)."""
+        rpm = r["rpm"]
+        command = "M5" if rpm == 0 else "%s S%g" % ("M3" if rpm > 0 else "M4", abs(rpm))
+        return self.op_mdi({"command": command, "timeout": r.get("timeout", 10)})
+
+    def op_wait_pin(self, r):
+        """Until HAL pin `name` reads `value`, at most `timeout` s."""
+        started = time.monotonic()
+        ok = self.wait(lambda: hal.get_value(r["name"]) == r["value"], r.get("timeout", 10), 0.001)
+        return {"ok": ok, "after_s": round(time.monotonic() - started, 3)}
 
     def op_wait_off(self, r):
         """Until the machine is no longer on (LinuxCNC took it off)."""
