@@ -527,16 +527,19 @@ int run(const RehearseOptions& o) {
              machinePath.string());
   std::fflush(stdout);
 
-  // The checks, in checkNames()'s order, in three LinuxCNC sessions: the
-  // field power's may leave LinuxCNC's smart-serial port unusable, and the
-  // host's stops LinuxCNC's real-time part; each of those starts from a
+  // The checks, in checkNames()'s order, in four LinuxCNC sessions: the
+  // field power's may leave LinuxCNC's smart-serial port unusable, a
+  // network cut lets the 7I77's watchdog bite, and a stopped host is
+  // LinuxCNC's real-time part stopped; each of those starts from a
   // LinuxCNC of its own.
-  const std::vector<std::vector<std::pair<const char*, Check>>> sessions = {{{"runaway", rehearse::runaway},
-                                                                             {"estop", rehearse::estopChain},
-                                                                             {"limits", rehearse::limits},
-                                                                             {"spindle", rehearse::spindle}},
-                                                                            {{"field", rehearse::fieldPower}},
-                                                                            {{"host", rehearse::losingTheHost}}};
+  const std::vector<std::vector<std::pair<const char*, Check>>> sessions = {
+      {{"runaway", rehearse::runaway},
+       {"estop", rehearse::estopChain},
+       {"limits", rehearse::limits},
+       {"spindle", rehearse::spindle}},
+      {{"field", rehearse::fieldPower}},
+      {{"host.network", rehearse::networkCut}},
+      {{"host.stopped", rehearse::losingTheHost}}};
   rehearse::Results results;
   std::string failure;
   json clock = nullptr;
@@ -583,8 +586,8 @@ void addRehearseCommand(CLI::App& app) {
   auto o = std::make_shared<RehearseOptions>();
   auto* cmd = app.add_subcommand(
       "rehearse",
-      "Rehearse what the 7I77 manual warns about (a runaway, the E-stop chain, a dead host) against a "
-      "LinuxCNC configuration before power-on (needs root)");
+      "Rehearse what the 7I77 manual warns about (a runaway, the E-stop chain, limits, field power, the "
+      "spindle, a dead host or network) against a LinuxCNC configuration before power-on (needs root)");
   cmd->add_option("config", o->ini, "The configuration's INI file")->required();
   cmd->add_option("--machine", o->machine,
                   "auto (derived from the configuration, as lbpkit linuxcnc does) or a machine file")
@@ -594,8 +597,8 @@ void addRehearseCommand(CLI::App& app) {
                   "one the configuration's hm2_eth names");
   cmd->add_option("--report", o->report, "Where report.json and report.html go (default: rehearse-<INI name> here)");
   cmd->add_option("--only", o->only,
-                  "Only these checks, comma-separated: runaway, estop, host, or the start of a check's id in "
-                  "report.json (runaway.x, runaway.x.reversed-encoder.moving)");
+                  "Only these checks, comma-separated: runaway, estop, limits, spindle, field, host, or the start "
+                  "of a check's id in report.json (runaway.x, runaway.x.reversed-encoder.moving, host.network)");
   cmd->callback([o] {
     app::gRun = [o] {
       app::installSignalHandlers();

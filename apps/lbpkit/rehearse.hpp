@@ -134,7 +134,8 @@ void estopChain(Session& s, Results& out);
 void limits(Session& s, Results& out);
 void fieldPower(Session& s, Results& out);
 void spindle(Session& s, Results& out);
-void losingTheHost(Session& s, Results& out);
+void networkCut(Session& s, Results& out);     // host.network
+void losingTheHost(Session& s, Results& out);  // host.stopped
 
 // The checks, in the order they run: the first word of every check id.
 inline const std::vector<std::string>& checkNames() {

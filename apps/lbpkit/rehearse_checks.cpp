@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <optional>
 #include <thread>
 
@@ -210,8 +211,6 @@ json runawayCase(Session& s, const Joint& j, const Fault& f, bool moving) {
     r["figures"] = json::object();
     return r;
   }
-  const auto before = s.machineState();
-  const double p0 = axisOf(before, j.axis).at("position").get<double>();
   double t0 = 0;
   for (const auto& action : f.inject) t0 = s.api.post("/api/machine", action).at("time_s").get<double>();
   const auto off = s.driver.ask({{"op", "wait_off"}, {"timeout", kWatchSeconds}});
@@ -220,6 +219,10 @@ json runawayCase(Session& s, const Joint& j, const Fault& f, bool moving) {
   if (!off.value("ok", false)) s.driver.ask({{"op", "machine_off"}});
   const auto after = atRest(s, j);
   const auto t = s.trace(t0 - 0.2);
+  // Where the axis was when the fault was made (the machine's time of the
+  // request), not when last looked at: at speed, a look's few
+  // milliseconds are millimetres.
+  const double p0 = positionAt(t, j.axis, t0);
   const double p1 = axisOf(after, j.axis).at("position").get<double>();
   const bool hit = axisOf(after, j.axis).at("at_hard_stop").get<bool>();
   const double off_at = disabledAt(t, j.axis, t0, f.enableIgnored());
@@ -335,7 +338,6 @@ void estopChain(Session& s, Results& out) {
       out.push_back(r);
       continue;
     }
-    const double p0 = axisOf(s.machineState(), mover->axis).at("position").get<double>();
     const double t0 = s.api.post("/api/machine", {{"action", "switch"}, {"name", sw->name}, {"tripped", true}})
                           .at("time_s")
                           .get<double>();
@@ -343,6 +345,7 @@ void estopChain(Session& s, Results& out) {
     const auto after = atRest(s, *mover);
     const auto status = s.driver.ask({{"op", "status"}});
     const auto t = s.trace(t0 - 0.2);
+    const double p0 = positionAt(t, mover->axis, t0);  // where it was when the input opened
     // Every drive's ENA, from the machine's trace.
     double allOff = -1;
     bool everyDrive = true;
@@ -738,7 +741,13 @@ void spindle(Session& s, Results& out) {
   out.push_back(r);
 }
 
-void losingTheHost(Session& s, Results& out) {
+namespace {
+
+// The host lost while an axis moves at MAX_VELOCITY: `lose` stops it (and
+// says how, for the title), `restore` ends that once the watchdogs have
+// been watched.
+void losingTheHost(Session& s, Results& out, const std::string& id, const std::string& how,
+                   const std::function<void()>& lose, const std::function<void()>& restore) {
   const char* cites =
       "7I77 manual, ANALOG SECTION WATCHDOG and SERVO ENABLE OUTPUTS: a host that stops talking makes the analog "
       "outputs 0 V and drops ENA; LinuxCNC hostmot2 NAME.watchdog.timeout_ns: the FPGA card's own watchdog";
@@ -750,10 +759,9 @@ void losingTheHost(Session& s, Results& out) {
   for (const auto& j : s.joints)
     if (!j.axis.empty() && (mover == nullptr || (!j.servo && mover->servo))) mover = &j;
   if (mover == nullptr) return;
-  json r = {{"id", "host.stopped"},
+  json r = {{"id", id},
             {"check", "host"},
-            {"title", fmt::format("Losing the host: LinuxCNC's real-time part stops while {} moves at MAX_VELOCITY",
-                                  upper(mover->axis))},
+            {"title", fmt::format("Losing the host: {} while {} moves at MAX_VELOCITY", how, upper(mover->axis))},
             {"cites", cites},
             {"reason", ""}};
   s.ready();
@@ -770,15 +778,6 @@ void losingTheHost(Session& s, Results& out) {
     out.push_back(r);
     return;
   }
-  // LinuxCNC's real-time part: the rtapi_app of the run's namespace.
-  struct stat ns {};
-  if (::stat(("/run/netns/" + s.networkNamespace).c_str(), &ns) != 0)
-    throw lbpkit::Error("the run's network namespace is gone");
-  pid_t rtapi = -1;
-  lbpkit::linuxcnc::forEachProcessIn(static_cast<unsigned long>(ns.st_ino), [&](const std::filesystem::path& proc) {
-    if (lbpkit::linuxcnc::commandOf(proc) == "rtapi_app") rtapi = std::stoi(proc.filename().string());
-  });
-  if (rtapi <= 0) throw lbpkit::Error("LinuxCNC's rtapi_app is not running");
   const auto before = s.machineState();
   const double p0 = axisOf(before, mover->axis).at("position").get<double>();
   const double tStop = before.at("time_s").get<double>();
@@ -796,10 +795,8 @@ void losingTheHost(Session& s, Results& out) {
   for (const auto& d : state.at("daughtercards"))
     if (d.contains("field_io") && d["field_io"].contains("watchdog_ms") && sevenI77Watchdog.is_null())
       sevenI77Watchdog = d["field_io"]["watchdog_ms"].get<double>() / 1000.0;
-  // Stopped, not killed: to the card the same silence, and LinuxCNC's other
-  // parts stay to be shut down in order afterwards.
   const auto stopped = std::chrono::steady_clock::now();
-  ::kill(rtapi, SIGSTOP);
+  lose();
   double enaOff = -1, zeroVolts = -1, outputsOff = -1, enaOffAt = -1, stepsStopped = mover->servo ? 0 : -1;
   while (std::chrono::steady_clock::now() - stopped < 5s &&
          (enaOff < 0 || zeroVolts < 0 || outputsOff < 0 || stepsStopped < 0)) {
@@ -832,7 +829,7 @@ void losingTheHost(Session& s, Results& out) {
   const auto after = atRest(s, *mover);
   const double p1 = axisOf(after, mover->axis).at("position").get<double>();
   const bool hit = axisOf(after, mover->axis).at("at_hard_stop").get<bool>();
-  ::kill(rtapi, SIGCONT);
+  restore();
   const double distance = std::abs(p1 - p0);
   // Until ENA drops the drive holds the speed its last command asked for
   // (the host's last AOUT stands): the axis runs on at the speed it had.
@@ -868,6 +865,41 @@ void losingTheHost(Session& s, Results& out) {
     r["verdict"] = "pass";
   }
   out.push_back(r);
+}
+
+}  // namespace
+
+void networkCut(Session& s, Results& out) {
+  // The network cut for 2 s, far over the 7I77's watchdog: the sim's
+  // cable out (POST /api/network {"silent_ms": 2000}), every datagram
+  // either way lost, LinuxCNC running on.
+  if (!s.wanted("host.network")) return;
+  losingTheHost(
+      s, out, "host.network", "the network cut for 2 s",
+      [&] {
+        s.api.post("/api/network", {{"silent_ms", 2000}});
+      },
+      [&] {
+        s.api.post("/api/network", {{"silent_ms", 0}});
+      });
+}
+
+void losingTheHost(Session& s, Results& out) {
+  if (!s.wanted("host.stopped")) return;
+  // LinuxCNC's real-time part: the rtapi_app of the run's namespace.
+  // Stopped, not killed: to the card the same silence, and LinuxCNC's other
+  // parts stay to be shut down in order afterwards.
+  struct stat ns {};
+  if (::stat(("/run/netns/" + s.networkNamespace).c_str(), &ns) != 0)
+    throw lbpkit::Error("the run's network namespace is gone");
+  pid_t rtapi = -1;
+  lbpkit::linuxcnc::forEachProcessIn(static_cast<unsigned long>(ns.st_ino), [&](const std::filesystem::path& proc) {
+    if (lbpkit::linuxcnc::commandOf(proc) == "rtapi_app") rtapi = std::stoi(proc.filename().string());
+  });
+  if (rtapi <= 0) throw lbpkit::Error("LinuxCNC's rtapi_app is not running");
+  losingTheHost(
+      s, out, "host.stopped", "LinuxCNC's real-time part stops", [rtapi] { ::kill(rtapi, SIGSTOP); },
+      [rtapi] { ::kill(rtapi, SIGCONT); });
 }
 
 }  // namespace lbpkit::app::rehearse
