@@ -438,8 +438,12 @@ Outcome rehearseIn(const Context& c, std::span<const std::pair<const char*, Chec
       if (a.name == axisName) {
         joint.axis = a.name;
         joint.servo = !a.drives.empty() && !a.stepper;
-        const double scale = number(joint.servo ? "encoder_scale" : "step_scale", 0.0);
-        joint.count = scale != 0.0 ? 1.0 / std::abs(scale) : 0.0;
+        // One count of LinuxCNC's feedback: the encoder's where the INI
+        // has one (a servo, or a stepper closed through an encoder), else
+        // the step; the coarser where it gives both.
+        for (const char* key : {"encoder_scale", "step_scale"})
+          if (const double scale = number(key, 0.0); scale != 0.0)
+            joint.count = std::max(joint.count, 1.0 / std::abs(scale));
         joint.hardStopMin = a.travelMin - a.overtravel;
         joint.hardStopMax = a.travelMax + a.overtravel;
       }

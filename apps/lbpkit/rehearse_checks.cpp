@@ -834,6 +834,10 @@ void losingTheHost(Session& s, Results& out, const std::string& id, const std::s
   // Until ENA drops the drive holds the speed its last command asked for
   // (the host's last AOUT stands): the axis runs on at the speed it had.
   const double v0 = std::abs(axisOf(before, mover->axis).at("velocity").get<double>());
+  // How long a stepper stepped on: its travel at the speed it had. The
+  // poll above meets the host's silence only once the sim's clock has
+  // taken it for one (40 ms: docs/clocks.md), too late to time the stop.
+  if (!mover->servo && stepsStopped >= 0 && v0 > 0) stepsStopped = distance / v0;
   // A stepper stops where its last step puts it: all of its travel is the
   // StepGen's.
   const double reaction = !mover->servo ? distance : enaOff >= 0 ? v0 * enaOff : distance;

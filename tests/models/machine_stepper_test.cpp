@@ -22,6 +22,7 @@
 #include "hostmot2/card.hpp"
 #include "hostmot2/ioport.hpp"
 #include "hostmot2/muxed_encoder.hpp"
+#include "hostmot2/watchdog.hpp"
 #include "machine/machine.hpp"
 #include "support/machine_file_fixture.hpp"
 
@@ -277,6 +278,39 @@ TEST(MachineStepper, JammedItLosesItsSteps) {
   EXPECT_EQ(r.z(), -75.0);
   EXPECT_EQ(r.m.state().axes[kZ].stepper->lostSteps, r.steps());
   EXPECT_THROW(r.m.push(kZ, 1.0, 10.0), std::invalid_argument);
+}
+
+// The HostMot2 watchdog bites (a host that stopped): every pin becomes an
+// input, the StepGen's step pin with them
+// (docs/protocol-facts.md#hostmot2-watchdog), and the drive sees no more
+// steps though the StepGen runs on.
+// Once the host writes the DDR again, the steps reach the drive again; the
+// ones made meanwhile never did.
+TEST(MachineStepper, AWatchdogBiteLeavesTheStepPinUndriven) {
+  Rig r(stepperMill());
+  const auto& wd = r.card.part<hm2::Watchdog>();
+  const std::uint16_t timer = wd.descriptor().baseAddress;
+  r.setStepRate(40'000.0);  // 50 mm/s
+  r.run(10);
+  const double z0 = r.z();
+  EXPECT_GT(z0, -75.0 + 0.4);
+  // 1 ms at ClockLow, armed by its first write; no pet comes.
+  r.card.write32(timer, r.card.board().clockLow / 1000 - 1, r.t);
+  r.run(20);
+  ASSERT_TRUE(r.card.part<hm2::Watchdog>().bitten());
+  EXPECT_FALSE(r.card.stepGenDriven(0));
+  const double z1 = r.z();
+  EXPECT_LT(z1, z0 + 2 * 50.0 * 0.001 + 1e-9) << "Z stops within the watchdog's millisecond";
+  r.run(50);
+  EXPECT_EQ(r.z(), z1) << "the StepGen steps on, the drive sees none";
+  EXPECT_GT(r.steps(), 2000);
+  // The host sets the step pin an output again (every pin, as hostmot2's
+  // DDR write after a bite).
+  for (std::uint16_t port = 0; port < r.card.board().ioPorts; ++port)
+    r.card.write32(static_cast<std::uint16_t>(hm2::IoPort::kDdr + 4 * port), 0x1FFFF, r.t);
+  EXPECT_TRUE(r.card.stepGenDriven(0));
+  r.run(10);
+  EXPECT_NEAR(r.z(), z1 + 0.5, 0.01) << "10 ms at 50 mm/s from where it stopped";
 }
 
 TEST(MachineStepper, TheCardMustHaveTheStepGen) {

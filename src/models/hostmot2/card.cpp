@@ -103,8 +103,21 @@ HostMot2Card::HostMot2Card(Options options)
       if (pins[p].secondaryTag == InM::kKind.tag && pins[p].secondaryPin >= 1 && pins[p].secondaryPin <= inm->inputs())
         inm->connect(&part<IoPort>(), pins[p].secondaryUnit, pins[p].secondaryPin - 1U, static_cast<unsigned>(p / b.portWidth),
                       static_cast<unsigned>(p % b.portWidth));
+  if (const StepGen* sg = module<StepGen>()) {
+    stepPins_.assign(sg->instances(), -1);
+    for (std::size_t p = 0; p < pins.size(); ++p)
+      if (pins[p].secondaryTag == StepGen::kKind.tag && pins[p].secondaryPin == pincode::kStep &&
+          pins[p].secondaryUnit < stepPins_.size())
+        stepPins_[pins[p].secondaryUnit] = static_cast<int>(p);
+  }
   const auto mds = moduleDescriptors();
   idrom_ = buildIdrom(b, mds, pins);
+}
+
+bool HostMot2Card::stepGenDriven(unsigned n) const {
+  if (n >= stepPins_.size() || stepPins_[n] < 0) return true;
+  const auto p = static_cast<unsigned>(stepPins_[n]);
+  return !part<IoPort>().released(p / card_->idrom.portWidth, p % card_->idrom.portWidth);
 }
 
 void HostMot2Card::build(const cards::ModuleEntry& entry) {

@@ -167,6 +167,10 @@ class HostMot2Card {
     if (m == nullptr) throw std::logic_error("the firmware has no " + std::string(T::kKind.name));
     return *m;
   }
+  // Whether StepGen `n`'s step output drives its pin: not while a
+  // watchdog bite has left that pin an input (IoPort::released), so a
+  // drive behind it sees no steps until the host sets the DDR again.
+  [[nodiscard]] bool stepGenDriven(unsigned n) const;
   SevenI77& daughtercard(unsigned connector) { return *sevenI77s_.at(connector); }
   [[nodiscard]] unsigned daughtercards() const { return static_cast<unsigned>(sevenI77s_.size()); }
   // The 7I76's field I/O processor on the firmwares that carry a 7I76
@@ -209,6 +213,9 @@ class HostMot2Card {
   const cards::Firmware* firmware_;
   std::vector<std::unique_ptr<SevenI77>> sevenI77s_;
   std::unique_ptr<remote::SevenI76FieldIo> sevenI76_;
+  // Each StepGen's step pin (its pin descriptor's index), from the firmware's
+  // pin descriptors; -1 where it has none.
+  std::vector<int> stepPins_;
   std::vector<std::unique_ptr<Module>> owned_;  // the firmware's modules
   // The modules whose state moves with time, IDROM order.
   std::array<Module*, 16> timed_{};

@@ -18,6 +18,7 @@ WriteResult IoPort::writeRegister(std::uint16_t address, std::uint32_t value, Si
   const unsigned reg = static_cast<unsigned>((address & 0xFF00U) - kData) / kRegisterStride;
   if (port >= ports_ || reg >= 5) return WriteResult::Unmapped;
   regs_[port][reg] = value & mask();
+  if (reg == 1) released_[port] &= ~value;
   return WriteResult::Accepted;
 }
 
@@ -60,6 +61,7 @@ void IoPort::reset() {
   // GPIO input, no alternate source, no open drain, no inversion. The input
   // levels are the world's and stay.
   for (auto& r : regs_) r.fill(0);
+  released_.fill(0);
 }
 
 void IoPort::releaseOutputs() {
@@ -67,6 +69,7 @@ void IoPort::releaseOutputs() {
     r[0] = 0;
     r[1] = 0;
   }
+  released_.fill(mask());
 }
 
 }  // namespace lbpkit::model::hm2

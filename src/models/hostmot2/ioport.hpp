@@ -48,8 +48,14 @@ class IoPort final : public Module {
   void setInput(unsigned port, unsigned bit, bool level);
   // What a pin shows: a GPIO output's level, else the input level.
   [[nodiscard]] bool pin(unsigned port, unsigned bit) const;
-  // Watchdog bite: every GPIO output is released.
+  // Watchdog bite: every pin becomes an input (the DDR and the output
+  // latch cleared), a module's outputs as well as GPIO's.
   void releaseOutputs();
+  // Whether a bite left pin `bit` of `port` an input that no DDR write has
+  // made an output again: a module output there (a StepGen's step) drives
+  // nothing. A host that never wrote the DDR is taken as having set it, as
+  // lbpkit's own host library drives StepGens without it.
+  [[nodiscard]] bool released(unsigned port, unsigned bit) const { return (released_.at(port) >> bit) & 1U; }
   [[nodiscard]] std::uint32_t ddr(unsigned port) const { return regs_.at(port)[1]; }
   [[nodiscard]] unsigned ports() const { return ports_; }
   [[nodiscard]] unsigned width() const { return width_; }  // pins per port
@@ -62,6 +68,7 @@ class IoPort final : public Module {
   // data, DDR, alternate source, open drain, invert
   std::array<std::array<std::uint32_t, 5>, kMaxPorts> regs_{};
   std::array<std::uint32_t, kMaxPorts> inputs_{~0U, ~0U, ~0U, ~0U};
+  std::array<std::uint32_t, kMaxPorts> released_{};  // released(): set by a bite, cleared by DDR writes
 };
 
 }  // namespace lbpkit::model::hm2

@@ -134,8 +134,8 @@ Machine::Machine(MachineDescription description, hm2::HostMot2Card& card, SimTim
       stepGenOwners[n] = a.name;
       if (!(a.stepper->stepsPerUnit > 0)) bad("axis " + a.name + ": steps per unit must be above 0");
       const AxisParameters& p = plant.axis.parameters();
-      plant.stepper.emplace(*a.stepper, a.initialPosition, stepGens_->steps(n, card.now()), p.hardStopMin,
-                            p.hardStopMax);
+      plant.stepGenCount = stepGens_->steps(n, card.now());
+      plant.stepper.emplace(*a.stepper, a.initialPosition, plant.stepGenCount, p.hardStopMin, p.hardStopMax);
       if (a.stepper->encoderInput)
         plant.stepperEncoder.emplace(a.stepper->encoder, *encoders_,
                                      checkEncoder(*a.stepper->encoderInput, "axis " + a.name + ": stepper"),
@@ -378,7 +378,13 @@ void Machine::span(SimTime t1) {
       // written later in this span must still take effect when written).
       const unsigned n = a.stepper->parameters().stepGen;
       const std::int64_t count = stepGens_->steps(n, std::min(t1, card_->now()));
-      a.stepper->step(count, stepGens_->stepRate(n), a.axis.jammed() || brakeEngaged(a));
+      // After a watchdog bite the step pin is an input: the drive sees no
+      // steps (HostMot2 regmap: a bite clears the DDR).
+      const bool driven = card_->stepGenDriven(n);
+      if (!driven) a.stepsUndriven += count - a.stepGenCount;
+      a.stepGenCount = count;
+      a.stepper->step(count - a.stepsUndriven, driven ? stepGens_->stepRate(n) : 0.0,
+                      a.axis.jammed() || brakeEngaged(a));
       a.commanded = a.stepper->commandedPosition();
       positions_[i] = a.stepper->position();
       continue;

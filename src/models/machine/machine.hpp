@@ -230,6 +230,11 @@ class Machine {
     std::optional<StepperMotor> stepper;  // in place of the drives
     std::optional<QuadratureEncoder> stepperEncoder;  // on the stepper's shaft
     ServoMotion motion;  // the servo axis' exact solution and its kept flows
+    // The StepGen's count when last looked at, and the steps it made while
+    // its step pin drove nothing (HostMot2Card::stepGenDriven): the motor
+    // never saw those.
+    std::int64_t stepGenCount = 0;
+    std::int64_t stepsUndriven = 0;
   };
 
   [[nodiscard]] static double position(const AxisPlant& a) {
