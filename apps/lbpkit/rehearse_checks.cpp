@@ -778,9 +778,6 @@ void losingTheHost(Session& s, Results& out, const std::string& id, const std::s
     out.push_back(r);
     return;
   }
-  const auto before = s.machineState();
-  const double p0 = axisOf(before, mover->axis).at("position").get<double>();
-  const double tStop = before.at("time_s").get<double>();
   bool outputsWereOn = false;
   auto outputsOn = [](const json& state) {
     bool on = false;
@@ -795,6 +792,11 @@ void losingTheHost(Session& s, Results& out, const std::string& id, const std::s
   for (const auto& d : state.at("daughtercards"))
     if (d.contains("field_io") && d["field_io"].contains("watchdog_ms") && sevenI77Watchdog.is_null())
       sevenI77Watchdog = d["field_io"]["watchdog_ms"].get<double>() / 1000.0;
+  // The last look before the host is lost: the times and the travel count
+  // from here.
+  const auto before = s.machineState();
+  const double p0 = axisOf(before, mover->axis).at("position").get<double>();
+  const double tStop = before.at("time_s").get<double>();
   const auto stopped = std::chrono::steady_clock::now();
   lose();
   double enaOff = -1, zeroVolts = -1, outputsOff = -1, enaOffAt = -1, stepsStopped = mover->servo ? 0 : -1;

@@ -240,12 +240,15 @@ TEST_F(Rehearse, AOneSecondHm2WatchdogFailsLosingTheHostWhereNothingElseStopsASt
   std::ofstream(free) << text;
   const auto r = rehearse({"--only", "host.stopped", "--card", "7I92T", "--machine", free.string()});
   ASSERT_FALSE(report_.is_discarded()) << r.out << r.err;
+  std::printf("%s", r.out.c_str());  // what was measured
   EXPECT_EQ(r.exit, 1) << r.out;
   const auto& c = check("host.stopped");
   EXPECT_EQ(c["verdict"], "fail") << c.dump();
-  // Z steps on at its speed for the hm2 watchdog's second, further than the
-  // room past its soft limits.
-  EXPECT_NEAR(c["figures"]["time_to_steps_stopped_s"].get<double>(), 1.0, 0.1) << c.dump();
+  // Z steps on at its speed for the hm2 watchdog's second (and the few tens
+  // of milliseconds between the rehearsal's last look and the stop),
+  // further than the room past its soft limits.
+  EXPECT_GE(c["figures"]["time_to_steps_stopped_s"].get<double>(), 0.95) << c.dump();
+  EXPECT_LE(c["figures"]["time_to_steps_stopped_s"].get<double>(), 1.2) << c.dump();
   EXPECT_GT(c["figures"]["distance_to_disable"].get<double>(), c["figures"]["bound"].get<double>()) << c.dump();
   EXPECT_NE(c["reason"].get<std::string>().find("before its StepGen stopped"), std::string::npos) << c.dump();
 }
