@@ -146,7 +146,9 @@ void Session::ready() {
   if (!unhomed.empty()) {
     json request = {{"op", "home"}};
     if (unhomed.size() < st["homed"].size()) request["joints"] = unhomed;
-    const auto h = driver.ask(request, 300s);
+    // The driver gives each joint its search across the travel
+    // (rehearse_driver.py: home_time), at most ten minutes a joint.
+    const auto h = driver.ask(request, std::chrono::seconds(600 * (unhomed.size() + 1)));
     if (!h.value("ok", false)) throw lbpkit::Error("LinuxCNC did not home every joint: " + h.dump());
   }
 }

@@ -155,6 +155,18 @@ class Driver:
     def op_machine_off(self, r):
         return {"ok": self.set_state(linuxcnc.STATE_OFF)}
 
+    def home_time(self, k):
+        """How long joint k may take to home (s): its search across the
+        whole travel at HOME_SEARCH_VEL, twice, and half a minute more (a
+        joint left mid-travel by a fault searches from there), at most
+        ten minutes."""
+        sec = self.section(k, self.letter(k))
+        lo, hi = self.number(sec, "MIN_LIMIT"), self.number(sec, "MAX_LIMIT")
+        search = abs(self.number(sec, "HOME_SEARCH_VEL") or 0.0)
+        if lo is None or hi is None or search == 0.0:
+            return 60.0
+        return min(600.0, 2.0 * abs(hi - lo) / search + 30.0)
+
     def home_all(self):
         """Every joint homed as an operator of AXIS homes them: Home All when
         every joint has a HOME_SEQUENCE (AXIS offers it then), else one joint
@@ -167,12 +179,12 @@ class Driver:
         if all(self.ini.find(self.section(k, self.letter(k)), "HOME_SEQUENCE") is not None for k in j):
             self.c.home(-1)
             self.c.wait_complete()
-            return self.wait(lambda: all(done(k) for k in j), 120)
+            return self.wait(lambda: all(done(k) for k in j), sum(self.home_time(k) for k in j))
         ok = True
         for k in j:
             self.c.home(k)
             self.c.wait_complete()
-            ok = self.wait(lambda: done(k), 60) and ok  # noqa: B023
+            ok = self.wait(lambda: done(k), self.home_time(k)) and ok  # noqa: B023
         return ok
 
     def op_home(self, r):
@@ -189,7 +201,8 @@ class Driver:
             for k in joints:
                 self.c.home(k)
                 self.c.wait_complete()
-                ok = self.wait(lambda: self.s.homed[k] and not self.s.joint[k]["homing"], 60) and ok  # noqa: B023
+                ok = self.wait(lambda: self.s.homed[k] and not self.s.joint[k]["homing"],  # noqa: B023
+                               self.home_time(k)) and ok
         self.wait(self.idle, 5)
         return {"ok": ok}
 
