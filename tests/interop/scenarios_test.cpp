@@ -120,14 +120,17 @@ TEST_F(Scenario, ReadTimeoutIsOnePacketErrorAndTheSmartSerialPortRunsOn) {
 }
 
 // https://github.com/LinuxCNC/linuxcnc/issues/4236: reads answered 800 us
-// late now and then. At hm2_eth's default read timeout (80 % of the 1 ms
-// period) each spike is a packet error; the level falls back between
-// spikes and the port runs on. The error limit is raised to 100, as a
-// measurement of LinuxCNC without a real-time kernel needs (its own late
-// cycles are errors at that timeout too, docs/faults.md).
-TEST_F(Scenario, ReadLatencySpikesAreEachAPacketErrorAtTheDefaultTimeout) {
+// late now and then. hm2_eth's default read timeout (80 % of the 1 ms
+// period) is those same 800 us, so whether it counts a spike depends on
+// microseconds of the wall clock (Debian 13's hm2_eth counted 5 of 6 in
+// one run): the test gives it 400 us, half a spike, and each spike is then
+// a packet error; the level falls back between spikes and the port runs
+// on. The error limit is raised to 100, as a measurement of LinuxCNC
+// without a real-time kernel needs (its own late cycles are errors at
+// that timeout too, docs/faults.md).
+TEST_F(Scenario, ReadLatencySpikesPastTheReadTimeoutAreEachAPacketError) {
   const auto seen = run("read-latency-spikes.toml",
-                        "setp hm2_7i92.0.packet-read-timeout 800000\nsetp hm2_7i92.0.packet-error-limit 100\n");
+                        "setp hm2_7i92.0.packet-read-timeout 400000\nsetp hm2_7i92.0.packet-error-limit 100\n");
   const long long spikes = seen.network["reply"]["delayed"].get<long long>();
   EXPECT_GE(spikes, 5);  // every 250th reply from 5 s to 6.5 s
   EXPECT_GE(seen.packetErrors, spikes);
