@@ -298,13 +298,29 @@ void runaway(Session& s, Results& out) {
   }
 }
 
+namespace {
+
+// The machine's E-stop inputs: the switches in iocontrol.0.emc-enable-in's
+// chain.
+std::vector<const model::machine::SwitchParameters*> estopSwitches(const Session& s) {
+  std::vector<const model::machine::SwitchParameters*> chain;
+  for (const auto& sw : s.machine.switches)
+    if (sw.kind == model::machine::SwitchKind::Estop) chain.push_back(&sw);
+  return chain;
+}
+
+// What LinuxCNC said since the driver had `before` messages.
+std::vector<std::string> saidSince(const Driver& d, std::size_t before) {
+  return {d.messages().begin() + static_cast<std::ptrdiff_t>(before), d.messages().end()};
+}
+
+}  // namespace
+
 void estopChain(Session& s, Results& out) {
   const char* cites =
       "7I77 manual, SERVO ENABLE OUTPUTS and the introduction (never depend on software commands to disable a "
       "motor); LinuxCNC iocontrol.0.emc-enable-in: the E-stop chain's input";
-  std::vector<const model::machine::SwitchParameters*> chain;
-  for (const auto& sw : s.machine.switches)
-    if (sw.kind == model::machine::SwitchKind::Estop) chain.push_back(&sw);
+  const auto chain = estopSwitches(s);
   if (chain.empty()) {
     out.push_back({{"id", "estop"},
                    {"check", "estop"},
@@ -422,8 +438,7 @@ json softLimitCase(Session& s, const Joint& j, bool max) {
   const auto st = s.driver.ask({{"op", "status"}});
   const double commanded = st.at("commanded").at(j.joint).get<double>();
   const bool beyond = max ? commanded > limit + 1e-6 : commanded < limit - 1e-6;
-  std::vector<std::string> said(s.driver.messages().begin() + static_cast<std::ptrdiff_t>(before),
-                                s.driver.messages().end());
+  const auto said = saidSince(s.driver, before);
   s.driver.ask({{"op", "abort"}});
   return {{"target", round3(target)}, {"commanded", round3(commanded)}, {"refused", !beyond}, {"said", said}};
 }
@@ -624,8 +639,7 @@ void fieldPower(Session& s, Results& out) {
     const auto taken = s.driver.ask({{"op", "wait_off"}, {"timeout", 1}});
     const auto st = s.driver.ask({{"op", "status"}});
     s.api.post("/api/field", on);
-    std::vector<std::string> said(s.driver.messages().begin() + static_cast<std::ptrdiff_t>(before),
-                                  s.driver.messages().end());
+    const auto said = saidSince(s.driver, before);
     // The 7I77's field I/O processor runs from VIN, normally field power
     // (manual: VIN AND FIELD POWER SUPPLY): without it the processor is
     // silent and hostmot2 may have stopped the smart-serial port. Started
@@ -663,14 +677,12 @@ void spindle(Session& s, Results& out) {
       "LinuxCNC spindle.0.at-speed (motion waits for it before cutting), spindle.0.on and the E-stop chain; 7I77 "
       "manual, SPINDLE INTERFACE (AOUT5, ENA5 from SpinEna)";
   if (!s.machine.spindle) {
-    if (s.wanted("spindle"))
-      out.push_back({{"id", "spindle"},
-                     {"check", "spindle"},
-                     {"title", "Spindle"},
-                     {"verdict", "not applicable"},
-                     {"reason", "the machine has no spindle"},
-                     {"cites", cites},
-                     {"figures", json::object()}});
+    if (s.wanted("spindle")) {
+      json r = result("spindle", "spindle", "Spindle", cites);
+      r["verdict"] = "not applicable";
+      r["reason"] = "the machine has no spindle";
+      out.push_back(r);
+    }
     return;
   }
   // Half the lower of the VFD's top speed and the configuration's.
@@ -702,9 +714,7 @@ void spindle(Session& s, Results& out) {
     }
     out.push_back(r);
   }
-  std::vector<const model::machine::SwitchParameters*> chain;
-  for (const auto& sw : s.machine.switches)
-    if (sw.kind == model::machine::SwitchKind::Estop) chain.push_back(&sw);
+  const auto chain = estopSwitches(s);
   if (chain.empty() || !s.wanted("spindle.estop")) return;
   json r = result(
       "spindle.estop", "spindle",

@@ -60,22 +60,12 @@ void udpSockets(const std::string& list, std::uint32_t address, std::uint16_t po
   std::string line;
   std::getline(udp, line);  // the heading
   while (std::getline(udp, line)) {
-    unsigned sl = 0;
     unsigned localAddress = 0;
     unsigned localPort = 0;
-    unsigned remoteAddress = 0;
-    unsigned remotePort = 0;
-    unsigned state = 0;
-    unsigned long queues[2] = {0, 0};
-    unsigned timer = 0;
-    unsigned long when = 0;
-    unsigned long retransmits = 0;
-    unsigned uid = 0;
-    unsigned long timeout = 0;
     unsigned long inode = 0;
-    if (std::sscanf(line.c_str(), " %u: %x:%x %x:%x %x %lx:%lx %x:%lx %lx %u %lu %lu", &sl, &localAddress, &localPort,
-                    &remoteAddress, &remotePort, &state, &queues[0], &queues[1], &timer, &when, &retransmits, &uid,
-                    &timeout, &inode) != 14)
+    // sl: local rem st tx:rx tr:when retrnsmt uid timeout inode
+    if (std::sscanf(line.c_str(), " %*u: %x:%x %*x:%*x %*x %*x:%*x %*x:%*x %*x %*u %*u %lu", &localAddress, &localPort,
+                    &inode) != 3)
       continue;
     if (localPort != port || inode == 0) continue;
     if (localAddress == address)

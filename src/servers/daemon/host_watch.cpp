@@ -4,9 +4,6 @@
 #include <arpa/inet.h>
 #include <unistd.h>
 
-#include <condition_variable>
-#include <mutex>
-
 #include "daemon/sim_clock.hpp"
 #include "process/host_process.hpp"
 
@@ -14,10 +11,7 @@ namespace lbpkit::server {
 
 HostWatch::HostWatch() : thread_([this](const std::stop_token& stop) { run(stop); }) {}
 
-HostWatch::~HostWatch() {
-  thread_.request_stop();
-  if (thread_.joinable()) thread_.join();
-}
+HostWatch::~HostWatch() = default;  // the thread, last member, is stopped and joined first
 
 void HostWatch::cycled(const sockaddr_in& peer) {
   const std::uint64_t key = (static_cast<std::uint64_t>(peer.sin_addr.s_addr) << 16) | ntohs(peer.sin_port);
@@ -26,15 +20,10 @@ void HostWatch::cycled(const sockaddr_in& peer) {
 }
 
 void HostWatch::run(const std::stop_token& stop) {
-  std::mutex m;
-  std::condition_variable_any wake;
   std::uint64_t found = 0;  // the peer pid_ belongs to
   Clock::time_point lookedFor{};
-  for (;;) {
-    {
-      std::unique_lock lock(m);
-      (void)wake.wait_for(lock, stop, kLook, [] { return false; });
-    }
+  while (!stop.stop_requested()) {
+    std::this_thread::sleep_for(kLook);
     if (stop.stop_requested()) return;
     const std::uint64_t peer = peer_.load();
     if (peer == 0) continue;
